@@ -1,0 +1,2 @@
+#include "envlight.h"
+int main(void){return 0;}

@@ -1,0 +1,187 @@
+/* envlight — HDR environment images into lights, SH and prefiltered maps.
+ *
+ * Public C API. Conventions (see README "Library API"):
+ *  - every call returns an envl_result (ENVL_OK = 0); on failure envl_last_error() gives a
+ *    message for this thread naming the file, the offset and what was expected;
+ *  - options structs: zero means "sensible default" (each field's comment gives the default);
+ *  - opaque handles are released with NULL-safe *_free functions;
+ *  - the canonical frame is Blender's world frame (right-handed, +Z up) and the envmap is a
+ *    lat-long image in it: column c, row r (0 = top), u = (c+0.5)/W, v = (r+0.5)/H,
+ *    phi = pi (1 - 2u), theta = pi (0.5 - v), d = (cos t cos p, cos t sin p, sin t).
+ */
+#ifndef ENVLIGHT_H
+#define ENVLIGHT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#if defined(ENVL_BUILDING_LIBRARY)
+#define ENVL_API __attribute__((visibility("default")))
+#else
+#define ENVL_API
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Bumped whenever a struct layout or a function signature changes (the ctypes shim checks it). */
+#define ENVL_ABI_VERSION 1
+
+/* ---- results ------------------------------------------------------------------------------ */
+typedef int32_t envl_result;
+/* X-macro: code, value, short description. One table, so codes and names never drift apart. */
+#define ENVL_RESULT_TABLE(X)                                                                   \
+    X(ENVL_OK, 0, "success")                                                                   \
+    X(ENVL_ERR_ARGUMENT, 1, "invalid argument")                                                \
+    X(ENVL_ERR_IO, 2, "cannot read or write the file")                                         \
+    X(ENVL_ERR_FORMAT, 3, "malformed or truncated file")                                       \
+    X(ENVL_ERR_UNSUPPORTED, 4, "unsupported file variant")                                     \
+    X(ENVL_ERR_LIMIT, 5, "exceeds a configured limit")                                         \
+    X(ENVL_ERR_MEMORY, 6, "out of memory")                                                     \
+    X(ENVL_ERR_NONFINITE, 7, "non-finite or negative pixels (strict mode)")                    \
+    X(ENVL_ERR_NO_LIGHT, 8, "the environment holds no light")
+#define ENVL_RESULT_ENUM_(name, value, text) name = value,
+enum { ENVL_RESULT_TABLE(ENVL_RESULT_ENUM_) };
+#undef ENVL_RESULT_ENUM_
+
+ENVL_API int32_t envl_abi_version(void);
+ENVL_API const char *envl_version_string(void);
+/* "ENVL_ERR_FORMAT" for a code; "ENVL_UNKNOWN" for a value outside the table. */
+ENVL_API const char *envl_result_name(envl_result code);
+ENVL_API const char *envl_result_text(envl_result code);
+/* Message of the last failure on this thread ("" if none). Valid until the next failing call. */
+ENVL_API const char *envl_last_error(void);
+
+/* ---- layouts of input images ------------------------------------------------------------- */
+#define ENVL_LAYOUT_AUTO 0          /* pick by metadata and aspect ratio */
+#define ENVL_LAYOUT_LATLONG 1       /* equirectangular, canonical frame */
+#define ENVL_LAYOUT_ANGULAR 2       /* Debevec angular probe */
+#define ENVL_LAYOUT_MIRRORBALL 3    /* photographed mirror ball */
+#define ENVL_LAYOUT_CROSS_V 4       /* vertical cube cross, 3 x 4 faces */
+#define ENVL_LAYOUT_CROSS_H 5       /* horizontal cube cross, 4 x 3 faces */
+#define ENVL_LAYOUT_STRIP_H 6       /* six faces side by side, 6 x 1 */
+#define ENVL_LAYOUT_STRIP_V 7       /* six faces stacked, 1 x 6 */
+#define ENVL_LAYOUT_EXR_LATLONG 8   /* OpenEXR envmap=latlong convention */
+#define ENVL_LAYOUT_EXR_CUBE 9      /* OpenEXR envmap=cube convention (N x 6N) */
+#define ENVL_LAYOUT_COUNT 10
+/* "latlong", "angular", ... ; NULL for an unknown value. */
+ENVL_API const char *envl_layout_name(int32_t layout);
+/* Inverse of envl_layout_name ("auto" -> 0, "cross" -> vertical cross); -1 if unknown. */
+ENVL_API int32_t envl_layout_from_name(const char *name);
+
+/* ---- envmap: the canonical lat-long map with its tables ------------------------------------ */
+typedef struct envl_envmap envl_envmap;
+
+/* Default limit on the pixels a file's header may claim: 2^28 (16384 x 16384). */
+#define ENVL_DEFAULT_MAX_PIXELS ((int64_t)1 << 28)
+
+typedef struct envl_load_options {
+    int32_t layout;           /* ENVL_LAYOUT_*; default AUTO */
+    int32_t width;            /* width of the canonical lat-long map (height = width/2);
+                                 default: lat-long input keeps its size, others 4 x face size
+                                 or 2 x probe diameter */
+    double rotate_degrees;    /* turn the map about +Z (counter-clockwise seen from above); 0 */
+    int64_t max_pixels;       /* refuse files whose header claims more pixels; default above */
+    int32_t strict;           /* nonzero: NaN, Inf or negative pixels are an error; default 0:
+                                 NaN and negatives -> 0, +Inf -> largest finite value */
+    int32_t apply_exposure;   /* nonzero: divide Radiance pixels by the file's EXPOSURE; 0 */
+    const char *exr_part;     /* multipart EXR: part name; default: first part with colour */
+    int32_t threads;          /* worker threads; default: all cores */
+} envl_load_options;
+
+/* What was read and what the map holds. Strings are NUL-terminated, truncated if long. */
+typedef struct envl_info {
+    char file[1024];          /* path as given ("" for pixels from memory, "sky" for the sky) */
+    char format[8];           /* "hdr", "exr", "pfm", "memory", "sky" */
+    int32_t layout;           /* ENVL_LAYOUT_* the input was read as */
+    int32_t layout_guessed;   /* 1 if the layout came from ENVL_LAYOUT_AUTO */
+    int32_t source_width, source_height, channels;  /* of the file */
+    int32_t width, height;    /* of the canonical lat-long map */
+    double mean[3];           /* average radiance over the sphere = power / 4 pi */
+    double power[3];          /* integral of L dw over the sphere */
+    double max[3];            /* largest value of each channel */
+    double brightest_direction[3]; /* direction of the pixel of largest luminance */
+    int64_t nonfinite_pixels; /* pixels of the file with a NaN or Inf channel */
+    int64_t negative_pixels;  /* pixels of the file with a negative channel */
+    double exposure;          /* product of the file's EXPOSURE values (1 if none) */
+    int32_t has_primaries;    /* the file named its primaries */
+    float primaries[8];       /* CIE xy of R, G, B, white */
+    double rotate_degrees;    /* rotation applied on load */
+} envl_info;
+
+/* Loads an .hdr/.pic, .exr or .pfm file (detected by content) into the canonical frame. */
+ENVL_API envl_result envl_envmap_load(const char *path, const envl_load_options *options,
+                                      envl_envmap **out);
+/* Pixels from memory: width x height, channels 1 (grey), 3 (RGB) or 4 (RGBA, alpha ignored),
+ * row 0 at the top, floats laid out row-major. Interpreted with options->layout (AUTO guesses
+ * from the aspect ratio). */
+ENVL_API envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t height,
+                                             int32_t channels, const envl_load_options *options,
+                                             envl_envmap **out);
+ENVL_API void envl_envmap_free(envl_envmap *map);
+
+ENVL_API envl_result envl_envmap_info(const envl_envmap *map, envl_info *out);
+ENVL_API int32_t envl_envmap_width(const envl_envmap *map);
+ENVL_API int32_t envl_envmap_height(const envl_envmap *map);
+/* RGB floats, width * height * 3, row 0 = top. Owned by the map. */
+ENVL_API const float *envl_envmap_pixels(const envl_envmap *map);
+/* Solid angle of a pixel of row r (exact), and the unit direction of pixel centre (c, r). */
+ENVL_API double envl_envmap_solid_angle(const envl_envmap *map, int32_t row);
+ENVL_API void envl_envmap_direction(const envl_envmap *map, int32_t column, int32_t row,
+                                    double direction[3]);
+/* Same formulas for any lat-long size (DESIGN.md). */
+ENVL_API double envl_latlong_solid_angle(int32_t width, int32_t height, int32_t row);
+ENVL_API void envl_latlong_direction(int32_t width, int32_t height, double column, double row,
+                                     double direction[3]);
+/* Continuous pixel coordinates (column, row) of a direction: the inverse of the above. */
+ENVL_API void envl_latlong_pixel(int32_t width, int32_t height, const double direction[3],
+                                 double *column, double *row);
+
+/* ---- built-in procedural sky ----------------------------------------------------------------- */
+typedef struct envl_sky_options {
+    double sun_elevation_degrees;  /* default 35 (exact 0 via ENVL_SKY_HORIZON) */
+    double sun_azimuth_degrees;    /* canonical phi of the sun, from +X towards +Y; default 60 */
+    int32_t width;                 /* lat-long width, height = width / 2; default 1024 */
+    double sun_irradiance;         /* irradiance of the sun disc at normal incidence; default 12 */
+    double zenith_radiance;        /* sky radiance (luminance) at the zenith; default 0.6 */
+    double ground_albedo;          /* default 0.2 */
+    int32_t sun_elevation_is_set;  /* nonzero: sun_elevation_degrees is used even when 0 */
+} envl_sky_options;
+/* Angular diameter of the sun disc, degrees. */
+#define ENVL_SKY_SUN_DIAMETER_DEGREES 0.53
+ENVL_API envl_result envl_envmap_sky(const envl_sky_options *options, envl_envmap **out);
+
+/* ---- saving images ---------------------------------------------------------------------------- */
+#define ENVL_PIXEL_FLOAT 0  /* EXR: 32-bit float channels (default) */
+#define ENVL_PIXEL_HALF 1   /* EXR: 16-bit half, values beyond +-65504 clamp */
+typedef struct envl_save_options {
+    int32_t pixel_type;       /* ENVL_PIXEL_*; EXR only */
+    const char *format;       /* "hdr", "exr", "pfm"; default: from the file name's extension */
+} envl_save_options;
+/* Writes RGB floats (width x height x 3, row 0 = top) atomically: a temporary file in the
+ * same directory, renamed over the target only when complete. */
+ENVL_API envl_result envl_image_save(const char *path, const float *rgb, int32_t width,
+                                     int32_t height, const envl_save_options *options);
+ENVL_API envl_result envl_envmap_save(const envl_envmap *map, const char *path,
+                                      const envl_save_options *options);
+
+/* ---- exact irradiance and the error measure (DESIGN.md) ------------------------------------- */
+/* E(n) = sum over pixels of L dw max(0, n.d), in double, for `count` unit normals. */
+ENVL_API envl_result envl_irradiance_exact(const envl_envmap *map, int32_t count,
+                                           const double *normals, double *rgb_out);
+/* The i-th of n points of the Fibonacci sphere (the error measure uses n = 1024). */
+ENVL_API void envl_fibonacci_direction(int32_t i, int32_t n, double direction[3]);
+#define ENVL_ERROR_NORMALS 1024
+/* Relative RMS of luminance: sqrt(mean((Ya - Ye)^2)) / mean(|Ye|) over `count` values. */
+ENVL_API double envl_relative_rms_luminance(int32_t count, const double *approx_rgb,
+                                            const double *exact_rgb);
+/* Exact irradiance at the 1024 Fibonacci normals, computed once per map and cached. */
+ENVL_API envl_result envl_envmap_reference_irradiance(envl_envmap *map, const double **rgb_out);
+
+ENVL_API double envl_luminance(double r, double g, double b);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

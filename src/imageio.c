@@ -1,0 +1,84 @@
+/* Image files: format detection on read, atomic save by format. */
+#include "internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+/* Whole-file read limit: a 2^28-pixel float RGBA EXR plus headroom. */
+#define ENVL_MAX_FILE_BYTES ((size_t)1 << 33)
+
+envl_result envl__read_image_memory(const uint8_t *data, size_t size, const char *name,
+                                    const envl_limits *lim, envl_image *out)
+{
+    memset(out, 0, sizeof *out);
+    if (size >= 4 && data[0] == 0x76 && data[1] == 0x2f && data[2] == 0x31 && data[3] == 0x01)
+        return envl__read_exr(data, size, name, lim, out);
+    if (size >= 2 && data[0] == 'P' && (data[1] == 'F' || data[1] == 'f'))
+        return envl__read_pfm(data, size, name, lim, out);
+    /* Radiance: "#?RADIANCE", "#?RGBE", or a legacy file without the signature line. The
+     * reader itself decides whether a header without signature is acceptable. */
+    return envl__read_hdr(data, size, name, lim, out);
+}
+
+envl_result envl__read_image_file(const char *path, const envl_limits *lim, envl_image *out)
+{
+    uint8_t *data;
+    size_t size;
+    memset(out, 0, sizeof *out);
+    envl_result rc = envl__read_file(path, ENVL_MAX_FILE_BYTES, &data, &size);
+    if (rc)
+        return rc;
+    rc = envl__read_image_memory(data, size, path, lim, out);
+    free(data);
+    if (rc)
+        envl__image_free(out);
+    return rc;
+}
+
+static const char *extension_format(const char *path)
+{
+    const char *dot = strrchr(path, '.');
+    const char *slash = strrchr(path, '/');
+    if (!dot || (slash && dot < slash))
+        return NULL;
+    if (!strcasecmp(dot, ".hdr") || !strcasecmp(dot, ".pic") || !strcasecmp(dot, ".rgbe"))
+        return "hdr";
+    if (!strcasecmp(dot, ".exr"))
+        return "exr";
+    if (!strcasecmp(dot, ".pfm"))
+        return "pfm";
+    return NULL;
+}
+
+envl_result envl_image_save(const char *path, const float *rgb, int32_t width, int32_t height,
+                            const envl_save_options *options)
+{
+    if (!path || !rgb || width <= 0 || height <= 0)
+        return envl__fail(ENVL_ERR_ARGUMENT, "save: need a path, pixels and a positive size");
+    const char *fmt = options && options->format ? options->format : extension_format(path);
+    if (!fmt)
+        return envl__fail(ENVL_ERR_ARGUMENT,
+                          "%s: cannot tell the format from the name (use .hdr, .exr or .pfm)",
+                          path);
+    int32_t pixel_type = options ? options->pixel_type : ENVL_PIXEL_FLOAT;
+    if (strcmp(fmt, "hdr") && strcmp(fmt, "exr") && strcmp(fmt, "pfm"))
+        return envl__fail(ENVL_ERR_ARGUMENT, "%s: unknown format '%s'", path, fmt);
+    char *tmp;
+    envl_result rc = envl__atomic_begin(path, &tmp);
+    if (rc)
+        return rc;
+    if (!strcmp(fmt, "hdr"))
+        rc = envl__write_hdr(tmp, rgb, width, height);
+    else if (!strcmp(fmt, "exr"))
+        rc = envl__write_exr(tmp, rgb, width, height, pixel_type);
+    else
+        rc = envl__write_pfm(tmp, rgb, width, height);
+    if (rc) {
+        /* Messages from the writers name the temporary file; name the target instead. */
+        envl__fail_prefix(rc, path);
+        envl__atomic_end(path, tmp, false);
+        return rc;
+    }
+    return envl__atomic_end(path, tmp, true);
+}

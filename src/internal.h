@@ -1,0 +1,104 @@
+/* Private declarations shared by the library's files. Not installed. */
+#ifndef ENVL_INTERNAL_H
+#define ENVL_INTERNAL_H
+
+#include "envlight.h"
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#define ENVL_PI 3.14159265358979323846
+
+/* ---- errors (error.c) ---- */
+/* Records "printf-style message" as this thread's last error and returns `code`. */
+envl_result envl__fail(envl_result code, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+/* Prefixes the current message with "prefix: " (e.g. the file name) and returns `code`. */
+envl_result envl__fail_prefix(envl_result code, const char *prefix);
+
+/* ---- images as read from files (image.c) ---- */
+/* What a file said about itself, beyond its pixels. */
+typedef struct envl_file_meta {
+    char format[8];         /* "hdr", "exr", "pfm" */
+    int32_t channels;       /* channels the file holds: 1 (Y / grey), 3, 4 (RGBA), 2 (YC...) */
+    double exposure;        /* product of Radiance EXPOSURE lines; 1 if none */
+    int32_t has_primaries;
+    float primaries[8];     /* xy of R, G, B, white */
+    int32_t envmap_layout;  /* ENVL_LAYOUT_EXR_LATLONG / _EXR_CUBE from the EXR envmap attribute,
+                               else 0 */
+} envl_file_meta;
+
+/* A decoded image: RGB floats, row 0 = top of the image as displayed. */
+typedef struct envl_image {
+    int32_t width, height;
+    float *px;              /* width * height * 3 */
+    envl_file_meta meta;
+} envl_image;
+
+/* Limits a reader applies before it allocates. */
+typedef struct envl_limits {
+    int64_t max_pixels;     /* refuse headers that claim more; > 0 */
+    const char *exr_part;   /* NULL: first part with colour channels */
+} envl_limits;
+
+/* Allocates img->px for w x h (checks w, h > 0, the limit and size_t overflow first). The error
+ * message names `what` (the file). Zero-filled. */
+envl_result envl__image_alloc(envl_image *img, int32_t w, int32_t h, const envl_limits *lim,
+                              const char *what);
+void envl__image_free(envl_image *img);
+
+/* ---- readers: whole file in memory, `name` only for messages (hdr.c, exr.c, pfm.c) ---- */
+envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
+                           const envl_limits *lim, envl_image *out);
+envl_result envl__read_exr(const uint8_t *data, size_t size, const char *name,
+                           const envl_limits *lim, envl_image *out);
+envl_result envl__read_pfm(const uint8_t *data, size_t size, const char *name,
+                           const envl_limits *lim, envl_image *out);
+/* Detects the format from the first bytes; reads. */
+envl_result envl__read_image_memory(const uint8_t *data, size_t size, const char *name,
+                                    const envl_limits *lim, envl_image *out);
+envl_result envl__read_image_file(const char *path, const envl_limits *lim, envl_image *out);
+
+/* ---- writers (rgb: w x h x 3 floats, row 0 = top); write straight to `path` — callers go
+ * through envl_image_save, which writes a temporary file and renames it ---- */
+envl_result envl__write_hdr(const char *path, const float *rgb, int32_t w, int32_t h);
+envl_result envl__write_exr(const char *path, const float *rgb, int32_t w, int32_t h,
+                            int32_t pixel_type);
+envl_result envl__write_pfm(const char *path, const float *rgb, int32_t w, int32_t h);
+
+/* ---- files (io.c) ---- */
+/* Reads a whole regular file (refuses directories, larger than max_bytes). Caller frees. */
+envl_result envl__read_file(const char *path, size_t max_bytes, uint8_t **data, size_t *size);
+/* Atomic replace: *tmp_path gets a fresh unique name in path's directory (caller frees). */
+envl_result envl__atomic_begin(const char *path, char **tmp_path);
+/* Renames tmp over path (on failure removes tmp). `ok` false: just removes tmp. */
+envl_result envl__atomic_end(const char *path, char *tmp_path, bool ok);
+
+/* ---- layouts (layout.c) ---- */
+/* Guesses the layout of an image from metadata and aspect ratio. */
+int32_t envl__guess_layout(const envl_image *img);
+/* Resamples src in `layout` into a canonical lat-long image `out_width` x out_width/2,
+ * area-weighted (each output pixel averages the input over its footprint). */
+envl_result envl__layout_to_latlong(const envl_image *src, int32_t layout, int32_t out_width,
+                                    envl_image *out);
+/* The inverse, for tests and `envlight convert`: renders a canonical lat-long image into
+ * `layout` with face size / probe diameter `size`. */
+envl_result envl__latlong_to_layout(const envl_image *latlong, int32_t layout, int32_t size,
+                                    envl_image *out);
+/* Default lat-long width for an image read in `layout`. */
+int32_t envl__default_latlong_width(const envl_image *src, int32_t layout);
+
+/* ---- lat-long resampling (resample.c) ---- */
+/* Exact area-weighted resampling of a lat-long image to out_w x out_h, turned by
+ * rotate_degrees about +Z: every output pixel is the solid-angle weighted mean of the input
+ * over its footprint, so the integral of L dw is preserved. */
+envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32_t out_w,
+                                   int32_t out_h, double rotate_degrees, float **out);
+
+/* ---- envmap (envmap.c) ---- */
+/* Takes ownership of img (img->px is moved). */
+envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *options,
+                                    const char *file, envl_envmap **out);
+
+#endif

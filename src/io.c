@@ -1,0 +1,83 @@
+/* Files: whole-file reads with a size limit, atomic replacement of outputs. */
+#include "internal.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+envl_result envl__read_file(const char *path, size_t max_bytes, uint8_t **data, size_t *size)
+{
+    *data = NULL;
+    *size = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return envl__fail(ENVL_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
+        fclose(f);
+        return envl__fail(ENVL_ERR_IO, "%s: not a regular file", path);
+    }
+    if (st.st_size == 0) {
+        fclose(f);
+        return envl__fail(ENVL_ERR_FORMAT, "%s: file is empty", path);
+    }
+    if ((uint64_t)st.st_size > max_bytes) {
+        fclose(f);
+        return envl__fail(ENVL_ERR_LIMIT, "%s: file of %lld bytes exceeds the limit of %zu bytes",
+                          path, (long long)st.st_size, max_bytes);
+    }
+    size_t n = (size_t)st.st_size;
+    uint8_t *buf = malloc(n);
+    if (!buf) {
+        fclose(f);
+        return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate %zu bytes", path, n);
+    }
+    size_t got = fread(buf, 1, n, f);
+    int err = ferror(f);
+    fclose(f);
+    if (got != n || err) {
+        free(buf);
+        return envl__fail(ENVL_ERR_IO, "%s: read %zu of %zu bytes", path, got, n);
+    }
+    *data = buf;
+    *size = n;
+    return ENVL_OK;
+}
+
+envl_result envl__atomic_begin(const char *path, char **tmp_path)
+{
+    *tmp_path = NULL;
+    size_t n = strlen(path);
+    char *tmp = malloc(n + 16);
+    if (!tmp)
+        return envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", path);
+    /* Same directory as the target, so rename() is atomic. Hidden-ish suffix. */
+    snprintf(tmp, n + 16, "%s.tmp-XXXXXX", path);
+    int fd = mkstemp(tmp);
+    if (fd < 0) {
+        envl_result rc = envl__fail(ENVL_ERR_IO, "%s: cannot create a file there: %s", path,
+                                    strerror(errno));
+        free(tmp);
+        return rc;
+    }
+    fchmod(fd, 0644);
+    close(fd);
+    *tmp_path = tmp;
+    return ENVL_OK;
+}
+
+envl_result envl__atomic_end(const char *path, char *tmp_path, bool ok)
+{
+    envl_result rc = ENVL_OK;
+    if (ok && rename(tmp_path, path) != 0) {
+        rc = envl__fail(ENVL_ERR_IO, "%s: cannot replace: %s", path, strerror(errno));
+        ok = false;
+    }
+    if (!ok)
+        remove(tmp_path);
+    free(tmp_path);
+    return rc;
+}

@@ -1,0 +1,104 @@
+/* Exact area-weighted resampling of lat-long images (and turns about +Z).
+ *
+ * The input is treated as piecewise constant over its pixels. An output pixel's value is the
+ * solid-angle weighted mean of the input over the output pixel's footprint. On the sphere the
+ * solid angle element is dphi * dz (z = sin(elevation)), so the weights separate: columns
+ * overlap linearly in azimuth, rows overlap linearly in z. Hence the integral of L dw over the
+ * sphere is preserved exactly (up to rounding), whatever the sizes. */
+#include "internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* z = sin(elevation) at the top edge of row r of an h-row lat-long image. */
+static double row_top_z(int32_t h, int32_t r) { return sin(ENVL_PI * (0.5 - (double)r / h)); }
+
+/* One row: out[C] = mean of in over [C*scale + shift, (C+1)*scale + shift) (pixel units,
+ * wrapping around the seam). */
+static void resample_row(const float *in, int32_t w, float *out, int32_t out_w, double shift)
+{
+    double scale = (double)w / out_w;
+    for (int32_t c = 0; c < out_w; c++) {
+        double a = c * scale + shift, b = a + scale;
+        double acc[3] = {0, 0, 0};
+        for (double k = floor(a); k < b; k += 1.0) {
+            double lo = fmax(a, k), hi = fmin(b, k + 1.0);
+            double wgt = hi - lo;
+            if (wgt <= 0)
+                continue;
+            int64_t idx = (int64_t)k % w;
+            if (idx < 0)
+                idx += w;
+            const float *p = in + 3 * idx;
+            acc[0] += wgt * p[0];
+            acc[1] += wgt * p[1];
+            acc[2] += wgt * p[2];
+        }
+        for (int i = 0; i < 3; i++)
+            out[3 * c + i] = (float)(acc[i] / scale);
+    }
+}
+
+envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32_t out_w,
+                                   int32_t out_h, double rotate_degrees, float **out)
+{
+    *out = NULL;
+    if (w <= 0 || h <= 0 || out_w <= 0 || out_h <= 0)
+        return envl__fail(ENVL_ERR_ARGUMENT, "resample: sizes must be positive");
+    /* Turning the map by +a about +Z moves a feature from phi to phi + a, i.e. from u to
+     * u - a/360: the output at u samples the input at u + a/360. */
+    double turns = fmod(rotate_degrees / 360.0, 1.0);
+    double shift = turns * w;
+    size_t n_mid = (size_t)h * out_w * 3, n_out = (size_t)out_h * out_w * 3;
+    float *mid = malloc(n_mid * sizeof(float));
+    float *dst = malloc(n_out * sizeof(float));
+    if (!mid || !dst) {
+        free(mid);
+        free(dst);
+        return envl__fail(ENVL_ERR_MEMORY, "resample: cannot allocate %d x %d", (int)out_w,
+                          (int)out_h);
+    }
+    if (out_w == w && shift == 0.0)
+        memcpy(mid, src, n_mid * sizeof(float));
+    else
+        for (int32_t r = 0; r < h; r++)
+            resample_row(src + (size_t)r * w * 3, w, mid + (size_t)r * out_w * 3, out_w, shift);
+
+    if (out_h == h) {
+        memcpy(dst, mid, n_out * sizeof(float));
+    } else {
+        /* Rows: weights are overlaps in z. Both row lists run from z = 1 down to z = -1. */
+        int32_t r = 0;
+        for (int32_t R = 0; R < out_h; R++) {
+            double top = row_top_z(out_h, R), bot = row_top_z(out_h, R + 1);
+            double span = top - bot;
+            double *acc = calloc((size_t)out_w * 3, sizeof(double));
+            if (!acc) {
+                free(mid);
+                free(dst);
+                return envl__fail(ENVL_ERR_MEMORY, "resample: out of memory");
+            }
+            while (r < h && row_top_z(h, r + 1) >= top)
+                r++; /* input rows wholly above this output row */
+            for (int32_t k = r; k < h; k++) {
+                double itop = row_top_z(h, k), ibot = row_top_z(h, k + 1);
+                if (itop <= bot)
+                    break;
+                double wgt = fmin(top, itop) - fmax(bot, ibot);
+                if (wgt <= 0)
+                    continue;
+                const float *p = mid + (size_t)k * out_w * 3;
+                for (size_t i = 0; i < (size_t)out_w * 3; i++)
+                    acc[i] += wgt * p[i];
+            }
+            float *q = dst + (size_t)R * out_w * 3;
+            for (size_t i = 0; i < (size_t)out_w * 3; i++)
+                q[i] = span > 0 ? (float)(acc[i] / span) : 0.0f;
+            free(acc);
+        }
+    }
+    free(mid);
+    *out = dst;
+    return ENVL_OK;
+}
