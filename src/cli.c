@@ -1,2 +1,281 @@
-#include "envlight.h"
-int main(void){return 0;}
+/* envlight: the command-line tool. Dispatches to the subcommands (cli_*.c) and holds the
+ * option handling they share. */
+#include "cli.h"
+
+#include <errno.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+
+void cli_error(const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fputs("envlight: ", stderr);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    va_end(ap);
+}
+
+int cli_usage(const char *command, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fprintf(stderr, "envlight %s: ", command);
+    vfprintf(stderr, fmt, ap);
+    fprintf(stderr, "\n(see 'envlight %s --help')\n", command);
+    va_end(ap);
+    return CLI_USAGE;
+}
+
+int cli_fail(void)
+{
+    cli_error("%s", envl_last_error());
+    return CLI_FAIL;
+}
+
+int cli_value(int argc, char **argv, int *i, const char *name, const char **value)
+{
+    const char *a = argv[*i];
+    size_t n = strlen(name);
+    if (strncmp(a, name, n) != 0)
+        return 0;
+    if (a[n] == '=') {
+        *value = a + n + 1;
+        return 1;
+    }
+    if (a[n] != '\0')
+        return 0;
+    if (*i + 1 >= argc)
+        return -1;
+    *value = argv[++*i];
+    return 1;
+}
+
+int cli_parse_double(const char *s, double *out)
+{
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (!*s || *end || errno)
+        return -1;
+    *out = v;
+    return 0;
+}
+
+int cli_parse_int(const char *s, long long min, long long max, long long *out)
+{
+    char *end;
+    errno = 0;
+    long long v = strtoll(s, &end, 10);
+    if (!*s || *end || errno || v < min || v > max)
+        return -1;
+    *out = v;
+    return 0;
+}
+
+const char cli_common_help[] =
+    "Input options:\n"
+    "  --layout-in L      auto|latlong|angular|mirrorball|cross|hcross|hstrip|vstrip|\n"
+    "                     exr-latlong|exr-cube (default auto: by metadata and aspect ratio)\n"
+    "  --width W          width of the canonical lat-long map (default: from the input)\n"
+    "  --rotate DEG       turn the environment about +Z (counter-clockwise from above)\n"
+    "  --strict           NaN, Inf or negative pixels are an error (default: NaN and\n"
+    "                     negatives become 0, +Inf the largest finite value, with a warning)\n"
+    "  --apply-exposure   divide Radiance pixels by the file's EXPOSURE\n"
+    "  --part NAME        multipart OpenEXR: read the part NAME\n"
+    "  --max-pixels N     refuse files whose header claims more pixels (default 268435456)\n"
+    "  --threads N        worker threads (default: all cores)\n"
+    "  --quiet            no notes or warnings on stderr\n"
+    "Built-in sky (FILE '-' or absent):\n"
+    "  --sun-elevation DEG (default 35)   --sun-azimuth DEG (default 0 = +X)\n"
+    "  --sky-width W (default 1024)\n";
+
+int cli_common_option(const char *command, int argc, char **argv, int *i, cli_common *c)
+{
+    const char *v;
+    int r;
+    double d;
+    long long n;
+#define VALUE(name)                                                                            \
+    ((r = cli_value(argc, argv, i, name, &v)) < 0                                             \
+         ? (cli_usage(command, "%s needs a value", name), -2)                                  \
+         : r)
+    if ((r = VALUE("--layout-in")) != 0) {
+        if (r < 0)
+            return r;
+        int32_t l = envl_layout_from_name(v);
+        if (l < 0)
+            return cli_usage(command, "unknown layout '%s'", v), -2;
+        c->load.layout = l;
+        return 1;
+    }
+    if ((r = VALUE("--width")) != 0) {
+        if (r < 0)
+            return r;
+        if (cli_parse_int(v, 1, 1 << 20, &n))
+            return cli_usage(command, "--width takes a whole number from 1, not '%s'", v), -2;
+        c->load.width = (int32_t)n;
+        return 1;
+    }
+    if ((r = VALUE("--rotate")) != 0) {
+        if (r < 0)
+            return r;
+        if (cli_parse_double(v, &d) || !(d > -1e6 && d < 1e6))
+            return cli_usage(command, "--rotate takes degrees, not '%s'", v), -2;
+        c->load.rotate_degrees = d;
+        return 1;
+    }
+    if ((r = VALUE("--part")) != 0) {
+        if (r < 0)
+            return r;
+        c->load.exr_part = v;
+        return 1;
+    }
+    if ((r = VALUE("--max-pixels")) != 0) {
+        if (r < 0)
+            return r;
+        if (cli_parse_int(v, 1, INT64_MAX, &n))
+            return cli_usage(command, "--max-pixels takes a positive number, not '%s'", v), -2;
+        c->load.max_pixels = n;
+        return 1;
+    }
+    if ((r = VALUE("--threads")) != 0) {
+        if (r < 0)
+            return r;
+        if (cli_parse_int(v, 1, 256, &n))
+            return cli_usage(command, "--threads takes 1..256, not '%s'", v), -2;
+        c->load.threads = (int32_t)n;
+        return 1;
+    }
+    if ((r = VALUE("--sun-elevation")) != 0) {
+        if (r < 0)
+            return r;
+        if (cli_parse_double(v, &d) || d < -90 || d > 90)
+            return cli_usage(command, "--sun-elevation takes -90..90 degrees, not '%s'", v), -2;
+        c->sky.sun_elevation_degrees = d;
+        c->sky.sun_elevation_is_set = 1;
+        return 1;
+    }
+    if ((r = VALUE("--sun-azimuth")) != 0) {
+        if (r < 0)
+            return r;
+        if (cli_parse_double(v, &d) || !(d > -1e6 && d < 1e6))
+            return cli_usage(command, "--sun-azimuth takes degrees, not '%s'", v), -2;
+        c->sky.sun_azimuth_degrees = d;
+        return 1;
+    }
+    if ((r = VALUE("--sky-width")) != 0) {
+        if (r < 0)
+            return r;
+        if (cli_parse_int(v, 2, 65536, &n))
+            return cli_usage(command, "--sky-width takes 2..65536, not '%s'", v), -2;
+        c->sky.width = (int32_t)n;
+        return 1;
+    }
+#undef VALUE
+    const char *a = argv[*i];
+    if (!strcmp(a, "--strict"))
+        c->load.strict = 1;
+    else if (!strcmp(a, "--apply-exposure"))
+        c->load.apply_exposure = 1;
+    else if (!strcmp(a, "--quiet") || !strcmp(a, "-q"))
+        c->quiet = 1;
+    else
+        return 0;
+    return 1;
+}
+
+int cli_load(const char *file, const cli_common *c, envl_envmap **out)
+{
+    envl_result rc;
+    if (!file || !strcmp(file, "-")) {
+        rc = envl_envmap_sky(&c->sky, out);
+        if (rc == ENVL_OK && (c->load.rotate_degrees != 0.0 || c->load.width)) {
+            /* The sky honours --rotate and --width like a file does: go through pixels. */
+            envl_envmap *sky = *out;
+            envl_load_options lo = c->load;
+            lo.layout = ENVL_LAYOUT_LATLONG;
+            rc = envl_envmap_from_pixels(envl_envmap_pixels(sky), envl_envmap_width(sky),
+                                         envl_envmap_height(sky), 3, &lo, out);
+            envl_envmap_free(sky);
+        }
+        return rc ? cli_fail() : CLI_OK;
+    }
+    rc = envl_envmap_load(file, &c->load, out);
+    if (rc)
+        return cli_fail();
+    envl_info info;
+    envl_envmap_info(*out, &info);
+    if (!c->quiet && (info.nonfinite_pixels || info.negative_pixels))
+        cli_error("warning: %s: %lld pixels with NaN or Inf, %lld with negative values: NaN and "
+                  "negatives set to 0, +Inf to the largest finite value (--strict refuses them)",
+                  file, (long long)info.nonfinite_pixels, (long long)info.negative_pixels);
+    if (!c->quiet && info.layout_guessed)
+        fprintf(stderr, "envlight: %s: %d x %d read as layout '%s' (--layout-in to choose)\n",
+                file, info.source_width, info.source_height, envl_layout_name(info.layout));
+    return CLI_OK;
+}
+
+int cli_output_open(cli_output *o, const char *path)
+{
+    memset(o, 0, sizeof *o);
+    if (!path || !strcmp(path, "-")) {
+        o->f = stdout;
+        return CLI_OK;
+    }
+    o->path = path;
+    o->f = open_memstream(&o->buf, &o->size);
+    if (!o->f) {
+        cli_error("%s: cannot buffer output: %s", path, strerror(errno));
+        return CLI_FAIL;
+    }
+    return CLI_OK;
+}
+
+int cli_output_close(cli_output *o)
+{
+    if (!o->path) {
+        return fflush(stdout) == 0 ? CLI_OK : CLI_FAIL;
+    }
+    fclose(o->f);
+    envl_result rc = envl_file_write_atomic(o->path, o->buf, o->size);
+    free(o->buf);
+    return rc ? cli_fail() : CLI_OK;
+}
+
+static const char main_help[] =
+    "envlight: HDR environment images into lights, spherical harmonics and prefiltered maps.\n"
+    "\n"
+    "Usage: envlight COMMAND [options]   ('envlight COMMAND --help' for each)\n"
+    "\n"
+    "Commands:\n"
+    "  info FILE [--json]          size, layout, channels, statistics, power, brightest direction\n"
+    "  convert IN OUT              convert between .hdr/.exr/.pfm and into the canonical lat-long\n"
+    "  version                     library version\n"
+    "\n"
+    "FILE '-' (or no FILE where it makes sense) is the built-in procedural sky.\n"
+    "Exit status: 0 success, 1 bad input or failure, 2 bad usage.\n";
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        fputs(main_help, stderr);
+        return CLI_USAGE;
+    }
+    const char *cmd = argv[1];
+    if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
+        fputs(main_help, stdout);
+        return CLI_OK;
+    }
+    if (!strcmp(cmd, "version") || !strcmp(cmd, "--version")) {
+        printf("envlight %s (ABI %d)\n", envl_version_string(), (int)envl_abi_version());
+        return CLI_OK;
+    }
+    if (!strcmp(cmd, "info"))
+        return cli_info(argc - 1, argv + 1);
+    if (!strcmp(cmd, "convert"))
+        return cli_convert(argc - 1, argv + 1);
+    fprintf(stderr, "envlight: unknown command '%s'\n\n%s", cmd, main_help);
+    return CLI_USAGE;
+}

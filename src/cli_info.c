@@ -1,1 +1,168 @@
+/* envlight info, envlight convert. */
+#include "cli.h"
+#include "json.h"
 
+#include <string.h>
+
+static const char info_help[] =
+    "Usage: envlight info [FILE] [--json] [input options]\n"
+    "Size, layout, channels, statistics (mean radiance over the sphere, power = integral of\n"
+    "L dw, per-channel maximum), brightest direction (canonical frame: +Z up, +X at the\n"
+    "lat-long centre), and the count of non-finite and negative pixels.\n";
+
+static void info_json(FILE *f, const envl_info *in)
+{
+    json_writer j;
+    json_begin(&j, f);
+    json_string(&j, "file", in->file);
+    json_string(&j, "format", in->format);
+    json_string(&j, "layout", envl_layout_name(in->layout));
+    json_bool(&j, "layout_guessed", in->layout_guessed);
+    json_int(&j, "width", in->source_width);
+    json_int(&j, "height", in->source_height);
+    json_int(&j, "channels", in->channels);
+    json_numbers(&j, "mean", in->mean, 3);
+    json_numbers(&j, "power", in->power, 3);
+    json_numbers(&j, "max", in->max, 3);
+    json_numbers(&j, "brightest_direction", in->brightest_direction, 3);
+    json_int(&j, "nonfinite_pixels", in->nonfinite_pixels);
+    json_int(&j, "negative_pixels", in->negative_pixels);
+    json_string(&j, "frame", "blender-z-up");
+    json_int(&j, "envmap_width", in->width);
+    json_int(&j, "envmap_height", in->height);
+    json_number(&j, "exposure", in->exposure);
+    if (in->has_primaries) {
+        double p[8];
+        for (int i = 0; i < 8; i++)
+            p[i] = in->primaries[i];
+        json_numbers(&j, "primaries", p, 8);
+    }
+    json_number(&j, "rotate_degrees", in->rotate_degrees);
+    json_end(&j);
+}
+
+static void info_text(FILE *f, const envl_info *in)
+{
+    fprintf(f, "file:        %s\n", in->file);
+    fprintf(f, "format:      %s, %d channel%s\n", in->format, in->channels,
+            in->channels == 1 ? "" : "s");
+    fprintf(f, "size:        %d x %d, layout %s%s\n", in->source_width, in->source_height,
+            envl_layout_name(in->layout), in->layout_guessed ? " (guessed)" : "");
+    fprintf(f, "envmap:      %d x %d lat-long (frame: Blender, +Z up)\n", in->width, in->height);
+    fprintf(f, "mean:        %.6g %.6g %.6g\n", in->mean[0], in->mean[1], in->mean[2]);
+    fprintf(f, "power:       %.6g %.6g %.6g\n", in->power[0], in->power[1], in->power[2]);
+    fprintf(f, "max:         %.6g %.6g %.6g\n", in->max[0], in->max[1], in->max[2]);
+    fprintf(f, "brightest:   %.4f %.4f %.4f\n", in->brightest_direction[0],
+            in->brightest_direction[1], in->brightest_direction[2]);
+    fprintf(f, "non-finite:  %lld pixels, negative: %lld pixels\n",
+            (long long)in->nonfinite_pixels, (long long)in->negative_pixels);
+    if (in->exposure != 1.0)
+        fprintf(f, "exposure:    %g\n", in->exposure);
+}
+
+int cli_info(int argc, char **argv)
+{
+    cli_common c = {0};
+    const char *file = NULL;
+    int json = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        int r = cli_common_option("info", argc, argv, &i, &c);
+        if (r < 0)
+            return CLI_USAGE;
+        if (r > 0)
+            continue;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            printf("%s\n%s", info_help, cli_common_help);
+            return CLI_OK;
+        }
+        if (!strcmp(a, "--json"))
+            json = 1;
+        else if (a[0] == '-' && a[1])
+            return cli_usage("info", "unknown option '%s'", a);
+        else if (file)
+            return cli_usage("info", "one FILE only ('%s' and '%s')", file, a);
+        else
+            file = a;
+    }
+    envl_envmap *map;
+    if (cli_load(file, &c, &map))
+        return CLI_FAIL;
+    envl_info info;
+    envl_envmap_info(map, &info);
+    if (json)
+        info_json(stdout, &info);
+    else
+        info_text(stdout, &info);
+    envl_envmap_free(map);
+    return fflush(stdout) == 0 ? CLI_OK : CLI_FAIL;
+}
+
+static const char convert_help[] =
+    "Usage: envlight convert IN OUT [--layout-out L] [--size S] [--half] [input options]\n"
+    "Reads IN (.hdr/.pic, .exr, .pfm in any input layout; '-' for the built-in sky) into the\n"
+    "canonical lat-long frame and writes OUT (.hdr, .exr or .pfm by extension), atomically.\n"
+    "  --layout-out L   latlong (default), angular, mirrorball, cross, hcross, hstrip, vstrip,\n"
+    "                   exr-latlong, exr-cube\n"
+    "  --size S         output width (lat-long), face size (cubes) or diameter (probes)\n"
+    "  --half           EXR with 16-bit half channels (values beyond 65504 clamp)\n";
+
+int cli_convert(int argc, char **argv)
+{
+    cli_common c = {0};
+    const char *in = NULL, *out = NULL;
+    int32_t layout_out = ENVL_LAYOUT_LATLONG;
+    long long size = 0;
+    envl_save_options so = {0};
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v;
+        int r = cli_common_option("convert", argc, argv, &i, &c);
+        if (r < 0)
+            return CLI_USAGE;
+        if (r > 0)
+            continue;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            printf("%s\n%s", convert_help, cli_common_help);
+            return CLI_OK;
+        }
+        if ((r = cli_value(argc, argv, &i, "--layout-out", &v)) != 0) {
+            if (r < 0 || (layout_out = envl_layout_from_name(v)) <= 0)
+                return cli_usage("convert", "--layout-out needs a layout name");
+        } else if ((r = cli_value(argc, argv, &i, "--size", &v)) != 0) {
+            if (r < 0 || cli_parse_int(v, 1, 1 << 20, &size))
+                return cli_usage("convert", "--size needs a whole number from 1");
+        } else if (!strcmp(a, "--half")) {
+            so.pixel_type = ENVL_PIXEL_HALF;
+        } else if (a[0] == '-' && a[1]) {
+            return cli_usage("convert", "unknown option '%s'", a);
+        } else if (!in) {
+            in = a;
+        } else if (!out) {
+            out = a;
+        } else {
+            return cli_usage("convert", "IN and OUT only");
+        }
+    }
+    if (!in || !out)
+        return cli_usage("convert", "needs IN and OUT");
+    envl_envmap *map;
+    if (cli_load(in, &c, &map))
+        return CLI_FAIL;
+    envl_result rc;
+    if (layout_out == ENVL_LAYOUT_LATLONG && !size) {
+        rc = envl_envmap_save(map, out, &so);
+    } else {
+        float *px = NULL;
+        int32_t w, h;
+        if (!size)
+            size = layout_out == ENVL_LAYOUT_LATLONG || layout_out == ENVL_LAYOUT_EXR_LATLONG
+                       ? envl_envmap_width(map)
+                       : envl_envmap_width(map) / 4;
+        rc = envl_envmap_to_layout(map, layout_out, (int32_t)size, &px, &w, &h);
+        if (rc == ENVL_OK)
+            rc = envl_image_save(out, px, w, h, &so);
+        envl_free(px);
+    }
+    envl_envmap_free(map);
+    return rc ? cli_fail() : CLI_OK;
+}

@@ -141,7 +141,7 @@ ENVL_API void envl_latlong_pixel(int32_t width, int32_t height, const double dir
 /* ---- built-in procedural sky ----------------------------------------------------------------- */
 typedef struct envl_sky_options {
     double sun_elevation_degrees;  /* default 35 (exact 0 via ENVL_SKY_HORIZON) */
-    double sun_azimuth_degrees;    /* canonical phi of the sun, from +X towards +Y; default 60 */
+    double sun_azimuth_degrees;    /* canonical phi of the sun, from +X towards +Y; 0 */
     int32_t width;                 /* lat-long width, height = width / 2; default 1024 */
     double sun_irradiance;         /* irradiance of the sun disc at normal incidence; default 12 */
     double zenith_radiance;        /* sky radiance (luminance) at the zenith; default 0.6 */
@@ -165,6 +165,14 @@ ENVL_API envl_result envl_image_save(const char *path, const float *rgb, int32_t
                                      int32_t height, const envl_save_options *options);
 ENVL_API envl_result envl_envmap_save(const envl_envmap *map, const char *path,
                                       const envl_save_options *options);
+/* Renders the map into another layout (size: face size for cubes and strips, diameter for
+ * probes, width for lat-long). *pixels (RGB floats) is allocated; release with envl_free. */
+ENVL_API envl_result envl_envmap_to_layout(const envl_envmap *map, int32_t layout, int32_t size,
+                                           float **pixels, int32_t *width, int32_t *height);
+ENVL_API void envl_free(void *memory);
+/* Writes `size` bytes to `path` atomically (temporary file in the same directory + rename):
+ * an existing file is either replaced whole or left as it was. */
+ENVL_API envl_result envl_file_write_atomic(const char *path, const void *data, size_t size);
 
 /* ---- exact irradiance and the error measure (DESIGN.md) ------------------------------------- */
 /* E(n) = sum over pixels of L dw max(0, n.d), in double, for `count` unit normals. */

@@ -1,1 +1,392 @@
+/* The canonical envmap: lat-long RGB floats in Blender's world frame with per-row solid angles
+ * and per-row / per-column direction tables; loading, sanitising, statistics. */
 #include "internal.h"
+#include "envmap_impl.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* ---- the frame (DESIGN.md) ---- */
+
+/* Solid angle of a pixel in row r of a W x H lat-long map:
+ * (2 pi / W) * (sin(pi (0.5 - r/H)) - sin(pi (0.5 - (r+1)/H))). */
+double envl_latlong_solid_angle(int32_t width, int32_t height, int32_t row)
+{
+    if (width <= 0 || height <= 0 || row < 0 || row >= height)
+        return 0.0;
+    double top = sin(ENVL_PI * (0.5 - (double)row / height));
+    double bot = sin(ENVL_PI * (0.5 - (double)(row + 1) / height));
+    return 2.0 * ENVL_PI / width * (top - bot);
+}
+
+/* u = (c + 0.5)/W, v = (r + 0.5)/H, phi = pi (1 - 2u), theta = pi (0.5 - v). */
+void envl_latlong_direction(int32_t width, int32_t height, double column, double row,
+                            double d[3])
+{
+    double u = (column + 0.5) / width, v = (row + 0.5) / height;
+    double phi = ENVL_PI * (1.0 - 2.0 * u), theta = ENVL_PI * (0.5 - v);
+    d[0] = cos(theta) * cos(phi);
+    d[1] = cos(theta) * sin(phi);
+    d[2] = sin(theta);
+}
+
+void envl_latlong_pixel(int32_t width, int32_t height, const double d[3], double *column,
+                        double *row)
+{
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    double z = len > 0 ? d[2] / len : 1.0;
+    z = z > 1 ? 1 : z < -1 ? -1 : z;
+    double phi = atan2(d[1], d[0]); /* (-pi, pi] */
+    double u = 0.5 * (1.0 - phi / ENVL_PI), v = 0.5 - asin(z) / ENVL_PI;
+    *column = u * width - 0.5;
+    *row = v * height - 0.5;
+}
+
+double envl_luminance(double r, double g, double b)
+{
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+}
+
+/* ---- construction ---- */
+
+int32_t envl__threads(int32_t requested)
+{
+    if (requested > 0)
+        return requested > 256 ? 256 : requested;
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n < 1 ? 1 : n > 256 ? 256 : (int32_t)n;
+}
+
+/* Counts NaN/Inf/negative pixels of the file; replaces NaN and negatives by 0 and +Inf by the
+ * largest finite value of the image (or refuses them in strict mode). */
+static envl_result sanitise(envl_image *img, int32_t strict, const char *file, envl_info *info)
+{
+    size_t n = (size_t)img->width * img->height;
+    int64_t nonfinite = 0, negative = 0;
+    float maxfinite = 0.0f;
+    for (size_t i = 0; i < n; i++) {
+        const float *p = img->px + 3 * i;
+        int bad = 0, neg = 0;
+        for (int k = 0; k < 3; k++) {
+            if (!isfinite(p[k]))
+                bad = 1;
+            else if (p[k] < 0)
+                neg = 1;
+            else if (p[k] > maxfinite)
+                maxfinite = p[k];
+        }
+        nonfinite += bad;
+        negative += neg;
+    }
+    info->nonfinite_pixels = nonfinite;
+    info->negative_pixels = negative;
+    if (!nonfinite && !negative)
+        return ENVL_OK;
+    if (strict)
+        return envl__fail(ENVL_ERR_NONFINITE,
+                          "%s: %lld pixels with NaN or Inf and %lld with negative values "
+                          "(--strict)",
+                          file, (long long)nonfinite, (long long)negative);
+    for (size_t i = 0; i < 3 * n; i++) {
+        float v = img->px[i];
+        if (isnan(v) || v < 0)
+            img->px[i] = 0.0f; /* also -Inf */
+        else if (isinf(v))
+            img->px[i] = maxfinite;
+    }
+    return ENVL_OK;
+}
+
+static envl_result build_tables(envl_envmap *m)
+{
+    int32_t w = m->width, h = m->height;
+    m->row_omega = malloc(sizeof(double) * h);
+    m->row_cos = malloc(sizeof(double) * h);
+    m->row_sin = malloc(sizeof(double) * h);
+    m->col_cos = malloc(sizeof(double) * w);
+    m->col_sin = malloc(sizeof(double) * w);
+    if (!m->row_omega || !m->row_cos || !m->row_sin || !m->col_cos || !m->col_sin)
+        return envl__fail(ENVL_ERR_MEMORY, "envmap: cannot allocate tables");
+    for (int32_t r = 0; r < h; r++) {
+        double theta = ENVL_PI * (0.5 - (r + 0.5) / h);
+        m->row_omega[r] = envl_latlong_solid_angle(w, h, r);
+        m->row_cos[r] = cos(theta);
+        m->row_sin[r] = sin(theta);
+    }
+    for (int32_t c = 0; c < w; c++) {
+        double phi = ENVL_PI * (1.0 - 2.0 * (c + 0.5) / w);
+        m->col_cos[c] = cos(phi);
+        m->col_sin[c] = sin(phi);
+    }
+    return ENVL_OK;
+}
+
+static void compute_stats(envl_envmap *m)
+{
+    envl_info *info = &m->info;
+    double power[3] = {0, 0, 0}, mx[3] = {0, 0, 0}, best = -1.0;
+    int32_t best_c = 0, best_r = 0;
+    for (int32_t r = 0; r < m->height; r++) {
+        double row[3] = {0, 0, 0};
+        const float *p = m->px + (size_t)r * m->width * 3;
+        for (int32_t c = 0; c < m->width; c++, p += 3) {
+            for (int k = 0; k < 3; k++) {
+                row[k] += p[k];
+                if (p[k] > mx[k])
+                    mx[k] = p[k];
+            }
+            double y = envl_luminance(p[0], p[1], p[2]);
+            if (y > best) {
+                best = y;
+                best_c = c;
+                best_r = r;
+            }
+        }
+        for (int k = 0; k < 3; k++)
+            power[k] += row[k] * m->row_omega[r];
+    }
+    for (int k = 0; k < 3; k++) {
+        info->power[k] = power[k];
+        info->mean[k] = power[k] / (4.0 * ENVL_PI);
+        info->max[k] = mx[k];
+    }
+    envl_envmap_direction(m, best_c, best_r, info->brightest_direction);
+    info->width = m->width;
+    info->height = m->height;
+}
+
+envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *options,
+                                    const char *file, envl_envmap **out)
+{
+    static const envl_load_options defaults;
+    const envl_load_options *o = options ? options : &defaults;
+    *out = NULL;
+    envl_envmap *m = calloc(1, sizeof *m);
+    if (!m) {
+        envl__image_free(img);
+        return envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", file);
+    }
+    envl_info *info = &m->info;
+    snprintf(info->file, sizeof info->file, "%s", file);
+    snprintf(info->format, sizeof info->format, "%s", img->meta.format);
+    info->source_width = img->width;
+    info->source_height = img->height;
+    info->channels = img->meta.channels;
+    info->exposure = img->meta.exposure > 0 ? img->meta.exposure : 1.0;
+    info->has_primaries = img->meta.has_primaries;
+    memcpy(info->primaries, img->meta.primaries, sizeof info->primaries);
+    info->rotate_degrees = o->rotate_degrees;
+    m->threads = envl__threads(o->threads);
+
+    envl_result rc = sanitise(img, o->strict, file, info);
+    if (rc)
+        goto fail;
+    if (o->apply_exposure && info->exposure != 1.0) {
+        size_t n = (size_t)img->width * img->height * 3;
+        for (size_t i = 0; i < n; i++)
+            img->px[i] = (float)(img->px[i] / info->exposure);
+    }
+
+    int32_t layout = o->layout;
+    if (layout < 0 || layout >= ENVL_LAYOUT_COUNT) {
+        rc = envl__fail(ENVL_ERR_ARGUMENT, "%s: unknown layout %d", file, (int)layout);
+        goto fail;
+    }
+    if (layout == ENVL_LAYOUT_AUTO) {
+        layout = envl__guess_layout(img);
+        info->layout_guessed = 1;
+    }
+    info->layout = layout;
+    if (o->width < 0) {
+        rc = envl__fail(ENVL_ERR_ARGUMENT, "%s: width %d must be positive", file, (int)o->width);
+        goto fail;
+    }
+
+    if (layout == ENVL_LAYOUT_LATLONG) {
+        int32_t w = o->width ? o->width : img->width;
+        int32_t h = w == img->width ? img->height
+                                    : (int32_t)fmax(1.0, llround((double)w * img->height /
+                                                                 img->width));
+        if (w == img->width && h == img->height && o->rotate_degrees == 0.0) {
+            m->px = img->px; /* take the pixels as they are */
+            img->px = NULL;
+        } else {
+            rc = envl__latlong_resample(img->px, img->width, img->height, w, h,
+                                        o->rotate_degrees, &m->px);
+            if (rc)
+                goto fail;
+        }
+        m->width = w;
+        m->height = h;
+    } else {
+        int32_t w = o->width ? o->width : envl__default_latlong_width(img, layout);
+        envl_image ll = {0};
+        rc = envl__layout_to_latlong(img, layout, w, &ll);
+        if (rc) {
+            envl__fail_prefix(rc, file);
+            goto fail;
+        }
+        if (o->rotate_degrees != 0.0) {
+            rc = envl__latlong_resample(ll.px, ll.width, ll.height, ll.width, ll.height,
+                                        o->rotate_degrees, &m->px);
+            envl__image_free(&ll);
+            if (rc)
+                goto fail;
+        } else {
+            m->px = ll.px;
+        }
+        m->width = ll.width;
+        m->height = ll.height;
+    }
+    envl__image_free(img);
+    rc = build_tables(m);
+    if (rc) {
+        envl_envmap_free(m);
+        return rc;
+    }
+    compute_stats(m);
+    *out = m;
+    return ENVL_OK;
+fail:
+    envl__image_free(img);
+    envl_envmap_free(m);
+    return rc;
+}
+
+static envl_limits limits_of(const envl_load_options *o)
+{
+    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, NULL};
+    if (o && o->max_pixels > 0)
+        lim.max_pixels = o->max_pixels;
+    if (o)
+        lim.exr_part = o->exr_part;
+    return lim;
+}
+
+envl_result envl_envmap_load(const char *path, const envl_load_options *options,
+                             envl_envmap **out)
+{
+    if (!out)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_load: out is NULL");
+    *out = NULL;
+    if (!path || !*path)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_load: no file name");
+    envl_limits lim = limits_of(options);
+    envl_image img = {0};
+    envl_result rc = envl__read_image_file(path, &lim, &img);
+    if (rc)
+        return rc;
+    return envl__envmap_from_image(&img, options, path, out);
+}
+
+envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t height,
+                                    int32_t channels, const envl_load_options *options,
+                                    envl_envmap **out)
+{
+    if (!out)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_from_pixels: out is NULL");
+    *out = NULL;
+    if (!pixels)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_from_pixels: pixels is NULL");
+    if (channels != 1 && channels != 3 && channels != 4)
+        return envl__fail(ENVL_ERR_ARGUMENT,
+                          "envl_envmap_from_pixels: %d channels (expected 1, 3 or 4)",
+                          (int)channels);
+    envl_limits lim = limits_of(options);
+    envl_image img = {0};
+    envl_result rc = envl__image_alloc(&img, width, height, &lim, "pixels");
+    if (rc)
+        return rc;
+    size_t n = (size_t)width * height;
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++)
+            img.px[3 * i + k] = pixels[channels * i + (channels == 1 ? 0 : k)];
+    snprintf(img.meta.format, sizeof img.meta.format, "memory");
+    img.meta.channels = channels;
+    img.meta.exposure = 1.0;
+    return envl__envmap_from_image(&img, options, "", out);
+}
+
+void envl_envmap_free(envl_envmap *m)
+{
+    if (!m)
+        return;
+    free(m->px);
+    free(m->row_omega);
+    free(m->row_cos);
+    free(m->row_sin);
+    free(m->col_cos);
+    free(m->col_sin);
+    free(m->reference);
+    free(m);
+}
+
+/* ---- accessors ---- */
+
+envl_result envl_envmap_info(const envl_envmap *m, envl_info *out)
+{
+    if (!m || !out)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_info: NULL argument");
+    *out = m->info;
+    return ENVL_OK;
+}
+
+int32_t envl_envmap_width(const envl_envmap *m) { return m ? m->width : 0; }
+int32_t envl_envmap_height(const envl_envmap *m) { return m ? m->height : 0; }
+const float *envl_envmap_pixels(const envl_envmap *m) { return m ? m->px : NULL; }
+
+double envl_envmap_solid_angle(const envl_envmap *m, int32_t row)
+{
+    return m && row >= 0 && row < m->height ? m->row_omega[row] : 0.0;
+}
+
+void envl_envmap_direction(const envl_envmap *m, int32_t c, int32_t r, double d[3])
+{
+    if (!m || c < 0 || r < 0 || c >= m->width || r >= m->height) {
+        d[0] = d[1] = d[2] = 0.0;
+        return;
+    }
+    d[0] = m->row_cos[r] * m->col_cos[c];
+    d[1] = m->row_cos[r] * m->col_sin[c];
+    d[2] = m->row_sin[r];
+}
+
+envl_result envl_envmap_save(const envl_envmap *m, const char *path,
+                             const envl_save_options *options)
+{
+    if (!m)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_save: map is NULL");
+    return envl_image_save(path, m->px, m->width, m->height, options);
+}
+
+envl_result envl_envmap_to_layout(const envl_envmap *m, int32_t layout, int32_t size,
+                                  float **pixels, int32_t *width, int32_t *height)
+{
+    if (!m || !pixels || !width || !height || size <= 0 || layout <= ENVL_LAYOUT_AUTO ||
+        layout >= ENVL_LAYOUT_COUNT)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_to_layout: bad arguments");
+    *pixels = NULL;
+    if (layout == ENVL_LAYOUT_LATLONG) {
+        int32_t h = size / 2 > 0 ? size / 2 : 1;
+        envl_result rc = envl__latlong_resample(m->px, m->width, m->height, size, h, 0.0, pixels);
+        if (rc)
+            return rc;
+        *width = size;
+        *height = h;
+        return ENVL_OK;
+    }
+    envl_image src = {.width = m->width, .height = m->height, .px = m->px};
+    envl_image out = {0};
+    envl_result rc = envl__latlong_to_layout(&src, layout, size, &out);
+    if (rc)
+        return rc;
+    *pixels = out.px;
+    *width = out.width;
+    *height = out.height;
+    return ENVL_OK;
+}
+
+void envl_free(void *memory) { free(memory); }

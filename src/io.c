@@ -81,3 +81,25 @@ envl_result envl__atomic_end(const char *path, char *tmp_path, bool ok)
     free(tmp_path);
     return rc;
 }
+
+envl_result envl_file_write_atomic(const char *path, const void *data, size_t size)
+{
+    if (!path || (!data && size))
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_file_write_atomic: NULL argument");
+    char *tmp;
+    envl_result rc = envl__atomic_begin(path, &tmp);
+    if (rc)
+        return rc;
+    FILE *f = fopen(tmp, "wb");
+    bool ok = f && fwrite(data, 1, size, f) == size;
+    int err = errno;
+    if (f && fclose(f) != 0) {
+        ok = false;
+        err = errno;
+    }
+    if (!ok) {
+        envl__atomic_end(path, tmp, false);
+        return envl__fail(ENVL_ERR_IO, "%s: write failed: %s", path, strerror(err));
+    }
+    return envl__atomic_end(path, tmp, true);
+}

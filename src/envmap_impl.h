@@ -1,0 +1,23 @@
+/* The envmap's insides, shared by the files that compute products from it. */
+#ifndef ENVL_ENVMAP_IMPL_H
+#define ENVL_ENVMAP_IMPL_H
+
+#include "internal.h"
+
+struct envl_envmap {
+    int32_t width, height;
+    float *px;            /* RGB, row 0 = top (canonical lat-long) */
+    double *row_omega;    /* solid angle of a pixel of each row (exact) */
+    double *row_cos;      /* cos(theta) at each row's centre */
+    double *row_sin;      /* sin(theta) = z at each row's centre */
+    double *col_cos;      /* cos(phi) at each column's centre */
+    double *col_sin;      /* sin(phi) */
+    envl_info info;
+    int32_t threads;
+    double *reference;    /* cached exact irradiance at the ENVL_ERROR_NORMALS Fibonacci normals */
+};
+
+/* Number of worker threads for `requested` (0 = all cores). */
+int32_t envl__threads(int32_t requested);
+
+#endif

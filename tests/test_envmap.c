@@ -1,0 +1,209 @@
+/* The canonical frame, solid angles, sanitising, rotation and resampling of the envmap. */
+#include "internal.h"
+#include "check.h"
+
+static const double PI = 3.14159265358979323846;
+
+static double luminance_power(const envl_envmap *m)
+{
+    envl_info info;
+    envl_envmap_info(m, &info);
+    return envl_luminance(info.power[0], info.power[1], info.power[2]);
+}
+
+/* Solid angles of all pixels sum to 4 pi (DESIGN.md formula telescopes): relative 1e-9. */
+static void test_solid_angles(void)
+{
+    const int sizes[][2] = {{1, 1}, {2, 1}, {8192, 1}, {3, 7}, {512, 256}, {1024, 512}};
+    for (size_t s = 0; s < sizeof sizes / sizeof sizes[0]; s++) {
+        int w = sizes[s][0], h = sizes[s][1];
+        double sum = 0;
+        for (int r = 0; r < h; r++)
+            sum += w * envl_latlong_solid_angle(w, h, r);
+        CHECK_REL(sum, 4 * PI, 1e-9);
+    }
+}
+
+/* DESIGN.md: u = 0.5 -> +X, u = 0.25 -> +Y, u = 0.75 -> -Y, u = 0 -> -X, top row -> +Z. */
+static void test_directions(void)
+{
+    double d[3], c, r;
+    envl_latlong_direction(1024, 512, 511.5, 255.5, d); /* u = 0.5, v = 0.5 */
+    CHECK_NEAR(d[0], 1, 1e-12);
+    CHECK_NEAR(d[1], 0, 1e-12);
+    CHECK_NEAR(d[2], 0, 1e-12);
+    envl_latlong_direction(1024, 512, 255.5, 255.5, d); /* u = 0.25 */
+    CHECK_NEAR(d[1], 1, 1e-12);
+    envl_latlong_direction(1024, 512, 767.5, 255.5, d); /* u = 0.75 */
+    CHECK_NEAR(d[1], -1, 1e-12);
+    envl_latlong_direction(1024, 512, -0.5, 255.5, d); /* u = 0 */
+    CHECK_NEAR(d[0], -1, 1e-12);
+    envl_latlong_direction(1024, 512, 100, -0.5, d); /* v = 0: the zenith */
+    CHECK_NEAR(d[2], 1, 1e-12);
+    /* envl_latlong_pixel inverts envl_latlong_direction. */
+    for (int i = 0; i < 50; i++) {
+        double cc = (i * 37) % 1024 + 0.25, rr = (i * 11) % 512 + 0.75;
+        envl_latlong_direction(1024, 512, cc, rr, d);
+        envl_latlong_pixel(1024, 512, d, &c, &r);
+        CHECK_NEAR(c, cc, 1e-9);
+        CHECK_NEAR(r, rr, 1e-9);
+    }
+}
+
+/* A one-pixel spot at a known pixel: brightest_direction is that pixel's DESIGN.md direction,
+ * power is L * omega of its row. */
+static void test_spot(void)
+{
+    const int w = 64, h = 32, c0 = 40, r0 = 9;
+    float *px = calloc((size_t)w * h * 3, sizeof(float));
+    for (int k = 0; k < 3; k++)
+        px[3 * (r0 * w + c0) + k] = 1000.0f;
+    envl_envmap *m;
+    envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG};
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &m));
+    envl_info info;
+    envl_envmap_info(m, &info);
+    double u = (c0 + 0.5) / w, v = (r0 + 0.5) / h;
+    double phi = PI * (1 - 2 * u), theta = PI * (0.5 - v);
+    CHECK_NEAR(info.brightest_direction[0], cos(theta) * cos(phi), 1e-12);
+    CHECK_NEAR(info.brightest_direction[1], cos(theta) * sin(phi), 1e-12);
+    CHECK_NEAR(info.brightest_direction[2], sin(theta), 1e-12);
+    CHECK_REL(info.power[0], 1000.0 * envl_latlong_solid_angle(w, h, r0), 1e-12);
+    CHECK_NEAR(info.mean[1], info.power[1] / (4 * PI), 1e-15);
+    /* Rotating by 90 degrees about +Z moves the spot from phi to phi + 90 degrees. */
+    envl_envmap *rot;
+    o.rotate_degrees = 90;
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &rot));
+    envl_envmap_info(rot, &info);
+    CHECK_NEAR(info.brightest_direction[0], cos(theta) * cos(phi + PI / 2), 1e-12);
+    CHECK_NEAR(info.brightest_direction[1], cos(theta) * sin(phi + PI / 2), 1e-12);
+    CHECK_REL(luminance_power(rot), luminance_power(m), 1e-7);
+    /* A quarter-pixel turn spreads the spot over two pixels and keeps its power. */
+    envl_envmap_free(rot);
+    o.rotate_degrees = 360.0 / w / 4;
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &rot));
+    const float *q = envl_envmap_pixels(rot);
+    /* The output at u samples the input at u + a/360: column c0-1 takes a quarter. */
+    CHECK_NEAR(q[3 * (r0 * w + c0)], 750.0, 1e-3);
+    CHECK_NEAR(q[3 * (r0 * w + c0 - 1)], 250.0, 1e-3);
+    CHECK_REL(luminance_power(rot), luminance_power(m), 1e-7);
+    envl_envmap_free(rot);
+    envl_envmap_free(m);
+    free(px);
+}
+
+/* Resampling to other sizes keeps the integral of L dw (area weights are exact). */
+static void test_resample_power(void)
+{
+    const int w = 200, h = 100;
+    float *px = malloc(sizeof(float) * w * h * 3);
+    unsigned s = 12345;
+    for (int i = 0; i < w * h * 3; i++) {
+        s = s * 1103515245u + 12345u;
+        px[i] = (float)((s >> 8) % 1000) / 10.0f;
+    }
+    px[3 * (17 * w + 3)] = 1e6f; /* a sun */
+    envl_envmap *ref;
+    envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG};
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &ref));
+    const int widths[] = {1, 2, 3, 64, 199, 256, 1000};
+    for (size_t i = 0; i < sizeof widths / sizeof widths[0]; i++) {
+        envl_envmap *m;
+        o.width = widths[i];
+        o.rotate_degrees = 17.3 * i;
+        CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &m));
+        /* The aspect ratio of a lat-long input is kept: height = round(width * h / w). */
+        CHECK(envl_envmap_height(m) == (int)fmax(1, llround(widths[i] * (double)h / w)));
+        /* Float outputs: each pixel rounds at 2^-24 relative; sums in double. */
+        CHECK_REL(luminance_power(m), luminance_power(ref), 1e-6);
+        envl_envmap_free(m);
+    }
+    envl_envmap_free(ref);
+    free(px);
+}
+
+/* NaN and negatives -> 0, +Inf -> largest finite value; counted; strict refuses. */
+static void test_sanitise(void)
+{
+    float px[4 * 2 * 3] = {0};
+    for (int i = 0; i < 24; i++)
+        px[i] = 1.0f;
+    px[0] = NAN;
+    px[4] = INFINITY;
+    px[8] = -2.0f;
+    px[9] = -INFINITY; /* same pixel: one negative/non-finite pixel */
+    px[12] = 7.0f;
+    envl_envmap *m;
+    envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG};
+    CHECK_OK(envl_envmap_from_pixels(px, 4, 2, 3, &o, &m));
+    envl_info info;
+    envl_envmap_info(m, &info);
+    CHECK(info.nonfinite_pixels == 3);
+    CHECK(info.negative_pixels == 1);
+    const float *q = envl_envmap_pixels(m);
+    CHECK(q[0] == 0.0f);
+    CHECK(q[4] == 7.0f);
+    CHECK(q[8] == 0.0f && q[9] == 0.0f);
+    for (int i = 0; i < 24; i++)
+        CHECK(isfinite(q[i]) && q[i] >= 0);
+    envl_envmap_free(m);
+    o.strict = 1;
+    CHECK_RC(envl_envmap_from_pixels(px, 4, 2, 3, &o, &m), ENVL_ERR_NONFINITE);
+    CHECK(m == NULL);
+    CHECK(strstr(envl_last_error(), "3 pixels with NaN or Inf") != NULL);
+}
+
+static void test_arguments(void)
+{
+    envl_envmap *m = (envl_envmap *)1;
+    float px[3] = {1, 1, 1};
+    CHECK_RC(envl_envmap_from_pixels(NULL, 1, 1, 3, NULL, &m), ENVL_ERR_ARGUMENT);
+    CHECK(m == NULL);
+    CHECK_RC(envl_envmap_from_pixels(px, 1, 1, 2, NULL, &m), ENVL_ERR_ARGUMENT);
+    CHECK_RC(envl_envmap_from_pixels(px, 0, 1, 3, NULL, &m), ENVL_ERR_FORMAT);
+    envl_load_options o = {.max_pixels = 100};
+    CHECK_RC(envl_envmap_from_pixels(px, 1000, 1000, 3, &o, &m), ENVL_ERR_LIMIT);
+    CHECK_RC(envl_envmap_load("/nonexistent/x.hdr", NULL, &m), ENVL_ERR_IO);
+    CHECK(strstr(envl_last_error(), "/nonexistent/x.hdr") != NULL);
+    CHECK_RC(envl_envmap_load("/", NULL, &m), ENVL_ERR_IO);
+    CHECK(strcmp(envl_result_name(ENVL_ERR_LIMIT), "ENVL_ERR_LIMIT") == 0);
+    CHECK(strcmp(envl_result_name(999), "ENVL_UNKNOWN") == 0);
+    CHECK(envl_abi_version() == ENVL_ABI_VERSION);
+    envl_envmap_free(NULL);
+    /* 1x1 and 2x1 lat-long maps: the whole sphere in one or two pixels. */
+    CHECK_OK(envl_envmap_from_pixels(px, 1, 1, 3, &(envl_load_options){.layout = 1}, &m));
+    CHECK_REL(envl_envmap_solid_angle(m, 0), 4 * PI, 1e-12);
+    envl_envmap_free(m);
+}
+
+/* Writing an empty file leaves nothing half-written: a failed save keeps the old file. */
+static void test_atomic_save(void)
+{
+    const char *path = tmp_path("atomic.pfm");
+    float px[6] = {1, 2, 3, 4, 5, 6};
+    CHECK_OK(envl_image_save(path, px, 2, 1, NULL));
+    uint8_t *before;
+    size_t nb;
+    CHECK_OK(envl__read_file(path, 1 << 20, &before, &nb));
+    CHECK_RC(envl_image_save(path, px, 2, 1, &(envl_save_options){.format = "bogus"}),
+             ENVL_ERR_ARGUMENT);
+    CHECK_RC(envl_image_save(tmp_path("no/such/dir/x.pfm"), px, 2, 1, NULL), ENVL_ERR_IO);
+    uint8_t *after;
+    size_t na;
+    CHECK_OK(envl__read_file(path, 1 << 20, &after, &na));
+    CHECK(na == nb && memcmp(before, after, nb) == 0);
+    free(before);
+    free(after);
+}
+
+int main(void)
+{
+    test_solid_angles();
+    test_directions();
+    test_spot();
+    test_resample_power();
+    test_sanitise();
+    test_arguments();
+    test_atomic_save();
+    return check_report("test_envmap");
+}

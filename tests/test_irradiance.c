@@ -1,0 +1,117 @@
+/* The exact integrator against analytic irradiance, and the error measure. */
+#include "internal.h"
+#include "check.h"
+
+static const double PI = 3.14159265358979323846;
+
+/* A lat-long map whose pixel (c, r) holds a + b z (z at the pixel centre), per channel. */
+static envl_envmap *linear_z_map(int w, int h, const double a[3], const double b[3], int threads)
+{
+    float *px = malloc(sizeof(float) * w * h * 3);
+    for (int r = 0; r < h; r++)
+        for (int c = 0; c < w; c++) {
+            double d[3];
+            envl_latlong_direction(w, h, c, r, d);
+            for (int k = 0; k < 3; k++)
+                px[3 * (r * w + c) + k] = (float)(a[k] + b[k] * d[2]);
+        }
+    envl_envmap *m = NULL;
+    envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &m));
+    free(px);
+    return m;
+}
+
+/* Irradiance of L = a + b z is pi a + (2 pi / 3) b n_z (Ramamoorthi & Hanrahan 2001: the
+ * clamped cosine passes band 0 with A0 = pi and band 1 with A1 = 2 pi / 3).
+ * The midpoint sum over pixels of angular size h = pi/H has error O(h^2) on smooth parts and
+ * at most ~2 pi h * h^2 along the great circle where max(0, n.d) has its kink, so the
+ * tolerance is 4 pi h^2 times the radiance scale. */
+static void test_linear_sky(void)
+{
+    const int w = 512, h = 256;
+    const double a[3] = {1.0, 0.5, 2.0}, b[3] = {0.5, -0.25, 1.5};
+    envl_envmap *m = linear_z_map(w, h, a, b, 0);
+    double step = PI / h, tol = 4 * PI * step * step * 3.5;
+    double normals[6 * 3], e[6 * 3];
+    for (int i = 0; i < 6; i++)
+        envl_fibonacci_direction(i * 170, 1024, normals + 3 * i);
+    CHECK_OK(envl_irradiance_exact(m, 6, normals, e));
+    for (int i = 0; i < 6; i++)
+        for (int k = 0; k < 3; k++)
+            CHECK_NEAR(e[3 * i + k], PI * a[k] + 2 * PI / 3 * b[k] * normals[3 * i + 2], tol);
+    envl_envmap_free(m);
+}
+
+/* Constant radiance 1: E = pi for every normal, including the poles and the seam. */
+static void test_constant(void)
+{
+    const double one[3] = {1, 1, 1}, zero[3] = {0, 0, 0};
+    envl_envmap *m = linear_z_map(256, 128, one, zero, 0);
+    const double normals[] = {0, 0, 1, 0, 0, -1, -1, 0, 0, 1, 0, 0, 0, 1, 0, 0.6, 0, 0.8};
+    double e[18];
+    CHECK_OK(envl_irradiance_exact(m, 6, normals, e));
+    double step = PI / 128;
+    for (int i = 0; i < 18; i++)
+        CHECK_NEAR(e[i], PI, 4 * PI * step * step);
+    envl_envmap_free(m);
+}
+
+/* The reference at 1024 normals is the same at 1 and 4 threads, bit for bit. */
+static void test_threads_deterministic(void)
+{
+    const double a[3] = {1, 2, 3}, b[3] = {3, 2, 1};
+    envl_envmap *m1 = linear_z_map(128, 64, a, b, 1), *m4 = linear_z_map(128, 64, a, b, 4);
+    const double *r1, *r4;
+    CHECK_OK(envl_envmap_reference_irradiance(m1, &r1));
+    CHECK_OK(envl_envmap_reference_irradiance(m4, &r4));
+    CHECK(memcmp(r1, r4, sizeof(double) * 3 * ENVL_ERROR_NORMALS) == 0);
+    const double *again;
+    CHECK_OK(envl_envmap_reference_irradiance(m1, &again));
+    CHECK(again == r1); /* cached, computed once */
+    envl_envmap_free(m1);
+    envl_envmap_free(m4);
+}
+
+/* Fibonacci points are unit vectors spread evenly: their mean is ~0 and mean z^2 is 1/3. */
+static void test_fibonacci(void)
+{
+    double sum[3] = {0, 0, 0}, z2 = 0;
+    for (int i = 0; i < 1024; i++) {
+        double d[3];
+        envl_fibonacci_direction(i, 1024, d);
+        CHECK_NEAR(d[0] * d[0] + d[1] * d[1] + d[2] * d[2], 1.0, 1e-12);
+        for (int k = 0; k < 3; k++)
+            sum[k] += d[k];
+        z2 += d[2] * d[2];
+    }
+    /* z_i = 1 - (2i+1)/n sums to exactly 0; x, y sums are bounded by the golden-angle
+     * equidistribution (small compared with n). */
+    CHECK_NEAR(sum[2], 0, 1e-9);
+    CHECK_NEAR(sum[0] / 1024, 0, 0.01);
+    CHECK_NEAR(sum[1] / 1024, 0, 0.01);
+    /* mean of z^2 over the midpoints (2i+1)/n - 1: exactly 1/3 - 1/(3 n^2) */
+    CHECK_NEAR(z2 / 1024, 1.0 / 3 - 1.0 / (3.0 * 1024 * 1024), 1e-12);
+}
+
+/* The error measure: relative RMS of luminance; zero for equal inputs, exact for a scale. */
+static void test_error_measure(void)
+{
+    double e[6] = {1, 1, 1, 3, 3, 3}, a[6] = {1.1, 1.1, 1.1, 3.3, 3.3, 3.3};
+    CHECK_NEAR(envl_relative_rms_luminance(2, e, e), 0, 0);
+    /* diffs 0.1 and 0.3: rms = sqrt((0.01 + 0.09)/2), mean |Ye| = 2 */
+    CHECK_NEAR(envl_relative_rms_luminance(2, a, e), sqrt(0.05) / 2, 1e-12);
+    double z[6] = {0};
+    CHECK_NEAR(envl_relative_rms_luminance(2, z, z), 0, 0); /* black map: no division by 0 */
+    CHECK(isinf(envl_relative_rms_luminance(2, e, z)));
+}
+
+int main(void)
+{
+    test_linear_sky();
+    test_constant();
+    test_threads_deterministic();
+    test_fibonacci();
+    test_error_measure();
+    return check_report("test_irradiance");
+}
