@@ -252,6 +252,7 @@ static const char main_help[] =
     "Commands:\n"
     "  info FILE [--json]          size, layout, channels, statistics, power, brightest direction\n"
     "  convert IN OUT              convert between .hdr/.exr/.pfm and into the canonical lat-long\n"
+    "  lights [FILE]               directional lights: median cut, variance cut, fit + SH remainder\n"
     "  version                     library version\n"
     "\n"
     "FILE '-' (or no FILE where it makes sense) is the built-in procedural sky.\n"
@@ -276,6 +277,8 @@ int main(int argc, char **argv)
         return cli_info(argc - 1, argv + 1);
     if (!strcmp(cmd, "convert"))
         return cli_convert(argc - 1, argv + 1);
+    if (!strcmp(cmd, "lights"))
+        return cli_lights(argc - 1, argv + 1);
     fprintf(stderr, "envlight: unknown command '%s'\n\n%s", cmd, main_help);
     return CLI_USAGE;
 }

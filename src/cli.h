@@ -56,5 +56,6 @@ int cli_output_close(cli_output *o); /* CLI_OK or CLI_FAIL */
 /* Subcommands. */
 int cli_info(int argc, char **argv);
 int cli_convert(int argc, char **argv);
+int cli_lights(int argc, char **argv);
 
 #endif

@@ -39,8 +39,7 @@ typedef int32_t envl_result;
     X(ENVL_ERR_UNSUPPORTED, 4, "unsupported file variant")                                     \
     X(ENVL_ERR_LIMIT, 5, "exceeds a configured limit")                                         \
     X(ENVL_ERR_MEMORY, 6, "out of memory")                                                     \
-    X(ENVL_ERR_NONFINITE, 7, "non-finite or negative pixels (strict mode)")                    \
-    X(ENVL_ERR_NO_LIGHT, 8, "the environment holds no light")
+    X(ENVL_ERR_NONFINITE, 7, "non-finite or negative pixels (strict mode)")
 #define ENVL_RESULT_ENUM_(name, value, text) name = value,
 enum { ENVL_RESULT_TABLE(ENVL_RESULT_ENUM_) };
 #undef ENVL_RESULT_ENUM_
@@ -184,10 +183,67 @@ ENVL_API void envl_fibonacci_direction(int32_t i, int32_t n, double direction[3]
 /* Relative RMS of luminance: sqrt(mean((Ya - Ye)^2)) / mean(|Ye|) over `count` values. */
 ENVL_API double envl_relative_rms_luminance(int32_t count, const double *approx_rgb,
                                             const double *exact_rgb);
-/* Exact irradiance at the 1024 Fibonacci normals, computed once per map and cached. */
+/* Exact irradiance at the 1024 Fibonacci normals, computed once per map and cached. Maps wider
+ * than ENVL_REFERENCE_WIDTH are resampled (exactly, by area) to that width first. */
+#define ENVL_REFERENCE_WIDTH 1024
 ENVL_API envl_result envl_envmap_reference_irradiance(envl_envmap *map, const double **rgb_out);
 
 ENVL_API double envl_luminance(double r, double g, double b);
+
+/* ---- lights ------------------------------------------------------------------------------- */
+#define ENVL_METHOD_MEDIAN 0    /* Debevec 2005 median cut on a double summed-area table */
+#define ENVL_METHOD_VARIANCE 1  /* variance-minimising cut (after Viriyothai & Debevec 2009) */
+#define ENVL_METHOD_FIT 2       /* fitted lights (non-negative) + low-order SH remainder */
+#define ENVL_METHOD_COUNT 3
+ENVL_API const char *envl_method_name(int32_t method); /* "median", "variance", "fit" */
+ENVL_API int32_t envl_method_from_name(const char *name); /* -1 if unknown */
+
+#define ENVL_REMAINDER_NONE (-1)
+typedef struct envl_lights_options {
+    int32_t method;           /* ENVL_METHOD_*; default median */
+    int32_t count;            /* number of lights; default 16 (fit: 4) */
+    int32_t remainder_bands;  /* fit: SH bands of the remainder (order + 1), 1..9; default 3
+                                 (order 2); ENVL_REMAINDER_NONE for lights only */
+} envl_lights_options;
+
+typedef struct envl_light {
+    double direction[3];      /* unit vector towards the light, canonical frame */
+    double rgb[3];            /* irradiance at normal incidence: sum of L dw it took */
+    double solid_angle;       /* of the region it took its light from, sr */
+    double angle;             /* angular diameter 2 acos(1 - solid_angle / 2 pi), radians, <= pi */
+    int32_t rect[4];          /* region's pixel rectangle x0, y0, x1, y1 (exclusive); x1 may
+                                 exceed the width when the region wraps across the seam */
+} envl_light;
+
+typedef struct envl_lights_summary {
+    int32_t method, count;
+    double power[3];          /* of the environment: integral of L dw */
+    double lights_power[3];   /* sum of the lights' rgb */
+    double residual_power[3]; /* what the lights did not take; lights + residual = power */
+    int32_t remainder_order;  /* fit with remainder: its order, else -1 */
+    double diffuse_error;     /* DESIGN.md's measure against the exact integrator */
+    double seconds;           /* time to compute the lights (the error measure excluded) */
+    int32_t no_light;         /* 1: the map is black; there are no lights */
+} envl_lights_summary;
+
+typedef struct envl_lights envl_lights;
+/* Computes the lights (and, for fit, the remainder), the residual environment and the error.
+ * Intermediate tables are cached in the map and shared with later calls. */
+ENVL_API envl_result envl_lights_compute(envl_envmap *map, const envl_lights_options *options,
+                                         envl_lights **out);
+ENVL_API void envl_lights_free(envl_lights *lights);
+ENVL_API int32_t envl_lights_count(const envl_lights *lights);
+ENVL_API envl_result envl_lights_get(const envl_lights *lights, int32_t index, envl_light *out);
+ENVL_API envl_result envl_lights_get_summary(const envl_lights *lights,
+                                             envl_lights_summary *out);
+/* Fit remainder: irradiance SH coefficients, (order+1)^2 x RGB, DESIGN.md's order; NULL and
+ * order -1 when there is none. */
+ENVL_API const double *envl_lights_remainder(const envl_lights *lights, int32_t *order);
+/* The residual environment (same size as the map), RGB floats owned by the lights object. */
+ENVL_API const float *envl_lights_residual(const envl_lights *lights);
+/* Irradiance the lights (+ remainder) predict for `count` normals. */
+ENVL_API envl_result envl_lights_irradiance(const envl_lights *lights, int32_t count,
+                                            const double *normals, double *rgb_out);
 
 #ifdef __cplusplus
 }

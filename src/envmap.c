@@ -321,6 +321,7 @@ void envl_envmap_free(envl_envmap *m)
     free(m->col_cos);
     free(m->col_sin);
     free(m->reference);
+    free(m->energy_sat);
     free(m);
 }
 

@@ -15,6 +15,7 @@ struct envl_envmap {
     envl_info info;
     int32_t threads;
     double *reference;    /* cached exact irradiance at the ENVL_ERROR_NORMALS Fibonacci normals */
+    double *energy_sat;   /* cached summed-area table of luminance x solid angle, (W+1)(H+1) */
 };
 
 /* Number of worker threads for `requested` (0 = all cores). */

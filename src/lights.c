@@ -1,0 +1,976 @@
+/* Lights that stand in for the environment: median cut, variance cut, fitted lights + SH
+ * remainder; each with its physical irradiance, region, and the residual environment.
+ *
+ * Energy of a pixel = luminance x its solid angle. Regions are pixel rectangles of the
+ * canonical lat-long map, [x0, x1) x [y0, y1), where x1 may exceed the width: the region then
+ * wraps across the seam. The first region starts at the darkest column, so a sun on the seam
+ * is never cut in two. */
+#include "envmap_impl.h"
+#include "nnls.h"
+#include "sh_basis.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+struct envl_lights {
+    envl_lights_summary summary;
+    envl_light *lights;
+    double *remainder;      /* irradiance SH, (order+1)^2 x 3, or NULL */
+    int32_t width, height;
+    float *residual;        /* width x height x 3 */
+};
+
+static const char *method_names[ENVL_METHOD_COUNT] = {"median", "variance", "fit"};
+
+const char *envl_method_name(int32_t method)
+{
+    return method >= 0 && method < ENVL_METHOD_COUNT ? method_names[method] : NULL;
+}
+
+int32_t envl_method_from_name(const char *name)
+{
+    for (int32_t i = 0; name && i < ENVL_METHOD_COUNT; i++)
+        if (!strcmp(name, method_names[i]))
+            return i;
+    return -1;
+}
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+/* ---- the energy summed-area table (double; cached in the map) ---- */
+
+/* sat[r (W+1) + c] = sum of energy over rows < r, columns < c. A float table would lose a dim
+ * sky's pixels against a sun's 1e6 (24-bit mantissa); double keeps 53 bits. */
+static envl_result energy_sat(envl_envmap *m, const double **out)
+{
+    if (!m->energy_sat) {
+        int32_t w = m->width, h = m->height;
+        double *sat = malloc(sizeof(double) * (size_t)(w + 1) * (h + 1));
+        if (!sat)
+            return envl__fail(ENVL_ERR_MEMORY, "summed-area table: cannot allocate %d x %d",
+                              (int)w + 1, (int)h + 1);
+        memset(sat, 0, sizeof(double) * (w + 1));
+        for (int32_t r = 0; r < h; r++) {
+            const float *p = m->px + (size_t)r * w * 3;
+            double *prev = sat + (size_t)r * (w + 1), *cur = prev + (w + 1);
+            double row = 0.0, omega = m->row_omega[r];
+            cur[0] = 0.0;
+            for (int32_t c = 0; c < w; c++, p += 3) {
+                row += envl_luminance(p[0], p[1], p[2]) * omega;
+                cur[c + 1] = prev[c + 1] + row;
+            }
+        }
+        m->energy_sat = sat;
+    }
+    *out = m->energy_sat;
+    return ENVL_OK;
+}
+
+typedef struct region {
+    int32_t x0, x1, y0, y1;
+    double energy;
+    double priority;        /* which region to split next */
+} region;
+
+static double sat_rect(const double *sat, int32_t w, int32_t x0, int32_t x1, int32_t y0,
+                       int32_t y1)
+{
+    const double *a = sat + (size_t)y0 * (w + 1), *b = sat + (size_t)y1 * (w + 1);
+    return b[x1] - b[x0] - a[x1] + a[x0];
+}
+
+/* Energy of columns [x0, x1) (wrapping) and rows [y0, y1). */
+static double rect_energy(const envl_envmap *m, const double *sat, int32_t x0, int32_t x1,
+                          int32_t y0, int32_t y1)
+{
+    int32_t w = m->width;
+    if (x1 <= w)
+        return sat_rect(sat, w, x0, x1, y0, y1);
+    return sat_rect(sat, w, x0, w, y0, y1) + sat_rect(sat, w, 0, x1 - w, y0, y1);
+}
+
+/* Keeps 0 <= x0 < W after a split of a region that wraps. */
+static void normalise_columns(const envl_envmap *m, region *r)
+{
+    if (r->x0 >= m->width) {
+        r->x0 -= m->width;
+        r->x1 -= m->width;
+    }
+}
+
+/* ---- median cut (Debevec 2005) ---- */
+
+/* The longer side in angle: width x 2 pi / W x cos(latitude at the region's centre) against
+ * height x pi / H. */
+static int split_along_x(const envl_envmap *m, const region *r)
+{
+    int32_t w = r->x1 - r->x0, h = r->y1 - r->y0;
+    if (w <= 1)
+        return 0;
+    if (h <= 1)
+        return 1;
+    double theta = ENVL_PI * (0.5 - 0.5 * (r->y0 + r->y1) / m->height);
+    double ang_w = w * 2.0 * ENVL_PI / m->width * cos(theta), ang_h = h * ENVL_PI / m->height;
+    return ang_w >= ang_h;
+}
+
+/* Splits at the energy median by binary search on the SAT (the split closest to half). */
+static int split_median(const envl_envmap *m, const double *sat, const region *r, region *a,
+                        region *b)
+{
+    int32_t w = r->x1 - r->x0, h = r->y1 - r->y0;
+    if (w <= 1 && h <= 1)
+        return 0;
+    int along_x = split_along_x(m, r);
+    int32_t lo = (along_x ? r->x0 : r->y0) + 1, hi = (along_x ? r->x1 : r->y1) - 1;
+    double half = 0.5 * r->energy;
+#define PART(s) (along_x ? rect_energy(m, sat, r->x0, (s), r->y0, r->y1)                       \
+                         : rect_energy(m, sat, r->x0, r->x1, r->y0, (s)))
+    int32_t s;
+    if (!(r->energy > 0)) {
+        s = (lo + hi + 1) / 2; /* no light: the geometric middle */
+    } else {
+        int32_t l = lo, u = hi; /* smallest s in [lo, hi] with PART(s) >= half, else hi */
+        while (l < u) {
+            int32_t mid = l + (u - l) / 2;
+            if (PART(mid) >= half)
+                u = mid;
+            else
+                l = mid + 1;
+        }
+        s = l;
+        if (s > lo && fabs(PART(s - 1) - half) <= fabs(PART(s) - half))
+            s = s - 1;
+    }
+    *a = *r;
+    *b = *r;
+    if (along_x) {
+        a->x1 = s;
+        b->x0 = s;
+    } else {
+        a->y1 = s;
+        b->y0 = s;
+    }
+    a->energy = PART(s);
+    b->energy = r->energy - a->energy;
+    if (b->energy < 0)
+        b->energy = 0;
+    normalise_columns(m, b);
+#undef PART
+    return 1;
+}
+
+/* ---- variance cut ---- */
+
+/* Variance of a region's energy about its centroid, on the sphere:
+ * sum e |d - dbar|^2 with dbar = sum(e d) / E, which is E - |sum e d|^2 / E (|d| = 1). The
+ * spherical form of Viriyothai & Debevec's image-plane variance: seam and poles need no care. */
+static double variance_of(double e, const double s[3])
+{
+    return e > 0 ? fmax(0.0, e - (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]) / e) : 0.0;
+}
+
+/* Splits where the larger of the halves' variances is least, over both axes. Marginals of the
+ * region (per column: sum e, e cos t, e sin t; per row: sum e, e cos p, e sin p) give every
+ * candidate's sums by prefix sums. Cost: one pass over the region. */
+static int split_variance(const envl_envmap *m, region *r, region *a, region *b, double *var_a,
+                          double *var_b)
+{
+    int32_t w = r->x1 - r->x0, h = r->y1 - r->y0, W = m->width;
+    if (w <= 1 && h <= 1)
+        return 0;
+    double *col = calloc((size_t)w * 3, sizeof(double)), *row = calloc((size_t)h * 3,
+                                                                        sizeof(double));
+    if (!col || !row) {
+        free(col);
+        free(row);
+        return -1;
+    }
+    for (int32_t y = r->y0; y < r->y1; y++) {
+        double omega = m->row_omega[y], ct = m->row_cos[y], st = m->row_sin[y];
+        double *rw = row + 3 * (y - r->y0);
+        for (int32_t x = r->x0; x < r->x1; x++) {
+            int32_t c = x < W ? x : x - W;
+            const float *p = m->px + 3 * ((size_t)y * W + c);
+            double e = envl_luminance(p[0], p[1], p[2]) * omega;
+            double *cl = col + 3 * (x - r->x0);
+            cl[0] += e;
+            cl[1] += e * ct;
+            cl[2] += e * st;
+            rw[0] += e;
+            rw[1] += e * m->col_cos[c];
+            rw[2] += e * m->col_sin[c];
+        }
+    }
+    double best = INFINITY, best_va = 0, best_vb = 0;
+    int best_axis = -1;
+    int32_t best_s = 0;
+    double tot_e = 0, tot_s[3] = {0, 0, 0};
+    for (int32_t i = 0; i < w; i++) {
+        int32_t c = r->x0 + i < W ? r->x0 + i : r->x0 + i - W;
+        tot_e += col[3 * i];
+        tot_s[0] += m->col_cos[c] * col[3 * i + 1];
+        tot_s[1] += m->col_sin[c] * col[3 * i + 1];
+        tot_s[2] += col[3 * i + 2];
+    }
+    /* along x: left = columns [x0, x0 + i) */
+    double le = 0, ls[3] = {0, 0, 0};
+    for (int32_t i = 1; i < w; i++) {
+        int32_t c = r->x0 + i - 1 < W ? r->x0 + i - 1 : r->x0 + i - 1 - W;
+        le += col[3 * (i - 1)];
+        ls[0] += m->col_cos[c] * col[3 * (i - 1) + 1];
+        ls[1] += m->col_sin[c] * col[3 * (i - 1) + 1];
+        ls[2] += col[3 * (i - 1) + 2];
+        double rs[3] = {tot_s[0] - ls[0], tot_s[1] - ls[1], tot_s[2] - ls[2]};
+        double va = variance_of(le, ls), vb = variance_of(tot_e - le, rs);
+        if (fmax(va, vb) < best) {
+            best = fmax(va, vb);
+            best_axis = 0;
+            best_s = r->x0 + i;
+            best_va = va;
+            best_vb = vb;
+        }
+    }
+    /* along y: top = rows [y0, y0 + i) */
+    le = 0;
+    ls[0] = ls[1] = ls[2] = 0;
+    for (int32_t i = 1; i < h; i++) {
+        int32_t y = r->y0 + i - 1;
+        const double *rw = row + 3 * (i - 1);
+        le += rw[0];
+        ls[0] += m->row_cos[y] * rw[1];
+        ls[1] += m->row_cos[y] * rw[2];
+        ls[2] += m->row_sin[y] * rw[0];
+        double rs[3] = {tot_s[0] - ls[0], tot_s[1] - ls[1], tot_s[2] - ls[2]};
+        double va = variance_of(le, ls), vb = variance_of(tot_e - le, rs);
+        if (fmax(va, vb) < best) {
+            best = fmax(va, vb);
+            best_axis = 1;
+            best_s = r->y0 + i;
+            best_va = va;
+            best_vb = vb;
+        }
+    }
+    free(col);
+    free(row);
+    if (best_axis < 0)
+        return 0;
+    *a = *r;
+    *b = *r;
+    if (best_axis == 0) {
+        a->x1 = best_s;
+        b->x0 = best_s;
+    } else {
+        a->y1 = best_s;
+        b->y0 = best_s;
+    }
+    normalise_columns(m, b);
+    *var_a = best_va;
+    *var_b = best_vb;
+    return 1;
+}
+
+/* Variance of a whole region (one pass). */
+static double region_variance(const envl_envmap *m, const region *r)
+{
+    int32_t W = m->width;
+    double e = 0, s[3] = {0, 0, 0};
+    for (int32_t y = r->y0; y < r->y1; y++) {
+        double omega = m->row_omega[y], ct = m->row_cos[y], st = m->row_sin[y];
+        for (int32_t x = r->x0; x < r->x1; x++) {
+            int32_t c = x < W ? x : x - W;
+            const float *p = m->px + 3 * ((size_t)y * W + c);
+            double v = envl_luminance(p[0], p[1], p[2]) * omega;
+            e += v;
+            s[0] += v * ct * m->col_cos[c];
+            s[1] += v * ct * m->col_sin[c];
+            s[2] += v * st;
+        }
+    }
+    return variance_of(e, s);
+}
+
+/* Cuts the map into at most n regions. Median: level by level while the count can double
+ * (2^k lights exactly as Debevec's paper), then the region with the most energy next.
+ * Variance: always the region of largest variance next. */
+static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region **out,
+                               int32_t *count)
+{
+    const double *sat = NULL;
+    envl_result rc = energy_sat(m, &sat);
+    if (rc)
+        return rc;
+    region *rs = malloc(sizeof(region) * (size_t)n);
+    if (!rs)
+        return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+    /* Start at the darkest column: the seam of the first region lies where there is least
+     * light. */
+    int32_t x0 = 0;
+    double dark = INFINITY;
+    for (int32_t c = 0; c < m->width; c++) {
+        double e = sat_rect(sat, m->width, c, c + 1, 0, m->height);
+        if (e < dark) {
+            dark = e;
+            x0 = c;
+        }
+    }
+    rs[0] = (region){x0, x0 + m->width, 0, m->height, 0, 0};
+    rs[0].energy = rect_energy(m, sat, rs[0].x0, rs[0].x1, 0, m->height);
+    int32_t k = 1;
+    if (method == ENVL_METHOD_MEDIAN) {
+        while (2 * k <= n) {
+            int32_t before = k;
+            for (int32_t i = 0; i < before; i++) {
+                region a, b;
+                if (split_median(m, sat, &rs[i], &a, &b)) {
+                    rs[i] = a;
+                    rs[k++] = b;
+                }
+            }
+            if (k == before)
+                break;
+        }
+        while (k < n) {
+            int32_t best = -1;
+            for (int32_t i = 0; i < k; i++)
+                if ((rs[i].x1 - rs[i].x0 > 1 || rs[i].y1 - rs[i].y0 > 1) &&
+                    (best < 0 || rs[i].energy > rs[best].energy))
+                    best = i;
+            if (best < 0)
+                break;
+            region a, b;
+            split_median(m, sat, &rs[best], &a, &b);
+            rs[best] = a;
+            rs[k++] = b;
+        }
+    } else {
+        rs[0].priority = region_variance(m, &rs[0]);
+        while (k < n) {
+            int32_t best = -1;
+            for (int32_t i = 0; i < k; i++)
+                if ((rs[i].x1 - rs[i].x0 > 1 || rs[i].y1 - rs[i].y0 > 1) &&
+                    (best < 0 || rs[i].priority > rs[best].priority))
+                    best = i;
+            if (best < 0)
+                break;
+            region a, b;
+            double va, vb;
+            int s = split_variance(m, &rs[best], &a, &b, &va, &vb);
+            if (s < 0) {
+                free(rs);
+                return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+            }
+            if (s == 0)
+                break;
+            a.priority = va;
+            b.priority = vb;
+            a.energy = rect_energy(m, sat, a.x0, a.x1, a.y0, a.y1);
+            b.energy = rect_energy(m, sat, b.x0, b.x1, b.y0, b.y1);
+            rs[best] = a;
+            rs[k++] = b;
+        }
+    }
+    *out = rs;
+    *count = k;
+    return ENVL_OK;
+}
+
+static void set_angle(envl_light *l)
+{
+    double c = 1.0 - l->solid_angle / (2.0 * ENVL_PI);
+    l->angle = 2.0 * acos(c < -1 ? -1 : c > 1 ? 1 : c);
+}
+
+/* A region's light: rgb = sum of L dw, at the energy-weighted centroid of its pixels' 3D
+ * directions (the region's centre when it holds no light). */
+static void region_light(const envl_envmap *m, const region *r, envl_light *l)
+{
+    int32_t W = m->width;
+    double rgb[3] = {0, 0, 0}, s[3] = {0, 0, 0}, omega = 0, e = 0;
+    for (int32_t y = r->y0; y < r->y1; y++) {
+        double om = m->row_omega[y], ct = m->row_cos[y], st = m->row_sin[y];
+        double row[3] = {0, 0, 0};
+        for (int32_t x = r->x0; x < r->x1; x++) {
+            int32_t c = x < W ? x : x - W;
+            const float *p = m->px + 3 * ((size_t)y * W + c);
+            double v = envl_luminance(p[0], p[1], p[2]) * om;
+            row[0] += p[0];
+            row[1] += p[1];
+            row[2] += p[2];
+            e += v;
+            s[0] += v * ct * m->col_cos[c];
+            s[1] += v * ct * m->col_sin[c];
+            s[2] += v * st;
+        }
+        for (int k = 0; k < 3; k++)
+            rgb[k] += row[k] * om;
+        omega += om * (r->x1 - r->x0);
+    }
+    double len = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    if (len > 1e-12 * e && len > 0) {
+        for (int k = 0; k < 3; k++)
+            l->direction[k] = s[k] / len;
+    } else {
+        double cx = 0.5 * (r->x0 + r->x1) - 0.5, cy = 0.5 * (r->y0 + r->y1) - 0.5;
+        envl_latlong_direction(W, m->height, cx, cy, l->direction);
+    }
+    memcpy(l->rgb, rgb, sizeof rgb);
+    l->solid_angle = omega;
+    set_angle(l);
+    l->rect[0] = r->x0;
+    l->rect[1] = r->y0;
+    l->rect[2] = r->x1;
+    l->rect[3] = r->y1;
+}
+
+/* ---- evaluation ---- */
+
+static double clamped_dot(const double a[3], const double b[3])
+{
+    double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    return d > 0 ? d : 0;
+}
+
+envl_result envl_lights_irradiance(const envl_lights *ls, int32_t count, const double *normals,
+                                   double *out)
+{
+    if (!ls || count < 0 || (count && (!normals || !out)))
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_lights_irradiance: bad arguments");
+    int32_t order = ls->summary.remainder_order;
+    double y[ENVL_NNLS_MAX];
+    for (int32_t i = 0; i < count; i++) {
+        const double *n = normals + 3 * i;
+        double e[3] = {0, 0, 0};
+        for (int32_t j = 0; j < ls->summary.count; j++) {
+            double c = clamped_dot(n, ls->lights[j].direction);
+            for (int k = 0; k < 3; k++)
+                e[k] += ls->lights[j].rgb[k] * c;
+        }
+        if (order >= 0) {
+            envl_sh_eval(order, n, y);
+            for (int32_t j = 0; j < envl_sh_count(order); j++)
+                for (int k = 0; k < 3; k++)
+                    e[k] += ls->remainder[3 * j + k] * y[j];
+        }
+        memcpy(out + 3 * i, e, sizeof e);
+    }
+    return ENVL_OK;
+}
+
+/* ---- fit: K lights (non-negative) + an SH irradiance remainder ---- */
+
+#define FIT_NORMALS 1031    /* a Fibonacci set other than the error measure's 1024 */
+#define FIT_MAP_WIDTH 512   /* the fit's reference irradiance comes from a map this wide */
+#define FIT_CANDIDATES 64   /* from the median cut, and as many bright pixels */
+
+typedef struct fit_problem {
+    int32_t m;              /* normals */
+    double *normals;        /* m x 3 */
+    double *target;         /* m x 3 exact irradiance (scaled) */
+    double *target_y;       /* m luminance */
+    int32_t nsh;            /* SH columns */
+    double *sh;             /* nsh x m: Y_j(n_i) */
+} fit_problem;
+
+static void light_column(const fit_problem *p, const double d[3], double *col)
+{
+    for (int32_t i = 0; i < p->m; i++)
+        col[i] = clamped_dot(p->normals + 3 * i, d);
+}
+
+static double dot_n(const double *a, const double *b, int32_t n)
+{
+    double s = 0;
+    for (int32_t i = 0; i < n; i++)
+        s += a[i] * b[i];
+    return s;
+}
+
+/* Least squares of target (one channel) on k light columns + the SH columns with the lights'
+ * weights >= 0. Returns the residual sum of squares; x gets k + nsh weights. */
+static double solve_fit(const fit_problem *p, int32_t k, double *const *cols,
+                        const double *target, double *x)
+{
+    int32_t n = k + p->nsh;
+    double G[ENVL_NNLS_MAX * ENVL_NNLS_MAX], h[ENVL_NNLS_MAX];
+    for (int32_t a = 0; a < n; a++) {
+        const double *ca = a < k ? cols[a] : p->sh + (size_t)(a - k) * p->m;
+        h[a] = dot_n(ca, target, p->m);
+        for (int32_t b = 0; b <= a; b++) {
+            const double *cb = b < k ? cols[b] : p->sh + (size_t)(b - k) * p->m;
+            G[a * n + b] = G[b * n + a] = dot_n(ca, cb, p->m);
+        }
+    }
+    if (envl__nnls_gram(n, k, G, h, x))
+        return INFINITY;
+    /* |Ax - y|^2 = y'y - 2 h'x + x'Gx */
+    double r = dot_n(target, target, p->m) - 2 * dot_n(h, x, n);
+    for (int32_t a = 0; a < n; a++)
+        r += x[a] * dot_n(G + a * n, x, n);
+    return r;
+}
+
+/* Tangent frame of a unit vector. */
+static void tangents(const double d[3], double t1[3], double t2[3])
+{
+    double a[3] = {fabs(d[0]) < 0.9 ? 1.0 : 0.0, fabs(d[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+    t1[0] = a[1] * d[2] - a[2] * d[1];
+    t1[1] = a[2] * d[0] - a[0] * d[2];
+    t1[2] = a[0] * d[1] - a[1] * d[0];
+    double l = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+    for (int i = 0; i < 3; i++)
+        t1[i] /= l;
+    t2[0] = d[1] * t1[2] - d[2] * t1[1];
+    t2[1] = d[2] * t1[0] - d[0] * t1[2];
+    t2[2] = d[0] * t1[1] - d[1] * t1[0];
+}
+
+static int cmp_desc(const void *a, const void *b)
+{
+    double x = ((const double *)a)[0], y = ((const double *)b)[0];
+    if (x != y)
+        return x < y ? 1 : -1;
+    double i = ((const double *)a)[1], j = ((const double *)b)[1];
+    return i < j ? -1 : i > j;
+}
+
+/* Candidate directions: the median-cut centroids (compact bright regions) and the brightest
+ * pixels of the fit map, no two bright pixels closer than 2 degrees. */
+static envl_result fit_candidates(envl_envmap *m, const envl_envmap *fm, double *cand,
+                                  int32_t *count)
+{
+    region *rs;
+    int32_t nr, k = 0;
+    envl_result rc = cut_regions(m, ENVL_METHOD_MEDIAN, FIT_CANDIDATES, &rs, &nr);
+    if (rc)
+        return rc;
+    for (int32_t i = 0; i < nr; i++) {
+        envl_light l;
+        region_light(m, &rs[i], &l);
+        if (rs[i].energy > 0)
+            memcpy(cand + 3 * k++, l.direction, sizeof l.direction);
+    }
+    free(rs);
+    size_t n = (size_t)fm->width * fm->height;
+    double *order = malloc(sizeof(double) * 2 * n);
+    if (!order)
+        return envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
+    for (size_t i = 0; i < n; i++) {
+        const float *p = fm->px + 3 * i;
+        order[2 * i] = envl_luminance(p[0], p[1], p[2]);
+        order[2 * i + 1] = (double)i;
+    }
+    qsort(order, n, 2 * sizeof(double), cmp_desc);
+    const double min_cos = cos(2.0 * ENVL_PI / 180.0);
+    int32_t first_bright = k;
+    for (size_t i = 0; i < n && k < first_bright + FIT_CANDIDATES && order[2 * i] > 0; i++) {
+        size_t idx = (size_t)order[2 * i + 1];
+        double d[3];
+        envl_envmap_direction(fm, (int32_t)(idx % fm->width), (int32_t)(idx / fm->width), d);
+        int near = 0;
+        for (int32_t j = first_bright; j < k && !near; j++)
+            near = dot_n(d, cand + 3 * j, 3) > min_cos;
+        if (!near)
+            memcpy(cand + 3 * k++, d, sizeof d);
+    }
+    free(order);
+    *count = k;
+    return ENVL_OK;
+}
+
+static envl_result fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lights *ls)
+{
+    envl_result rc;
+    /* The fit's reference: exact irradiance of the map resampled (exactly, by area) to at most
+     * FIT_MAP_WIDTH, at FIT_NORMALS normals. */
+    envl_envmap *fm = m, *owned = NULL;
+    if (m->width > FIT_MAP_WIDTH) {
+        float *px;
+        int32_t fw = FIT_MAP_WIDTH;
+        int32_t fh = (int32_t)fmax(1, llround((double)fw * m->height / m->width));
+        rc = envl__latlong_resample(m->px, m->width, m->height, fw, fh, 0.0, &px);
+        if (rc)
+            return rc;
+        envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads};
+        rc = envl_envmap_from_pixels(px, fw, fh, 3, &lo, &owned);
+        free(px);
+        if (rc)
+            return rc;
+        fm = owned;
+    }
+    fit_problem p = {.m = FIT_NORMALS, .nsh = order >= 0 ? envl_sh_count(order) : 0};
+    double *cand = malloc(sizeof(double) * 3 * (2 * FIT_CANDIDATES + 1));
+    p.normals = malloc(sizeof(double) * 3 * p.m);
+    p.target = malloc(sizeof(double) * 3 * p.m);
+    p.target_y = malloc(sizeof(double) * p.m);
+    p.sh = malloc(sizeof(double) * (p.nsh ? p.nsh : 1) * p.m);
+    double *colmem = malloc(sizeof(double) * p.m * (K + 1));
+    if (!cand || !p.normals || !p.target || !p.target_y || !p.sh || !colmem) {
+        rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
+        goto done;
+    }
+    for (int32_t i = 0; i < p.m; i++)
+        envl_fibonacci_direction(i, p.m, p.normals + 3 * i);
+    rc = envl_irradiance_exact(fm, p.m, p.normals, p.target);
+    if (rc)
+        goto done;
+    double ysh[ENVL_NNLS_MAX];
+    for (int32_t i = 0; i < p.m; i++) {
+        p.target_y[i] = envl_luminance(p.target[3 * i], p.target[3 * i + 1], p.target[3 * i + 2]);
+        if (p.nsh) {
+            envl_sh_eval(order, p.normals + 3 * i, ysh);
+            for (int32_t j = 0; j < p.nsh; j++)
+                p.sh[(size_t)j * p.m + i] = ysh[j];
+        }
+    }
+    int32_t nc = 0;
+    rc = fit_candidates(m, fm, cand, &nc);
+    if (rc)
+        goto done;
+    if (K > nc)
+        K = nc;
+
+    /* Greedy: add the candidate that most reduces the luminance residual. */
+    double *cols[ENVL_NNLS_MAX];
+    for (int32_t i = 0; i <= K; i++)
+        cols[i] = colmem + (size_t)i * p.m;
+    double dirs[ENVL_NNLS_MAX][3], x[ENVL_NNLS_MAX];
+    char *used = calloc((size_t)nc + 1, 1);
+    if (!used) {
+        rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
+        goto done;
+    }
+    int32_t k = 0;
+    for (; k < K; k++) {
+        double best = INFINITY;
+        int32_t best_c = -1;
+        for (int32_t c = 0; c < nc; c++) {
+            if (used[c])
+                continue;
+            light_column(&p, cand + 3 * c, cols[k]);
+            double r = solve_fit(&p, k + 1, cols, p.target_y, x);
+            if (r < best) {
+                best = r;
+                best_c = c;
+            }
+        }
+        if (best_c < 0)
+            break;
+        used[best_c] = 1;
+        memcpy(dirs[k], cand + 3 * best_c, sizeof dirs[k]);
+        light_column(&p, dirs[k], cols[k]);
+    }
+    free(used);
+    K = k;
+
+    /* Refine each direction by a pattern search in its tangent plane, steps 2 down to 1/32
+     * degree. */
+    double cur = K ? solve_fit(&p, K, cols, p.target_y, x) : INFINITY;
+    for (double step = 2.0; step >= 1.0 / 32 && K; step *= 0.5) {
+        int improved = 1;
+        for (int pass = 0; improved && pass < 8; pass++) {
+            improved = 0;
+            for (int32_t i = 0; i < K; i++) {
+                double t1[3], t2[3], keep[3];
+                tangents(dirs[i], t1, t2);
+                memcpy(keep, dirs[i], sizeof keep);
+                double s = step * ENVL_PI / 180.0;
+                const double moves[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+                for (int mv = 0; mv < 4; mv++) {
+                    double d[3];
+                    for (int a = 0; a < 3; a++)
+                        d[a] = keep[a] + s * (moves[mv][0] * t1[a] + moves[mv][1] * t2[a]);
+                    double l = sqrt(dot_n(d, d, 3));
+                    for (int a = 0; a < 3; a++)
+                        d[a] /= l;
+                    light_column(&p, d, cols[K]);
+                    double *saved = cols[i];
+                    cols[i] = cols[K];
+                    double r = solve_fit(&p, K, cols, p.target_y, x);
+                    cols[i] = saved;
+                    if (r < cur * (1 - 1e-12)) {
+                        cur = r;
+                        memcpy(dirs[i], d, sizeof d);
+                        memcpy(cols[i], cols[K], sizeof(double) * p.m);
+                        improved = 1;
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    /* Final colours and remainder, channel by channel. */
+    double *chan = malloc(sizeof(double) * p.m);
+    ls->lights = calloc((size_t)(K ? K : 1), sizeof(envl_light));
+    ls->remainder = p.nsh ? calloc((size_t)p.nsh * 3, sizeof(double)) : NULL;
+    if (!chan || !ls->lights || (p.nsh && !ls->remainder)) {
+        free(chan);
+        rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
+        goto done;
+    }
+    for (int c = 0; c < 3; c++) {
+        for (int32_t i = 0; i < p.m; i++)
+            chan[i] = p.target[3 * i + c];
+        if (K + p.nsh > 0)
+            solve_fit(&p, K, cols, chan, x);
+        for (int32_t i = 0; i < K; i++)
+            ls->lights[i].rgb[c] = x[i];
+        for (int32_t j = 0; j < p.nsh; j++)
+            ls->remainder[3 * j + c] = x[K + j];
+    }
+    free(chan);
+    for (int32_t i = 0; i < K; i++)
+        memcpy(ls->lights[i].direction, dirs[i], sizeof dirs[i]);
+    ls->summary.count = K;
+    ls->summary.remainder_order = order;
+done:
+    free(cand);
+    free(p.normals);
+    free(p.target);
+    free(p.target_y);
+    free(p.sh);
+    free(colmem);
+    envl_envmap_free(owned);
+    return rc;
+}
+
+/* ---- residual of the fit: each light takes its rgb from the smallest cone around it that
+ * holds that much light, the same fraction from every pixel of the cone ---- */
+
+#define CONE_BINS 16384
+
+static envl_result take_cones(const envl_envmap *m, envl_lights *ls)
+{
+    int32_t W = m->width, H = m->height;
+    double (*hist)[3] = malloc(sizeof(double[3]) * CONE_BINS);
+    if (!hist)
+        return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+    /* brightest first */
+    int32_t order[ENVL_NNLS_MAX];
+    for (int32_t i = 0; i < ls->summary.count; i++)
+        order[i] = i;
+    for (int32_t i = 1; i < ls->summary.count; i++)
+        for (int32_t j = i; j > 0; j--) {
+            const double *a = ls->lights[order[j]].rgb, *b = ls->lights[order[j - 1]].rgb;
+            if (envl_luminance(a[0], a[1], a[2]) <= envl_luminance(b[0], b[1], b[2]))
+                break;
+            int32_t t = order[j];
+            order[j] = order[j - 1];
+            order[j - 1] = t;
+        }
+    for (int32_t oi = 0; oi < ls->summary.count; oi++) {
+        envl_light *l = &ls->lights[order[oi]];
+        /* bin = floor(sin(angle / 2) * BINS), sin(angle/2) = sqrt((1 - cos) / 2): monotonic in
+         * the angle, no trigonometry per pixel. */
+        memset(hist, 0, sizeof(double[3]) * CONE_BINS);
+        for (int32_t r = 0; r < H; r++) {
+            double om = m->row_omega[r];
+            for (int32_t c = 0; c < W; c++) {
+                double d[3];
+                envl_envmap_direction(m, c, r, d);
+                double t = sqrt(fmax(0.0, 0.5 * (1.0 - dot_n(d, l->direction, 3))));
+                int32_t b = (int32_t)(t * CONE_BINS);
+                if (b >= CONE_BINS)
+                    b = CONE_BINS - 1;
+                const float *p = ls->residual + 3 * ((size_t)r * W + c);
+                for (int k = 0; k < 3; k++)
+                    hist[b][k] += p[k] * om;
+            }
+        }
+        double cum[3] = {0, 0, 0};
+        int32_t last = CONE_BINS - 1;
+        for (int32_t b = 0; b < CONE_BINS; b++) {
+            for (int k = 0; k < 3; k++)
+                cum[k] += hist[b][k];
+            if (cum[0] >= l->rgb[0] && cum[1] >= l->rgb[1] && cum[2] >= l->rgb[2]) {
+                last = b;
+                break;
+            }
+        }
+        double avail[3] = {0, 0, 0};
+        for (int32_t b = 0; b <= last; b++)
+            for (int k = 0; k < 3; k++)
+                avail[k] += hist[b][k];
+        double keep[3];
+        for (int k = 0; k < 3; k++) {
+            if (l->rgb[k] > avail[k])
+                l->rgb[k] = avail[k]; /* the whole sphere holds less: take all there is */
+            keep[k] = avail[k] > 0 ? 1.0 - l->rgb[k] / avail[k] : 1.0;
+        }
+        double omega = 0;
+        int32_t x0 = W, x1 = -1, y0 = H, y1 = -1;
+        for (int32_t r = 0; r < H; r++) {
+            double om = m->row_omega[r];
+            for (int32_t c = 0; c < W; c++) {
+                double d[3];
+                envl_envmap_direction(m, c, r, d);
+                double t = sqrt(fmax(0.0, 0.5 * (1.0 - dot_n(d, l->direction, 3))));
+                int32_t b = (int32_t)(t * CONE_BINS);
+                if (b > last)
+                    continue;
+                float *p = ls->residual + 3 * ((size_t)r * W + c);
+                for (int k = 0; k < 3; k++)
+                    p[k] = (float)(p[k] * keep[k]);
+                omega += om;
+                x0 = c < x0 ? c : x0;
+                x1 = c + 1 > x1 ? c + 1 : x1;
+                y0 = r < y0 ? r : y0;
+                y1 = r + 1 > y1 ? r + 1 : y1;
+            }
+        }
+        l->solid_angle = omega;
+        set_angle(l);
+        l->rect[0] = x0 < W ? x0 : 0;
+        l->rect[1] = y0 < H ? y0 : 0;
+        l->rect[2] = x1 > 0 ? x1 : 0;
+        l->rect[3] = y1 > 0 ? y1 : 0;
+    }
+    free(hist);
+    return ENVL_OK;
+}
+
+/* ---- the call ---- */
+
+envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *options,
+                                envl_lights **out)
+{
+    static const envl_lights_options defaults;
+    const envl_lights_options *o = options ? options : &defaults;
+    if (!m || !out)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_lights_compute: NULL argument");
+    *out = NULL;
+    if (o->method < 0 || o->method >= ENVL_METHOD_COUNT)
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: unknown method %d", (int)o->method);
+    int32_t n = o->count > 0 ? o->count : (o->method == ENVL_METHOD_FIT ? 4 : 16);
+    int32_t order = o->remainder_bands == 0 ? 2 : o->remainder_bands < 0 ? -1
+                                                 : o->remainder_bands - 1;
+    if (o->count < 0 || (o->method == ENVL_METHOD_FIT && n > 32) || n > (1 << 24))
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: count %d out of range (1..%d)",
+                          (int)o->count, o->method == ENVL_METHOD_FIT ? 32 : 1 << 24);
+    if (o->method == ENVL_METHOD_FIT && (o->remainder_bands < -1 || o->remainder_bands > 9))
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: remainder bands %d out of range (1..9)",
+                          (int)o->remainder_bands);
+    envl_lights *ls = calloc(1, sizeof *ls);
+    if (!ls)
+        return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+    ls->width = m->width;
+    ls->height = m->height;
+    envl_lights_summary *s = &ls->summary;
+    s->method = o->method;
+    s->remainder_order = -1;
+    memcpy(s->power, m->info.power, sizeof s->power);
+    size_t npx = (size_t)m->width * m->height * 3;
+    ls->residual = malloc(sizeof(float) * npx);
+    envl_result rc = ls->residual ? ENVL_OK : envl__fail(ENVL_ERR_MEMORY, "lights: no memory");
+    double t0 = now_seconds();
+    if (rc)
+        goto fail;
+    if (!(envl_luminance(s->power[0], s->power[1], s->power[2]) > 0)) {
+        /* A black map: no lights, an all-zero residual, no error. */
+        memcpy(ls->residual, m->px, sizeof(float) * npx);
+        s->no_light = 1;
+        s->seconds = now_seconds() - t0;
+        *out = ls;
+        return ENVL_OK;
+    }
+    if (o->method == ENVL_METHOD_FIT) {
+        memcpy(ls->residual, m->px, sizeof(float) * npx);
+        rc = fit_lights(m, n, order, ls);
+        if (rc == ENVL_OK)
+            rc = take_cones(m, ls);
+    } else {
+        region *rs;
+        int32_t k;
+        rc = cut_regions(m, o->method, n, &rs, &k);
+        if (rc == ENVL_OK) {
+            ls->lights = calloc((size_t)k, sizeof(envl_light));
+            if (!ls->lights)
+                rc = envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+            for (int32_t i = 0; rc == ENVL_OK && i < k; i++)
+                region_light(m, &rs[i], &ls->lights[i]);
+            s->count = k;
+            free(rs);
+            /* The regions cover the sphere: the lights take everything. */
+            memset(ls->residual, 0, sizeof(float) * npx);
+        }
+    }
+    if (rc)
+        goto fail;
+    s->seconds = now_seconds() - t0;
+
+    for (int32_t i = 0; i < s->count; i++)
+        for (int k = 0; k < 3; k++)
+            s->lights_power[k] += ls->lights[i].rgb[k];
+    /* residual power = power - what the lights took (exact bookkeeping, in double) */
+    for (int k = 0; k < 3; k++)
+        s->residual_power[k] = s->power[k] - s->lights_power[k];
+
+    const double *ref;
+    rc = envl_envmap_reference_irradiance(m, &ref);
+    if (rc)
+        goto fail;
+    double *normals = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
+    double *approx = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
+    if (!normals || !approx) {
+        free(normals);
+        free(approx);
+        rc = envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+        goto fail;
+    }
+    for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
+        envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, normals + 3 * i);
+    envl_lights_irradiance(ls, ENVL_ERROR_NORMALS, normals, approx);
+    s->diffuse_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, approx, ref);
+    free(normals);
+    free(approx);
+    *out = ls;
+    return ENVL_OK;
+fail:
+    envl_lights_free(ls);
+    return rc;
+}
+
+void envl_lights_free(envl_lights *ls)
+{
+    if (!ls)
+        return;
+    free(ls->lights);
+    free(ls->remainder);
+    free(ls->residual);
+    free(ls);
+}
+
+int32_t envl_lights_count(const envl_lights *ls) { return ls ? ls->summary.count : 0; }
+
+envl_result envl_lights_get(const envl_lights *ls, int32_t i, envl_light *out)
+{
+    if (!ls || !out || i < 0 || i >= ls->summary.count)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_lights_get: index %d out of range", (int)i);
+    *out = ls->lights[i];
+    return ENVL_OK;
+}
+
+envl_result envl_lights_get_summary(const envl_lights *ls, envl_lights_summary *out)
+{
+    if (!ls || !out)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_lights_get_summary: NULL argument");
+    *out = ls->summary;
+    return ENVL_OK;
+}
+
+const double *envl_lights_remainder(const envl_lights *ls, int32_t *order)
+{
+    if (order)
+        *order = ls ? ls->summary.remainder_order : -1;
+    return ls ? ls->remainder : NULL;
+}
+
+const float *envl_lights_residual(const envl_lights *ls) { return ls ? ls->residual : NULL; }
