@@ -6,30 +6,143 @@
 #include <pthread.h>
 #include <stdlib.h>
 
-/* E(n) = sum_pixels L dw max(0, n.d). With d = (cos t cos p, cos t sin p, sin t):
- * n.d = cos t * (nx cos p + ny sin p) + nz sin t, so the per-column factor is computed once
- * per normal and each row adds one multiply-add per pixel. Row sums in double. */
-static void irradiance_one(const envl_envmap *m, const double n[3], double *colfac,
-                           double out[3])
+/* E(n) = integral of L(d) max(0, n.d) dw with L constant over each pixel (the map as it is).
+ *
+ * For a pixel wholly on the lit side the integral is exactly L n . D, with D = integral of d dw
+ * over the pixel, in closed form for a lat-long cell [phi0, phi1] x [t0, t1] (t = elevation):
+ *   D = (I (sin phi1 - sin phi0), I (cos phi0 - cos phi1), (phi1 - phi0)(sin^2 t1 - sin^2 t0)/2)
+ *   I = integral cos^2 t dt = ((t1 - t0) + sin t1 cos t1 - sin t0 cos t0) / 2.
+ * n . D = I_r (nx Sx_c + ny Sy_c) + nz Z_r: per-column and per-row factors, one multiply-add
+ * per pixel. A pixel whose centre is within its angular radius of the horizon of n straddles
+ * it: it is cut into SUB x SUB sub-cells, each counted by its own exact moment when its
+ * centre is lit. (The plain midpoint sum L dw max(0, n.d_centre) is off by O(h^2); this
+ * leaves only the sub-cells on the horizon, O(h^3 / SUB^2).) */
+#define SUB 8
+
+typedef struct irradiance_tables {
+    int32_t w, h;
+    double *sx, *sy;        /* per column: sin phi1 - sin phi0, cos phi0 - cos phi1 */
+    double *ccos, *csin;    /* per column: cos, sin of the centre phi */
+    double *ri, *rz;        /* per row: I, (phi1 - phi0)(sin^2 t1 - sin^2 t0) / 2 */
+    double *rho;            /* per row: angular radius of a pixel (+ margin) */
+    double *subsx, *subsy, *subc, *subs;   /* per column x SUB sub-columns */
+    double *subri, *subrz, *subct, *subst; /* per row x SUB sub-rows */
+} irradiance_tables;
+
+static void free_tables(irradiance_tables *t) { free(t->sx); }
+
+static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
 {
     int32_t w = m->width, h = m->height;
-    for (int32_t c = 0; c < w; c++)
-        colfac[c] = n[0] * m->col_cos[c] + n[1] * m->col_sin[c];
+    size_t n = (size_t)4 * w + 3 * (size_t)h + 4 * (size_t)w * SUB + 4 * (size_t)h * SUB;
+    double *mem = malloc(sizeof(double) * n);
+    if (!mem)
+        return envl__fail(ENVL_ERR_MEMORY, "irradiance: out of memory");
+    t->w = w;
+    t->h = h;
+    t->sx = mem;
+    t->sy = t->sx + w;
+    t->ccos = t->sy + w;
+    t->csin = t->ccos + w;
+    t->ri = t->csin + w;
+    t->rz = t->ri + h;
+    t->rho = t->rz + h;
+    t->subsx = t->rho + h;
+    t->subsy = t->subsx + (size_t)w * SUB;
+    t->subc = t->subsy + (size_t)w * SUB;
+    t->subs = t->subc + (size_t)w * SUB;
+    t->subri = t->subs + (size_t)w * SUB;
+    t->subrz = t->subri + (size_t)h * SUB;
+    t->subct = t->subrz + (size_t)h * SUB;
+    t->subst = t->subct + (size_t)h * SUB;
+    const double dphi = 2.0 * ENVL_PI / w;
+    for (int32_t c = 0; c < w; c++) {
+        /* column c spans u in [c/W, (c+1)/W]: phi from pi(1 - 2(c+1)/W) up to pi(1 - 2c/W) */
+        double p0 = ENVL_PI * (1.0 - 2.0 * (c + 1.0) / w), p1 = ENVL_PI * (1.0 - 2.0 * c / w);
+        t->sx[c] = sin(p1) - sin(p0);
+        t->sy[c] = cos(p0) - cos(p1);
+        t->ccos[c] = m->col_cos[c];
+        t->csin[c] = m->col_sin[c];
+        for (int j = 0; j < SUB; j++) {
+            double q0 = p0 + (p1 - p0) * j / SUB, q1 = p0 + (p1 - p0) * (j + 1) / SUB;
+            size_t k = (size_t)c * SUB + j;
+            t->subsx[k] = sin(q1) - sin(q0);
+            t->subsy[k] = cos(q0) - cos(q1);
+            t->subc[k] = cos(0.5 * (q0 + q1));
+            t->subs[k] = sin(0.5 * (q0 + q1));
+        }
+    }
+    for (int32_t r = 0; r < h; r++) {
+        double t1 = ENVL_PI * (0.5 - (double)r / h), t0 = ENVL_PI * (0.5 - (r + 1.0) / h);
+        t->ri[r] = 0.5 * ((t1 - t0) + sin(t1) * cos(t1) - sin(t0) * cos(t0));
+        t->rz[r] = dphi * 0.5 * (sin(t1) * sin(t1) - sin(t0) * sin(t0));
+        /* Over the pixel, n.d moves from its centre value by at most the angle from the centre
+         * to a corner: half the diagonal, the width taken at the row's widest latitude. */
+        double widest = fmax(cos(t0), cos(t1));
+        if (t0 < 0 && t1 > 0)
+            widest = 1.0;
+        double dt = t1 - t0, dw = dphi * widest;
+        t->rho[r] = 0.5 * sqrt(dt * dt + dw * dw) * 1.0001 + 1e-12;
+        for (int j = 0; j < SUB; j++) {
+            double a1 = t1 - (t1 - t0) * j / SUB, a0 = t1 - (t1 - t0) * (j + 1) / SUB;
+            size_t k = (size_t)r * SUB + j;
+            t->subri[k] = 0.5 * ((a1 - a0) + sin(a1) * cos(a1) - sin(a0) * cos(a0));
+            t->subrz[k] = dphi / SUB * 0.5 * (sin(a1) * sin(a1) - sin(a0) * sin(a0));
+            t->subct[k] = cos(0.5 * (a0 + a1));
+            t->subst[k] = sin(0.5 * (a0 + a1));
+        }
+    }
+    return ENVL_OK;
+}
+
+/* Integral of max(0, n.d) over pixel (c, r) by its sub-cells. */
+static double straddling_pixel(const irradiance_tables *t, const double n[3], int32_t c,
+                               int32_t r)
+{
+    double acc = 0.0;
+    for (int i = 0; i < SUB; i++) {
+        size_t ri = (size_t)r * SUB + i;
+        double ct = t->subct[ri], st = t->subst[ri], I = t->subri[ri], Z = t->subrz[ri];
+        for (int j = 0; j < SUB; j++) {
+            size_t cj = (size_t)c * SUB + j;
+            double centre = ct * (n[0] * t->subc[cj] + n[1] * t->subs[cj]) + n[2] * st;
+            if (centre > 0)
+                acc += I * (n[0] * t->subsx[cj] + n[1] * t->subsy[cj]) + n[2] * Z;
+        }
+    }
+    return acc;
+}
+
+static void irradiance_one(const envl_envmap *m, const irradiance_tables *t, const double n[3],
+                           double *colfac, double out[3])
+{
+    int32_t w = m->width, h = m->height;
+    double *cdot = colfac + w; /* n . (centre direction) without the row factor */
+    for (int32_t c = 0; c < w; c++) {
+        colfac[c] = n[0] * t->sx[c] + n[1] * t->sy[c];
+        cdot[c] = n[0] * t->ccos[c] + n[1] * t->csin[c];
+    }
     double acc[3] = {0, 0, 0};
     for (int32_t r = 0; r < h; r++) {
-        double a = m->row_cos[r], b = n[2] * m->row_sin[r];
+        double I = t->ri[r], b = n[2] * t->rz[r];
+        double ct = m->row_cos[r], st = n[2] * m->row_sin[r], rho = t->rho[r];
         double row[3] = {0, 0, 0};
         const float *p = m->px + (size_t)r * w * 3;
         for (int32_t c = 0; c < w; c++) {
-            double t = a * colfac[c] + b;
-            if (t > 0) {
-                row[0] += t * p[3 * c];
-                row[1] += t * p[3 * c + 1];
-                row[2] += t * p[3 * c + 2];
-            }
+            double centre = ct * cdot[c] + st;
+            double f;
+            if (centre > rho)
+                f = I * colfac[c] + b;
+            else if (centre < -rho)
+                continue;
+            else
+                f = straddling_pixel(t, n, c, r);
+            row[0] += f * p[3 * c];
+            row[1] += f * p[3 * c + 1];
+            row[2] += f * p[3 * c + 2];
         }
         for (int k = 0; k < 3; k++)
-            acc[k] += row[k] * m->row_omega[r];
+            acc[k] += row[k];
     }
     for (int k = 0; k < 3; k++)
         out[k] = acc[k];
@@ -37,6 +150,7 @@ static void irradiance_one(const envl_envmap *m, const double n[3], double *colf
 
 typedef struct {
     const envl_envmap *map;
+    const irradiance_tables *tables;
     const double *normals;
     double *out;
     int32_t begin, end;
@@ -46,13 +160,13 @@ typedef struct {
 static void *irradiance_worker(void *arg)
 {
     irradiance_job *job = arg;
-    double *colfac = malloc(sizeof(double) * job->map->width);
+    double *colfac = malloc(sizeof(double) * 2 * job->map->width);
     if (!colfac) {
         job->failed = 1;
         return NULL;
     }
     for (int32_t i = job->begin; i < job->end; i++)
-        irradiance_one(job->map, job->normals + 3 * i, colfac, job->out + 3 * i);
+        irradiance_one(job->map, job->tables, job->normals + 3 * i, colfac, job->out + 3 * i);
     free(colfac);
     return NULL;
 }
@@ -67,11 +181,15 @@ envl_result envl_irradiance_exact(const envl_envmap *m, int32_t count, const dou
     int32_t nt = m->threads < count ? m->threads : count;
     if (nt < 1)
         nt = 1;
+    irradiance_tables tables;
+    envl_result rc = make_tables(m, &tables);
+    if (rc)
+        return rc;
     irradiance_job jobs[256];
     pthread_t tids[256];
     int started[256] = {0};
     for (int32_t t = 0; t < nt; t++) {
-        jobs[t] = (irradiance_job){m, normals, rgb_out, (int32_t)((int64_t)count * t / nt),
+        jobs[t] = (irradiance_job){m, &tables, normals, rgb_out, (int32_t)((int64_t)count * t / nt),
                                    (int32_t)((int64_t)count * (t + 1) / nt), 0};
         if (t > 0)
             started[t] = pthread_create(&tids[t], NULL, irradiance_worker, &jobs[t]) == 0;
@@ -85,6 +203,7 @@ envl_result envl_irradiance_exact(const envl_envmap *m, int32_t count, const dou
             irradiance_worker(&jobs[t]);
         failed |= jobs[t].failed;
     }
+    free_tables(&tables);
     return failed ? envl__fail(ENVL_ERR_MEMORY, "envl_irradiance_exact: out of memory")
                   : ENVL_OK;
 }
