@@ -18,6 +18,10 @@ struct envl_envmap {
     double *energy_sat;   /* cached summed-area table of luminance x solid angle, (W+1)(H+1) */
 };
 
+/* The map's summed-area table of luminance x solid angle (double), built once and cached:
+ * sat[r (W+1) + c] = sum over rows < r and columns < c. */
+envl_result envl__energy_sat(envl_envmap *m, const double **out);
+
 /* Number of worker threads for `requested` (0 = all cores). */
 int32_t envl__threads(int32_t requested);
 

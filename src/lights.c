@@ -48,7 +48,7 @@ static double now_seconds(void)
 
 /* sat[r (W+1) + c] = sum of energy over rows < r, columns < c. A float table would lose a dim
  * sky's pixels against a sun's 1e6 (24-bit mantissa); double keeps 53 bits. */
-static envl_result energy_sat(envl_envmap *m, const double **out)
+envl_result envl__energy_sat(envl_envmap *m, const double **out)
 {
     if (!m->energy_sat) {
         int32_t w = m->width, h = m->height;
@@ -304,7 +304,7 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
                                int32_t *count)
 {
     const double *sat = NULL;
-    envl_result rc = energy_sat(m, &sat);
+    envl_result rc = envl__energy_sat(m, &sat);
     if (rc)
         return rc;
     region *rs = malloc(sizeof(region) * (size_t)n);
@@ -382,10 +382,12 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
     return ENVL_OK;
 }
 
+/* Angular diameter of a cone of the light's solid angle: 2 acos(1 - omega / 2 pi), capped at
+ * pi (DESIGN.md). */
 static void set_angle(envl_light *l)
 {
     double c = 1.0 - l->solid_angle / (2.0 * ENVL_PI);
-    l->angle = 2.0 * acos(c < -1 ? -1 : c > 1 ? 1 : c);
+    l->angle = fmin(ENVL_PI, 2.0 * acos(c < -1 ? -1 : c > 1 ? 1 : c));
 }
 
 /* A region's light: rgb = sum of L dw, at the energy-weighted centroid of its pixels' 3D
@@ -467,8 +469,15 @@ envl_result envl_lights_irradiance(const envl_lights *ls, int32_t count, const d
 /* ---- fit: K lights (non-negative) + an SH irradiance remainder ---- */
 
 #define FIT_NORMALS 1031    /* a Fibonacci set other than the error measure's 1024 */
-#define FIT_MAP_WIDTH 512   /* the fit's reference irradiance comes from a map this wide */
+/* The fit's target irradiance comes from the map resampled to the error reference's width (a
+ * 512-wide map left 0.2 % where 1024 leaves 0.15 % on the built-in sky: the sun's lobe). */
+#define FIT_MAP_WIDTH ENVL_REFERENCE_WIDTH
 #define FIT_CANDIDATES 64   /* from the median cut, and as many bright pixels */
+/* A light must find its light nearby: its luminance irradiance may not exceed the luminance
+ * power within FIT_CONE_DEGREES of it (no light "opposite the sun" that only fits numbers). */
+#define FIT_CONE_DEGREES 45.0
+/* A light is added only if it lowers the relative RMS irradiance error by at least this. */
+#define FIT_MIN_GAIN 2e-4
 
 typedef struct fit_problem {
     int32_t m;              /* normals */
@@ -478,6 +487,31 @@ typedef struct fit_problem {
     int32_t nsh;            /* SH columns */
     double *sh;             /* nsh x m: Y_j(n_i) */
 } fit_problem;
+
+/* Luminance power (sum of Y dw) of the fit map within FIT_CONE_DEGREES of d. */
+static double cone_power(const envl_envmap *fm, const double d[3])
+{
+    const double cmin = cos(FIT_CONE_DEGREES * ENVL_PI / 180.0);
+    double acc = 0;
+    for (int32_t r = 0; r < fm->height; r++) {
+        double ct = fm->row_cos[r], z = d[2] * fm->row_sin[r], row = 0;
+        const float *p = fm->px + (size_t)r * fm->width * 3;
+        for (int32_t c = 0; c < fm->width; c++, p += 3)
+            if (ct * (d[0] * fm->col_cos[c] + d[1] * fm->col_sin[c]) + z >= cmin)
+                row += envl_luminance(p[0], p[1], p[2]);
+        acc += row * fm->row_omega[r];
+    }
+    return acc;
+}
+
+/* The lights' luminance weights x[0..k) are each within their cone's power. */
+static int feasible(const double *x, const double *avail, int32_t k)
+{
+    for (int32_t i = 0; i < k; i++)
+        if (x[i] > avail[i] * (1 + 1e-9))
+            return 0;
+    return 1;
+}
 
 static void light_column(const fit_problem *p, const double d[3], double *col)
 {
@@ -637,13 +671,32 @@ static envl_result fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lig
     if (K > nc)
         K = nc;
 
-    /* Greedy: add the candidate that most reduces the luminance residual. */
+    double dirs[ENVL_NNLS_MAX][3], x[ENVL_NNLS_MAX];
+    /* Greedy: add the feasible candidate that most reduces the luminance residual, while
+     * that gains at least FIT_MIN_GAIN of relative RMS error. */
+    double *cand_avail = malloc(sizeof(double) * (nc ? nc : 1));
+    if (!cand_avail) {
+        rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
+        goto done;
+    }
+    for (int32_t c = 0; c < nc; c++)
+        cand_avail[c] = cone_power(fm, cand + 3 * c);
+    double avail[ENVL_NNLS_MAX];
+    double ymean = 0;
+    for (int32_t i = 0; i < p.m; i++)
+        ymean += fabs(p.target_y[i]);
+    ymean /= p.m;
+    double prev_err = INFINITY;
+    if (p.nsh) {
+        double r0 = solve_fit(&p, 0, NULL, p.target_y, x);
+        prev_err = sqrt(fmax(0, r0) / p.m) / ymean;
+    }
     double *cols[ENVL_NNLS_MAX];
     for (int32_t i = 0; i <= K; i++)
         cols[i] = colmem + (size_t)i * p.m;
-    double dirs[ENVL_NNLS_MAX][3], x[ENVL_NNLS_MAX];
     char *used = calloc((size_t)nc + 1, 1);
     if (!used) {
+        free(cand_avail);
         rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
         goto done;
     }
@@ -655,19 +708,24 @@ static envl_result fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lig
             if (used[c])
                 continue;
             light_column(&p, cand + 3 * c, cols[k]);
+            avail[k] = cand_avail[c];
             double r = solve_fit(&p, k + 1, cols, p.target_y, x);
-            if (r < best) {
+            if (r < best && feasible(x, avail, k + 1)) {
                 best = r;
                 best_c = c;
             }
         }
-        if (best_c < 0)
+        double err = sqrt(fmax(0, best) / p.m) / ymean;
+        if (best_c < 0 || !(prev_err - err >= FIT_MIN_GAIN))
             break;
+        prev_err = err;
         used[best_c] = 1;
         memcpy(dirs[k], cand + 3 * best_c, sizeof dirs[k]);
+        avail[k] = cand_avail[best_c];
         light_column(&p, dirs[k], cols[k]);
     }
     free(used);
+    free(cand_avail);
     K = k;
 
     /* Refine each direction by a pattern search in its tangent plane, steps 2 down to 1/32
@@ -691,17 +749,19 @@ static envl_result fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lig
                     for (int a = 0; a < 3; a++)
                         d[a] /= l;
                     light_column(&p, d, cols[K]);
-                    double *saved = cols[i];
+                    double *saved = cols[i], saved_avail = avail[i];
                     cols[i] = cols[K];
+                    avail[i] = cone_power(fm, d);
                     double r = solve_fit(&p, K, cols, p.target_y, x);
                     cols[i] = saved;
-                    if (r < cur * (1 - 1e-12)) {
+                    if (r < cur * (1 - 1e-12) && feasible(x, avail, K)) {
                         cur = r;
                         memcpy(dirs[i], d, sizeof d);
                         memcpy(cols[i], cols[K], sizeof(double) * p.m);
                         improved = 1;
                         break;
                     }
+                    avail[i] = saved_avail;
                 }
             }
         }
