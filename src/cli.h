@@ -57,5 +57,6 @@ int cli_output_close(cli_output *o); /* CLI_OK or CLI_FAIL */
 int cli_info(int argc, char **argv);
 int cli_convert(int argc, char **argv);
 int cli_lights(int argc, char **argv);
+int cli_bench(int argc, char **argv);
 
 #endif

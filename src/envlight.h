@@ -190,6 +190,12 @@ ENVL_API envl_result envl_envmap_reference_irradiance(envl_envmap *map, const do
 
 ENVL_API double envl_luminance(double r, double g, double b);
 
+/* Tables a map caches for the products that share them (computed on first use). Dropping
+ * them lets a benchmark time a product from scratch. */
+#define ENVL_CACHE_SAT 1        /* summed-area table (lights) */
+#define ENVL_CACHE_REFERENCE 2  /* exact irradiance at the error measure's normals */
+ENVL_API void envl_envmap_drop_caches(envl_envmap *map, int32_t which);
+
 /* ---- lights ------------------------------------------------------------------------------- */
 #define ENVL_METHOD_MEDIAN 0    /* Debevec 2005 median cut on a double summed-area table */
 #define ENVL_METHOD_VARIANCE 1  /* variance-minimising cut (after Viriyothai & Debevec 2009) */

@@ -45,10 +45,7 @@ void envl_latlong_pixel(int32_t width, int32_t height, const double d[3], double
     *row = v * height - 0.5;
 }
 
-double envl_luminance(double r, double g, double b)
-{
-    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
-}
+double envl_luminance(double r, double g, double b) { return envl__lum(r, g, b); }
 
 /* ---- construction ---- */
 
@@ -138,7 +135,7 @@ static void compute_stats(envl_envmap *m)
                 if (p[k] > mx[k])
                     mx[k] = p[k];
             }
-            double y = envl_luminance(p[0], p[1], p[2]);
+            double y = envl__lum(p[0], p[1], p[2]);
             if (y > best) {
                 best = y;
                 best_c = c;
@@ -323,6 +320,20 @@ void envl_envmap_free(envl_envmap *m)
     free(m->reference);
     free(m->energy_sat);
     free(m);
+}
+
+void envl_envmap_drop_caches(envl_envmap *m, int32_t which)
+{
+    if (!m)
+        return;
+    if (which & ENVL_CACHE_SAT) {
+        free(m->energy_sat);
+        m->energy_sat = NULL;
+    }
+    if (which & ENVL_CACHE_REFERENCE) {
+        free(m->reference);
+        m->reference = NULL;
+    }
 }
 
 /* ---- accessors ---- */

@@ -10,6 +10,13 @@
 
 #define ENVL_PI 3.14159265358979323846
 
+/* Rec. 709 luminance (DESIGN.md), inline for the per-pixel loops; envl_luminance is the same
+ * formula for callers of the library. */
+static inline double envl__lum(double r, double g, double b)
+{
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b;
+}
+
 /* ---- errors (error.c) ---- */
 /* Records "printf-style message" as this thread's last error and returns `code`. */
 envl_result envl__fail(envl_result code, const char *fmt, ...)
@@ -95,6 +102,12 @@ int32_t envl__default_latlong_width(const envl_image *src, int32_t layout);
  * over its footprint, so the integral of L dw is preserved. */
 envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32_t out_w,
                                    int32_t out_h, double rotate_degrees, float **out);
+
+/* ---- threads (parallel.c) ---- */
+typedef void (*envl_range_fn)(void *ctx, int64_t begin, int64_t end);
+/* Calls fn on contiguous blocks of [0, n) on up to `threads` threads; returns when all are
+ * done. Deterministic: block boundaries depend only on n and threads. */
+void envl__parallel_for(int64_t n, int32_t threads, envl_range_fn fn, void *ctx);
 
 /* ---- envmap (envmap.c) ---- */
 /* Takes ownership of img (img->px is moved). */

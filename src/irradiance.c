@@ -3,7 +3,6 @@
 #include "envmap_impl.h"
 
 #include <math.h>
-#include <pthread.h>
 #include <stdlib.h>
 
 /* E(n) = integral of L(d) max(0, n.d) dw with L constant over each pixel (the map as it is).
@@ -148,27 +147,25 @@ static void irradiance_one(const envl_envmap *m, const irradiance_tables *t, con
         out[k] = acc[k];
 }
 
-typedef struct {
+typedef struct irradiance_job {
     const envl_envmap *map;
     const irradiance_tables *tables;
     const double *normals;
     double *out;
-    int32_t begin, end;
     int failed;
 } irradiance_job;
 
-static void *irradiance_worker(void *arg)
+static void irradiance_range(void *arg, int64_t begin, int64_t end)
 {
     irradiance_job *job = arg;
     double *colfac = malloc(sizeof(double) * 2 * job->map->width);
     if (!colfac) {
-        job->failed = 1;
-        return NULL;
+        job->failed = 1; /* benign race: every writer stores 1 */
+        return;
     }
-    for (int32_t i = job->begin; i < job->end; i++)
+    for (int64_t i = begin; i < end; i++)
         irradiance_one(job->map, job->tables, job->normals + 3 * i, colfac, job->out + 3 * i);
     free(colfac);
-    return NULL;
 }
 
 envl_result envl_irradiance_exact(const envl_envmap *m, int32_t count, const double *normals,
@@ -176,36 +173,17 @@ envl_result envl_irradiance_exact(const envl_envmap *m, int32_t count, const dou
 {
     if (!m || count < 0 || (count && (!normals || !rgb_out)))
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_irradiance_exact: bad arguments");
-    /* Each normal is computed by one thread from start to end: the result does not depend on
-     * the thread count. */
-    int32_t nt = m->threads < count ? m->threads : count;
-    if (nt < 1)
-        nt = 1;
     irradiance_tables tables;
     envl_result rc = make_tables(m, &tables);
     if (rc)
         return rc;
-    irradiance_job jobs[256];
-    pthread_t tids[256];
-    int started[256] = {0};
-    for (int32_t t = 0; t < nt; t++) {
-        jobs[t] = (irradiance_job){m, &tables, normals, rgb_out, (int32_t)((int64_t)count * t / nt),
-                                   (int32_t)((int64_t)count * (t + 1) / nt), 0};
-        if (t > 0)
-            started[t] = pthread_create(&tids[t], NULL, irradiance_worker, &jobs[t]) == 0;
-    }
-    irradiance_worker(&jobs[0]);
-    int failed = jobs[0].failed;
-    for (int32_t t = 1; t < nt; t++) {
-        if (started[t])
-            pthread_join(tids[t], NULL);
-        else
-            irradiance_worker(&jobs[t]);
-        failed |= jobs[t].failed;
-    }
+    /* Each normal is computed by one thread from start to end: the result does not depend on
+     * the thread count. */
+    irradiance_job job = {m, &tables, normals, rgb_out, 0};
+    envl__parallel_for(count, m->threads, irradiance_range, &job);
     free_tables(&tables);
-    return failed ? envl__fail(ENVL_ERR_MEMORY, "envl_irradiance_exact: out of memory")
-                  : ENVL_OK;
+    return job.failed ? envl__fail(ENVL_ERR_MEMORY, "envl_irradiance_exact: out of memory")
+                      : ENVL_OK;
 }
 
 /* Fibonacci sphere: z_i = 1 - (2i + 1)/n, phi_i = 2 pi i / golden ratio. */
@@ -226,8 +204,8 @@ double envl_relative_rms_luminance(int32_t count, const double *approx, const do
         return 0.0;
     double se = 0.0, sa = 0.0;
     for (int32_t i = 0; i < count; i++) {
-        double ya = envl_luminance(approx[3 * i], approx[3 * i + 1], approx[3 * i + 2]);
-        double ye = envl_luminance(exact[3 * i], exact[3 * i + 1], exact[3 * i + 2]);
+        double ya = envl__lum(approx[3 * i], approx[3 * i + 1], approx[3 * i + 2]);
+        double ye = envl__lum(exact[3 * i], exact[3 * i + 1], exact[3 * i + 2]);
         se += (ya - ye) * (ya - ye);
         sa += fabs(ye);
     }

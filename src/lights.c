@@ -19,7 +19,8 @@ struct envl_lights {
     envl_light *lights;
     double *remainder;      /* irradiance SH, (order+1)^2 x 3, or NULL */
     int32_t width, height;
-    float *residual;        /* width x height x 3 */
+    float *residual;        /* width x height x 3; for the cuts (which take everything) made,
+                               all zero, only when asked for */
 };
 
 static const char *method_names[ENVL_METHOD_COUNT] = {"median", "variance", "fit"};
@@ -48,6 +49,45 @@ static double now_seconds(void)
 
 /* sat[r (W+1) + c] = sum of energy over rows < r, columns < c. A float table would lose a dim
  * sky's pixels against a sun's 1e6 (24-bit mantissa); double keeps 53 bits. */
+typedef struct sat_job {
+    const envl_envmap *m;
+    double *sat;
+} sat_job;
+
+/* Phase 1, rows in parallel: row r + 1 of the table gets the prefix sums of row r's energy. */
+static void sat_rows(void *arg, int64_t begin, int64_t end)
+{
+    const sat_job *j = arg;
+    int32_t w = j->m->width;
+    for (int64_t r = begin; r < end; r++) {
+        const float *p = j->m->px + (size_t)r * w * 3;
+        double *cur = j->sat + (size_t)(r + 1) * (w + 1);
+        double om = j->m->row_omega[r];
+        double wr = 0.2126 * om, wg = 0.7152 * om, wb = 0.0722 * om, row = 0.0;
+        cur[0] = 0.0;
+        for (int32_t c = 0; c < w; c++, p += 3) {
+            row += wr * p[0] + wg * p[1] + wb * p[2];
+            cur[c + 1] = row;
+        }
+    }
+}
+
+/* Phase 2, columns in parallel: accumulate down the rows. */
+static void sat_columns(void *arg, int64_t begin, int64_t end)
+{
+    const sat_job *j = arg;
+    int32_t w = j->m->width, h = j->m->height;
+    for (int32_t r = 1; r < h; r++) {
+        const double *prev = j->sat + (size_t)r * (w + 1);
+        double *cur = j->sat + (size_t)(r + 1) * (w + 1);
+        for (int64_t c = begin; c < end; c++)
+            cur[c] += prev[c];
+    }
+}
+
+/* sat[r (W+1) + c] = sum of energy over rows < r, columns < c. A float table would lose a dim
+ * sky's pixels against a sun's 1e6 (24-bit mantissa); double keeps 53 bits. Every entry is
+ * summed in the same order whatever the thread count. */
 envl_result envl__energy_sat(envl_envmap *m, const double **out)
 {
     if (!m->energy_sat) {
@@ -57,16 +97,9 @@ envl_result envl__energy_sat(envl_envmap *m, const double **out)
             return envl__fail(ENVL_ERR_MEMORY, "summed-area table: cannot allocate %d x %d",
                               (int)w + 1, (int)h + 1);
         memset(sat, 0, sizeof(double) * (w + 1));
-        for (int32_t r = 0; r < h; r++) {
-            const float *p = m->px + (size_t)r * w * 3;
-            double *prev = sat + (size_t)r * (w + 1), *cur = prev + (w + 1);
-            double row = 0.0, omega = m->row_omega[r];
-            cur[0] = 0.0;
-            for (int32_t c = 0; c < w; c++, p += 3) {
-                row += envl_luminance(p[0], p[1], p[2]) * omega;
-                cur[c + 1] = prev[c + 1] + row;
-            }
-        }
+        sat_job job = {m, sat};
+        envl__parallel_for(h, m->threads, sat_rows, &job);
+        envl__parallel_for(w + 1, m->threads, sat_columns, &job);
         m->energy_sat = sat;
     }
     *out = m->energy_sat;
@@ -199,7 +232,7 @@ static int split_variance(const envl_envmap *m, region *r, region *a, region *b,
         for (int32_t x = r->x0; x < r->x1; x++) {
             int32_t c = x < W ? x : x - W;
             const float *p = m->px + 3 * ((size_t)y * W + c);
-            double e = envl_luminance(p[0], p[1], p[2]) * omega;
+            double e = envl__lum(p[0], p[1], p[2]) * omega;
             double *cl = col + 3 * (x - r->x0);
             cl[0] += e;
             cl[1] += e * ct;
@@ -287,7 +320,7 @@ static double region_variance(const envl_envmap *m, const region *r)
         for (int32_t x = r->x0; x < r->x1; x++) {
             int32_t c = x < W ? x : x - W;
             const float *p = m->px + 3 * ((size_t)y * W + c);
-            double v = envl_luminance(p[0], p[1], p[2]) * omega;
+            double v = envl__lum(p[0], p[1], p[2]) * omega;
             e += v;
             s[0] += v * ct * m->col_cos[c];
             s[1] += v * ct * m->col_sin[c];
@@ -402,7 +435,7 @@ static void region_light(const envl_envmap *m, const region *r, envl_light *l)
         for (int32_t x = r->x0; x < r->x1; x++) {
             int32_t c = x < W ? x : x - W;
             const float *p = m->px + 3 * ((size_t)y * W + c);
-            double v = envl_luminance(p[0], p[1], p[2]) * om;
+            double v = envl__lum(p[0], p[1], p[2]) * om;
             row[0] += p[0];
             row[1] += p[1];
             row[2] += p[2];
@@ -430,6 +463,26 @@ static void region_light(const envl_envmap *m, const region *r, envl_light *l)
     l->rect[1] = r->y0;
     l->rect[2] = r->x1;
     l->rect[3] = r->y1;
+}
+
+typedef struct region_job {
+    const envl_envmap *m;
+    const region *rs;
+    envl_light *lights;
+} region_job;
+
+static void region_range(void *arg, int64_t begin, int64_t end)
+{
+    const region_job *j = arg;
+    for (int64_t i = begin; i < end; i++)
+        region_light(j->m, &j->rs[i], &j->lights[i]);
+}
+
+/* All regions' lights, regions shared out between the threads (one pass over the map). */
+static void region_lights(const envl_envmap *m, const region *rs, int32_t k, envl_light *out)
+{
+    region_job job = {m, rs, out};
+    envl__parallel_for(k, m->threads, region_range, &job);
 }
 
 /* ---- evaluation ---- */
@@ -498,7 +551,7 @@ static double cone_power(const envl_envmap *fm, const double d[3])
         const float *p = fm->px + (size_t)r * fm->width * 3;
         for (int32_t c = 0; c < fm->width; c++, p += 3)
             if (ct * (d[0] * fm->col_cos[c] + d[1] * fm->col_sin[c]) + z >= cmin)
-                row += envl_luminance(p[0], p[1], p[2]);
+                row += envl__lum(p[0], p[1], p[2]);
         acc += row * fm->row_omega[r];
     }
     return acc;
@@ -585,12 +638,16 @@ static envl_result fit_candidates(envl_envmap *m, const envl_envmap *fm, double 
     envl_result rc = cut_regions(m, ENVL_METHOD_MEDIAN, FIT_CANDIDATES, &rs, &nr);
     if (rc)
         return rc;
-    for (int32_t i = 0; i < nr; i++) {
-        envl_light l;
-        region_light(m, &rs[i], &l);
-        if (rs[i].energy > 0)
-            memcpy(cand + 3 * k++, l.direction, sizeof l.direction);
+    envl_light *ls = malloc(sizeof(envl_light) * (nr ? nr : 1));
+    if (!ls) {
+        free(rs);
+        return envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
     }
+    region_lights(m, rs, nr, ls);
+    for (int32_t i = 0; i < nr; i++)
+        if (rs[i].energy > 0)
+            memcpy(cand + 3 * k++, ls[i].direction, sizeof ls[i].direction);
+    free(ls);
     free(rs);
     size_t n = (size_t)fm->width * fm->height;
     double *order = malloc(sizeof(double) * 2 * n);
@@ -598,7 +655,7 @@ static envl_result fit_candidates(envl_envmap *m, const envl_envmap *fm, double 
         return envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
     for (size_t i = 0; i < n; i++) {
         const float *p = fm->px + 3 * i;
-        order[2 * i] = envl_luminance(p[0], p[1], p[2]);
+        order[2 * i] = envl__lum(p[0], p[1], p[2]);
         order[2 * i + 1] = (double)i;
     }
     qsort(order, n, 2 * sizeof(double), cmp_desc);
@@ -657,7 +714,7 @@ static envl_result fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lig
         goto done;
     double ysh[ENVL_NNLS_MAX];
     for (int32_t i = 0; i < p.m; i++) {
-        p.target_y[i] = envl_luminance(p.target[3 * i], p.target[3 * i + 1], p.target[3 * i + 2]);
+        p.target_y[i] = envl__lum(p.target[3 * i], p.target[3 * i + 1], p.target[3 * i + 2]);
         if (p.nsh) {
             envl_sh_eval(order, p.normals + 3 * i, ysh);
             for (int32_t j = 0; j < p.nsh; j++)
@@ -820,7 +877,7 @@ static envl_result take_cones(const envl_envmap *m, envl_lights *ls)
     for (int32_t i = 1; i < ls->summary.count; i++)
         for (int32_t j = i; j > 0; j--) {
             const double *a = ls->lights[order[j]].rgb, *b = ls->lights[order[j - 1]].rgb;
-            if (envl_luminance(a[0], a[1], a[2]) <= envl_luminance(b[0], b[1], b[2]))
+            if (envl__lum(a[0], a[1], a[2]) <= envl__lum(b[0], b[1], b[2]))
                 break;
             int32_t t = order[j];
             order[j] = order[j - 1];
@@ -928,20 +985,21 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
     s->remainder_order = -1;
     memcpy(s->power, m->info.power, sizeof s->power);
     size_t npx = (size_t)m->width * m->height * 3;
-    ls->residual = malloc(sizeof(float) * npx);
-    envl_result rc = ls->residual ? ENVL_OK : envl__fail(ENVL_ERR_MEMORY, "lights: no memory");
+    envl_result rc = ENVL_OK;
     double t0 = now_seconds();
-    if (rc)
-        goto fail;
-    if (!(envl_luminance(s->power[0], s->power[1], s->power[2]) > 0)) {
+    if (!(envl__lum(s->power[0], s->power[1], s->power[2]) > 0)) {
         /* A black map: no lights, an all-zero residual, no error. */
-        memcpy(ls->residual, m->px, sizeof(float) * npx);
         s->no_light = 1;
         s->seconds = now_seconds() - t0;
         *out = ls;
         return ENVL_OK;
     }
     if (o->method == ENVL_METHOD_FIT) {
+        ls->residual = malloc(sizeof(float) * npx);
+        if (!ls->residual) {
+            rc = envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the residual map");
+            goto fail;
+        }
         memcpy(ls->residual, m->px, sizeof(float) * npx);
         rc = fit_lights(m, n, order, ls);
         if (rc == ENVL_OK)
@@ -954,12 +1012,12 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
             ls->lights = calloc((size_t)k, sizeof(envl_light));
             if (!ls->lights)
                 rc = envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
-            for (int32_t i = 0; rc == ENVL_OK && i < k; i++)
-                region_light(m, &rs[i], &ls->lights[i]);
+            else
+                region_lights(m, rs, k, ls->lights);
             s->count = k;
             free(rs);
-            /* The regions cover the sphere: the lights take everything. */
-            memset(ls->residual, 0, sizeof(float) * npx);
+            /* The regions cover the sphere: the lights take everything, the residual is zero
+             * (made when asked for). */
         }
     }
     if (rc)
@@ -1033,4 +1091,16 @@ const double *envl_lights_remainder(const envl_lights *ls, int32_t *order)
     return ls ? ls->remainder : NULL;
 }
 
-const float *envl_lights_residual(const envl_lights *ls) { return ls ? ls->residual : NULL; }
+const float *envl_lights_residual(const envl_lights *ls)
+{
+    if (!ls)
+        return NULL;
+    if (!ls->residual) {
+        /* Cuts and black maps: nothing is left. calloc: zero pages cost nothing until read. */
+        envl_lights *mut = (envl_lights *)ls;
+        mut->residual = calloc((size_t)ls->width * ls->height * 3, sizeof(float));
+        if (!mut->residual)
+            envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the residual map");
+    }
+    return ls->residual;
+}

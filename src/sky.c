@@ -15,7 +15,7 @@
 /* Colours of luminance 1 (Rec.709 weights), so parameters given as luminance stay luminance. */
 static void unit_luminance(const double in[3], double out[3])
 {
-    double y = envl_luminance(in[0], in[1], in[2]);
+    double y = envl__lum(in[0], in[1], in[2]);
     for (int k = 0; k < 3; k++)
         out[k] = in[k] / y;
 }
@@ -159,7 +159,7 @@ envl_result envl_envmap_sky(const envl_sky_options *options, envl_envmap **out)
             float *p = img.px + 3 * ((size_t)r * w + c);
             for (int k = 0; k < 3; k++)
                 p[k] = (float)(albedo * ground_col[k] *
-                               (envl_luminance(sky_horizontal[0], sky_horizontal[1],
+                               (envl__lum(sky_horizontal[0], sky_horizontal[1],
                                                sky_horizontal[2]) + sun_horizontal) / ENVL_PI);
         }
 

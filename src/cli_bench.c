@@ -1,0 +1,258 @@
+/* envlight bench: accuracy against time, for every method and knob, as Markdown tables.
+ * Times are medians of several runs, each from scratch (cached tables dropped). Speed targets
+ * are ratios against a baseline measured in the same run: one pass summing the map's floats. */
+#include "cli.h"
+
+#include <dirent.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median_of(double *v, int n)
+{
+    qsort(v, n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* The baseline: one pass over the map's floats, summed (4 lanes so the adds pipeline, as any
+ * stage's inner loop would). */
+static double baseline_pass(const envl_envmap *m, double *sink)
+{
+    const float *p = envl_envmap_pixels(m);
+    size_t n = (size_t)envl_envmap_width(m) * envl_envmap_height(m) * 3;
+    double t0 = now(), a = 0, b = 0, c = 0, d = 0;
+    size_t i = 0;
+    for (; i + 4 <= n; i += 4) {
+        a += p[i];
+        b += p[i + 1];
+        c += p[i + 2];
+        d += p[i + 3];
+    }
+    for (; i < n; i++)
+        a += p[i];
+    *sink += a + b + c + d;
+    return now() - t0;
+}
+
+static double peak_rss_mib(void)
+{
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return ru.ru_maxrss / 1024.0;
+}
+
+typedef struct bench_opts {
+    int runs;
+    int quick;
+} bench_opts;
+
+/* One lights configuration: median seconds over runs (tables dropped before each), error. */
+static int bench_lights_one(envl_envmap *m, int method, int n, const bench_opts *o,
+                            double *seconds, double *error, int *count)
+{
+    double t[16];
+    for (int r = 0; r < o->runs; r++) {
+        envl_envmap_drop_caches(m, ENVL_CACHE_SAT);
+        envl_lights *ls;
+        envl_lights_options lo = {.method = method, .count = n};
+        if (envl_lights_compute(m, &lo, &ls))
+            return cli_fail();
+        envl_lights_summary s;
+        envl_lights_get_summary(ls, &s);
+        t[r] = s.seconds;
+        *error = s.diffuse_error;
+        *count = s.count;
+        envl_lights_free(ls);
+    }
+    *seconds = median_of(t, o->runs);
+    return CLI_OK;
+}
+
+static int bench_lights_table(const char *name, envl_envmap *m, const bench_opts *o, FILE *csv)
+{
+    static const int counts[] = {1, 2, 4, 8, 16, 32, 64, 128, 256};
+    int ncounts = o->quick ? 5 : 9;
+    printf("\n#### Lights: %s (%d x %d)\n\n", name, envl_envmap_width(m),
+           envl_envmap_height(m));
+    printf("diffuse error %% (seconds); fit: lights used of those asked, order-2 remainder\n\n");
+    printf("| method |");
+    for (int i = 0; i < ncounts; i++)
+        printf(" %d |", counts[i]);
+    printf("\n|---|");
+    for (int i = 0; i < ncounts; i++)
+        printf("---|");
+    printf("\n");
+    for (int method = 0; method < ENVL_METHOD_COUNT; method++) {
+        printf("| %s |", envl_method_name(method));
+        for (int i = 0; i < ncounts; i++) {
+            int n = counts[i];
+            if (method == ENVL_METHOD_FIT && n > 16) {
+                printf(" |");
+                continue;
+            }
+            double sec, err;
+            int count;
+            if (bench_lights_one(m, method, n, o, &sec, &err, &count))
+                return CLI_FAIL;
+            if (method == ENVL_METHOD_FIT)
+                printf(" %.3f (%.3f s, %d) |", 100 * err, sec, count);
+            else
+                printf(" %.3f (%.3f s) |", 100 * err, sec);
+            fflush(stdout);
+            if (csv)
+                fprintf(csv, "%s,lights,%s,%d,%d,%.9g,%.9g\n", name, envl_method_name(method), n,
+                        count, err, sec);
+        }
+        printf("\n");
+    }
+    return CLI_OK;
+}
+
+/* Speed on a large map: stage time / baseline pass time, both measured here. */
+static int bench_speed(int width, const bench_opts *o)
+{
+    envl_sky_options so = {.width = width};
+    envl_envmap *m;
+    if (envl_envmap_sky(&so, &m))
+        return cli_fail();
+    double sink = 0, tb[16], tl[16];
+    for (int r = 0; r < o->runs; r++)
+        tb[r] = baseline_pass(m, &sink);
+    double base = median_of(tb, o->runs);
+    for (int r = 0; r < o->runs; r++) {
+        envl_envmap_drop_caches(m, ENVL_CACHE_SAT);
+        envl_lights *ls;
+        envl_lights_options lo = {.method = ENVL_METHOD_MEDIAN, .count = 256};
+        if (envl_lights_compute(m, &lo, &ls))
+            return cli_fail();
+        envl_lights_summary s;
+        envl_lights_get_summary(ls, &s);
+        tl[r] = s.seconds;
+        envl_lights_free(ls);
+    }
+    double med = median_of(tl, o->runs);
+    printf("\n#### Speed on a %d x %d map (built-in sky), medians of %d runs\n\n", width,
+           width / 2, o->runs);
+    printf("| stage | seconds | ratio to baseline | target |\n|---|---|---|---|\n");
+    printf("| baseline: one pass summing the floats | %.4f | 1.00 | |\n", base);
+    printf("| SAT + median cut, 256 lights | %.4f | %.2f | <= 3 |\n", med, med / base);
+    printf("\npeak resident memory so far: %.0f MiB (the map's floats: %.0f MiB)\n",
+           peak_rss_mib(), (double)width * (width / 2) * 12 / (1 << 20));
+    if (sink == 42.0)
+        printf(" ");
+    envl_envmap_free(m);
+    return CLI_OK;
+}
+
+static const char bench_help[] =
+    "Usage: envlight bench [FILES...] [--runs N] [--quick] [--csv FILE] [--speed-width W]\n"
+    "Accuracy against time as Markdown tables: every lights method at 1..256 lights (fit to\n"
+    "16), diffuse error and median seconds of N runs (default 3), each from scratch. Default\n"
+    "maps: the built-in sky and every .hdr under $ENVL_SHARED_DATA/latlong_hdri (default\n"
+    "../shared/data). Then the speed of the stages on a large map as ratios to one plain pass\n"
+    "over its floats measured in the same run (--speed-width, default 8192; 0 skips).\n";
+
+int cli_bench(int argc, char **argv)
+{
+    cli_common c = {0};
+    bench_opts o = {.runs = 3};
+    const char *files[256], *csv_path = NULL;
+    int nfiles = 0;
+    long long speed_width = 8192, n;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v;
+        int r = cli_common_option("bench", argc, argv, &i, &c);
+        if (r < 0)
+            return CLI_USAGE;
+        if (r > 0)
+            continue;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            printf("%s\n%s", bench_help, cli_common_help);
+            return CLI_OK;
+        }
+        if ((r = cli_value(argc, argv, &i, "--runs", &v)) != 0) {
+            if (r < 0 || cli_parse_int(v, 1, 15, &n))
+                return cli_usage("bench", "--runs takes 1..15");
+            o.runs = (int)n;
+        } else if ((r = cli_value(argc, argv, &i, "--csv", &v)) != 0) {
+            if (r < 0)
+                return cli_usage("bench", "--csv needs a file name");
+            csv_path = v;
+        } else if ((r = cli_value(argc, argv, &i, "--speed-width", &v)) != 0) {
+            if (r < 0 || cli_parse_int(v, 0, 65536, &speed_width))
+                return cli_usage("bench", "--speed-width takes 0..65536");
+        } else if (!strcmp(a, "--quick")) {
+            o.quick = 1;
+        } else if (a[0] == '-' && a[1]) {
+            return cli_usage("bench", "unknown option '%s'", a);
+        } else if (nfiles < 256) {
+            files[nfiles++] = a;
+        }
+    }
+    static char found[64][1024];
+    if (!nfiles) {
+        files[nfiles++] = "-";
+        const char *root = getenv("ENVL_SHARED_DATA");
+        char dir[1024];
+        snprintf(dir, sizeof dir, "%s/latlong_hdri", root ? root : "../shared/data");
+        DIR *d = opendir(dir);
+        if (d) {
+            struct dirent *e;
+            int k = 0;
+            while ((e = readdir(d)) && k < 64) {
+                size_t l = strlen(e->d_name);
+                if (l > 4 && !strcmp(e->d_name + l - 4, ".hdr"))
+                    snprintf(found[k++], sizeof found[0], "%s/%s", dir, e->d_name);
+            }
+            closedir(d);
+            qsort(found, k, sizeof found[0], (int (*)(const void *, const void *))strcmp);
+            for (int i = 0; i < k; i++)
+                files[nfiles++] = found[i];
+        } else if (!c.quiet) {
+            fprintf(stderr, "envlight bench: %s absent: the built-in sky only\n", dir);
+        }
+    }
+    FILE *csv = NULL;
+    cli_output co;
+    if (csv_path) {
+        if (cli_output_open(&co, csv_path))
+            return CLI_FAIL;
+        csv = co.f;
+        fprintf(csv, "map,product,method,asked,count,diffuse_error,seconds\n");
+    }
+    printf("### envlight bench\n\nmedian of %d runs; error: relative RMS irradiance error over "
+           "1024 normals against the exact integrator\n", o.runs);
+    int rc = CLI_OK;
+    for (int i = 0; i < nfiles && rc == CLI_OK; i++) {
+        envl_envmap *m;
+        c.quiet = 1;
+        if (cli_load(files[i], &c, &m)) {
+            rc = CLI_FAIL;
+            break;
+        }
+        const char *name = strcmp(files[i], "-") ? strrchr(files[i], '/') ? strrchr(files[i], '/') + 1 : files[i]
+                                                 : "built-in sky";
+        rc = bench_lights_table(name, m, &o, csv);
+        envl_envmap_free(m);
+    }
+    if (rc == CLI_OK && speed_width > 0)
+        rc = bench_speed((int)speed_width, &o);
+    if (csv_path && (cli_output_close(&co) || rc))
+        rc = CLI_FAIL;
+    return rc;
+}
