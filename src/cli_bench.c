@@ -105,8 +105,8 @@ static int bench_lights_table(const char *name, envl_envmap *m, const bench_opts
                 printf(" |");
                 continue;
             }
-            double sec, err;
-            int count;
+            double sec = 0, err = 0;
+            int count = 0;
             if (bench_lights_one(m, method, n, o, &sec, &err, &count))
                 return CLI_FAIL;
             if (method == ENVL_METHOD_FIT)
@@ -204,7 +204,7 @@ int cli_bench(int argc, char **argv)
             files[nfiles++] = a;
         }
     }
-    static char found[64][1024];
+    static char found[64][2048];
     if (!nfiles) {
         files[nfiles++] = "-";
         const char *root = getenv("ENVL_SHARED_DATA");
@@ -216,8 +216,8 @@ int cli_bench(int argc, char **argv)
             int k = 0;
             while ((e = readdir(d)) && k < 64) {
                 size_t l = strlen(e->d_name);
-                if (l > 4 && !strcmp(e->d_name + l - 4, ".hdr"))
-                    snprintf(found[k++], sizeof found[0], "%s/%s", dir, e->d_name);
+                if (l > 4 && l < 512 && !strcmp(e->d_name + l - 4, ".hdr"))
+                    snprintf(found[k++], sizeof found[0], "%.1000s/%.511s", dir, e->d_name);
             }
             closedir(d);
             qsort(found, k, sizeof found[0], (int (*)(const void *, const void *))strcmp);

@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# envlight lights: the JSON and CSV contract of DESIGN.md, energy bookkeeping through the
+# saved residual, usage errors.
+set -u
+: "${ENVLIGHT:?} ${ENVL_TEST_TMP:?}"
+mkdir -p "$ENVL_TEST_TMP"; cd "$ENVL_TEST_TMP" || exit 1
+fails=0; checks=0
+run() { checks=$((checks + 1)); "$@" >out.txt 2>err.txt || { fails=$((fails + 1)); echo "FAIL ($?): $*"; cat err.txt; }; }
+usage() { checks=$((checks + 1)); "$@" >out.txt 2>err.txt; local rc=$?
+  [ $rc = 2 ] || { fails=$((fails + 1)); echo "FAIL: exit $rc, expected 2: $*"; }; }
+
+for method in median variance fit; do
+  run "$ENVLIGHT" lights - --sky-width 256 -n 8 --method "$method" --json -o "l_$method.json" \
+      --residual "res_$method.pfm"
+  run "$ENVLIGHT" info "res_$method.pfm" --json --quiet
+  cp out.txt "info_$method.json"
+  checks=$((checks + 1))
+  python3 - "$method" <<'PY' || { fails=$((fails + 1)); echo "FAIL: lights JSON ($method)"; }
+import json, math, sys
+method = sys.argv[1]
+d = json.load(open(f"l_{method}.json"))
+for k in ["frame", "method", "count", "power", "lights", "residual_power", "error", "seconds"]:
+    assert k in d, k
+assert d["frame"] == "blender-z-up" and d["method"] == method
+assert d["count"] == len(d["lights"]) and 1 <= d["count"] <= 8
+for l in d["lights"]:
+    assert abs(sum(x * x for x in l["direction"]) - 1) < 1e-6
+    assert all(c >= 0 for c in l["rgb"])
+    # angle = 2 acos(1 - omega / 2 pi), capped at pi
+    c = max(-1.0, min(1.0, 1 - l["solid_angle"] / (2 * math.pi)))
+    assert abs(l["angle"] - min(math.pi, 2 * math.acos(c))) < 1e-6
+# lights + residual = power (JSON numbers carry 9 digits: 1e-8 for a sum of a few); the
+# residual file's own power agrees (float pixels: 1e-6)
+res = json.load(open(f"info_{method}.json"))["power"]
+for k in range(3):
+    lights = sum(l["rgb"][k] for l in d["lights"])
+    assert abs(lights + d["residual_power"][k] - d["power"][k]) <= 1e-8 * d["power"][k]
+    assert abs(res[k] - d["residual_power"][k]) <= 1e-6 * d["power"][k] + 1e-12, (res, d)
+assert ("remainder" in d) == (method == "fit")
+if method == "fit":
+    r = d["remainder"]
+    assert r["order"] == 2 and len(r["irradiance"]) == 9
+assert 0 <= d["error"]["diffuse"] < 1 and d["seconds"] >= 0
+PY
+done
+run "$ENVLIGHT" lights - --sky-width 256 -n 4 --csv
+checks=$((checks + 1))
+[ "$(head -1 out.txt)" = "x,y,z,r,g,b,solid_angle,angle" ] && [ "$(wc -l < out.txt)" = 5 ] ||
+  { fails=$((fails + 1)); echo "FAIL: CSV"; cat out.txt; }
+run "$ENVLIGHT" lights - --sky-width 256 -n 16 --method fit --order 4 --json
+checks=$((checks + 1))
+python3 -c 'import json; d = json.load(open("out.txt")); assert d["remainder"]["order"] == 4 and len(d["remainder"]["irradiance"]) == 25' ||
+  { fails=$((fails + 1)); echo "FAIL: --order 4"; }
+
+usage "$ENVLIGHT" lights --method nope
+usage "$ENVLIGHT" lights -n 0
+usage "$ENVLIGHT" lights --order 9
+usage "$ENVLIGHT" lights a.hdr b.hdr
+
+echo "$((checks - fails)) passed, $fails failed"
+[ "$fails" = 0 ]
