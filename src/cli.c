@@ -253,6 +253,7 @@ static const char main_help[] =
     "  info FILE [--json]          size, layout, channels, statistics, power, brightest direction\n"
     "  convert IN OUT              convert between .hdr/.exr/.pfm and into the canonical lat-long\n"
     "  lights [FILE]               directional lights: median cut, variance cut, fit + SH remainder\n"
+    "  sh [FILE]                   spherical harmonics of any order, windowed, artist forms\n"
     "  bench [FILES...]            accuracy against time, as Markdown tables\n"
     "  version                     library version\n"
     "\n"
@@ -280,6 +281,8 @@ int main(int argc, char **argv)
         return cli_convert(argc - 1, argv + 1);
     if (!strcmp(cmd, "lights"))
         return cli_lights(argc - 1, argv + 1);
+    if (!strcmp(cmd, "sh"))
+        return cli_sh(argc - 1, argv + 1);
     if (!strcmp(cmd, "bench"))
         return cli_bench(argc - 1, argv + 1);
     fprintf(stderr, "envlight: unknown command '%s'\n\n%s", cmd, main_help);

@@ -58,5 +58,6 @@ int cli_info(int argc, char **argv);
 int cli_convert(int argc, char **argv);
 int cli_lights(int argc, char **argv);
 int cli_bench(int argc, char **argv);
+int cli_sh(int argc, char **argv);
 
 #endif

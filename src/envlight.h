@@ -251,6 +251,58 @@ ENVL_API const float *envl_lights_residual(const envl_lights *lights);
 ENVL_API envl_result envl_lights_irradiance(const envl_lights *lights, int32_t count,
                                             const double *normals, double *rgb_out);
 
+/* ---- spherical harmonics -------------------------------------------------------------------
+ * Real SH without the Condon-Shortley phase; coefficient index l (l + 1) + m, l = 0..order;
+ * for l <= 2 the basis of Ramamoorthi & Hanrahan 2001 (DESIGN.md). Irradiance coefficients are
+ * radiance coefficients times A_l (A_0 = pi, A_1 = 2 pi / 3, A_2 = pi / 4, odd l > 1: 0, ...). */
+#define ENVL_WINDOW_NONE 0
+#define ENVL_WINDOW_HANN 1     /* w_l = (1 + cos(pi l / (order + 1))) / 2 */
+#define ENVL_WINDOW_LANCZOS 2  /* w_l = sinc(pi l / (order + 1)) */
+#define ENVL_WINDOW_AUTO 3     /* the least Hann-type windowing (largest width) that keeps the
+                                  reconstructed irradiance non-negative */
+#define ENVL_WINDOW_COUNT 4
+ENVL_API const char *envl_window_name(int32_t window);     /* "none", "hann", ... */
+ENVL_API int32_t envl_window_from_name(const char *name);  /* -1 if unknown */
+
+typedef struct envl_sh_options {
+    int32_t bands;            /* order + 1, 1..33; default 3 (order 2) */
+    int32_t window;           /* ENVL_WINDOW_*; default none */
+} envl_sh_options;
+
+typedef struct envl_sh_summary {
+    int32_t order, window;
+    double window_width;      /* Hann-type width used (auto), or order + 1; 0 for none */
+    double min_irradiance;    /* least luminance irradiance of the (windowed) reconstruction over
+                                 4096 directions */
+    double diffuse_error;     /* DESIGN.md's measure of the irradiance reconstruction */
+    double seconds;           /* projection + windowing */
+    /* Artist forms (irradiance units, canonical frame): E(n) ~ ambient + deltas . n, and the
+     * hemispheric pair: E = sky at n = axis, ground at n = -axis, linear between (the least
+     * squares best over the sphere). */
+    double ambient[3];
+    double deltas[3][3];      /* [x, y, z][r, g, b] */
+    double hemi_axis[3];
+    double hemi_sky[3], hemi_ground[3];
+} envl_sh_summary;
+
+typedef struct envl_sh envl_sh;
+ENVL_API envl_result envl_sh_compute(envl_envmap *map, const envl_sh_options *options,
+                                     envl_sh **out);
+ENVL_API void envl_sh_free(envl_sh *sh);
+ENVL_API envl_result envl_sh_get_summary(const envl_sh *sh, envl_sh_summary *out);
+/* (order + 1)^2 x RGB: windowed radiance coefficients, and irradiance = A_l x those. */
+ENVL_API const double *envl_sh_radiance(const envl_sh *sh);
+ENVL_API const double *envl_sh_irradiance(const envl_sh *sh);
+ENVL_API const double *envl_sh_window_factors(const envl_sh *sh); /* order + 1 */
+/* Radiance / irradiance of the (windowed) expansion in `count` directions. */
+ENVL_API envl_result envl_sh_eval_radiance(const envl_sh *sh, int32_t count,
+                                           const double *directions, double *rgb_out);
+ENVL_API envl_result envl_sh_eval_irradiance(const envl_sh *sh, int32_t count,
+                                             const double *normals, double *rgb_out);
+/* The basis itself: y[l (l+1) + m] = Y_lm(d) for l = 0..order. */
+ENVL_API void envl_sh_basis(int32_t order, const double direction[3], double *y);
+ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l */
+
 #ifdef __cplusplus
 }
 #endif

@@ -1,0 +1,129 @@
+/* envlight sh: spherical-harmonic radiance and irradiance coefficients. */
+#include "cli.h"
+#include "json.h"
+
+#include <string.h>
+
+static const char sh_help[] =
+    "Usage: envlight sh [FILE] [--order L] [--window none|hann|lanczos|auto] [--json]\n"
+    "                   [-o OUT] [input options]\n"
+    "Real SH (no Condon-Shortley phase; l <= 2 as Ramamoorthi & Hanrahan 2001), coefficient\n"
+    "order l = 0..L, m = -l..l, canonical frame (Blender, +Z up). Irradiance = A_l x radiance.\n"
+    "  --order L     0..32 (default 2)\n"
+    "  --window W    none (default), hann, lanczos, auto (the least windowing that keeps the\n"
+    "                irradiance non-negative; the width found is reported)\n"
+    "Also reported: ambient + x/y/z deltas (E(n) ~ ambient + deltas . n) and the hemispheric\n"
+    "sky/ground pair with its axis, in irradiance units; the diffuse error and seconds.\n";
+
+static void coef_array(json_writer *j, const char *key, const double *c, int n)
+{
+    json_array(j, key);
+    for (int i = 0; i < n; i++)
+        json_numbers(j, NULL, c + 3 * i, 3);
+    json_array_end(j);
+}
+
+int cli_sh(int argc, char **argv)
+{
+    cli_common c = {0};
+    const char *file = NULL, *out = NULL;
+    envl_sh_options so = {0};
+    int json = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v;
+        long long n;
+        int r = cli_common_option("sh", argc, argv, &i, &c);
+        if (r < 0)
+            return CLI_USAGE;
+        if (r > 0)
+            continue;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            printf("%s\n%s", sh_help, cli_common_help);
+            return CLI_OK;
+        }
+        if ((r = cli_value(argc, argv, &i, "--order", &v)) != 0) {
+            if (r < 0 || cli_parse_int(v, 0, 32, &n))
+                return cli_usage("sh", "--order takes 0..32");
+            so.bands = (int32_t)n + 1;
+        } else if ((r = cli_value(argc, argv, &i, "--window", &v)) != 0) {
+            if (r < 0 || (so.window = envl_window_from_name(v)) < 0)
+                return cli_usage("sh", "--window takes none, hann, lanczos or auto");
+        } else if ((r = cli_value(argc, argv, &i, "-o", &v)) != 0) {
+            if (r < 0)
+                return cli_usage("sh", "-o needs a file name");
+            out = v;
+        } else if (!strcmp(a, "--json")) {
+            json = 1;
+        } else if (a[0] == '-' && a[1]) {
+            return cli_usage("sh", "unknown option '%s'", a);
+        } else if (file) {
+            return cli_usage("sh", "one FILE only");
+        } else {
+            file = a;
+        }
+    }
+    envl_envmap *map;
+    if (cli_load(file, &c, &map))
+        return CLI_FAIL;
+    envl_sh *sh;
+    if (envl_sh_compute(map, &so, &sh)) {
+        envl_envmap_free(map);
+        return cli_fail();
+    }
+    envl_sh_summary s;
+    envl_sh_get_summary(sh, &s);
+    envl_info info;
+    envl_envmap_info(map, &info);
+    int n = (s.order + 1) * (s.order + 1);
+    cli_output o;
+    int rc = cli_output_open(&o, out);
+    if (rc == CLI_OK) {
+        if (json) {
+            json_writer j;
+            json_begin(&j, o.f);
+            json_string(&j, "file", info.file);
+            json_string(&j, "frame", "blender-z-up");
+            json_int(&j, "order", s.order);
+            json_string(&j, "window", envl_window_name(s.window));
+            json_number(&j, "window_width", s.window_width);
+            json_numbers(&j, "window_factors", envl_sh_window_factors(sh), s.order + 1);
+            json_string(&j, "basis", "real, no Condon-Shortley phase");
+            coef_array(&j, "radiance", envl_sh_radiance(sh), n);
+            coef_array(&j, "irradiance", envl_sh_irradiance(sh), n);
+            json_number(&j, "min_irradiance", s.min_irradiance);
+            json_object(&j, "ambient_deltas");
+            json_numbers(&j, "ambient", s.ambient, 3);
+            json_numbers(&j, "dx", s.deltas[0], 3);
+            json_numbers(&j, "dy", s.deltas[1], 3);
+            json_numbers(&j, "dz", s.deltas[2], 3);
+            json_object_end(&j);
+            json_object(&j, "hemispheric");
+            json_numbers(&j, "axis", s.hemi_axis, 3);
+            json_numbers(&j, "sky", s.hemi_sky, 3);
+            json_numbers(&j, "ground", s.hemi_ground, 3);
+            json_object_end(&j);
+            json_object(&j, "error");
+            json_number(&j, "diffuse", s.diffuse_error);
+            json_object_end(&j);
+            json_number(&j, "seconds", s.seconds);
+            json_end(&j);
+        } else {
+            fprintf(o.f, "%s: SH order %d, window %s, diffuse error %.3f %%, %.4f s\n", info.file,
+                    s.order, envl_window_name(s.window), 100 * s.diffuse_error, s.seconds);
+            const double *rad = envl_sh_radiance(sh), *irr = envl_sh_irradiance(sh);
+            for (int l = 0, i = 0; l <= s.order; l++)
+                for (int m = -l; m <= l; m++, i++)
+                    fprintf(o.f, "L%d,%-3d radiance %12.6g %12.6g %12.6g  irradiance %12.6g %12.6g "
+                            "%12.6g\n", l, m, rad[3 * i], rad[3 * i + 1], rad[3 * i + 2],
+                            irr[3 * i], irr[3 * i + 1], irr[3 * i + 2]);
+            fprintf(o.f, "ambient %.6g %.6g %.6g; hemispheric axis %.4f %.4f %.4f sky %.6g %.6g "
+                    "%.6g ground %.6g %.6g %.6g\n", s.ambient[0], s.ambient[1], s.ambient[2],
+                    s.hemi_axis[0], s.hemi_axis[1], s.hemi_axis[2], s.hemi_sky[0], s.hemi_sky[1],
+                    s.hemi_sky[2], s.hemi_ground[0], s.hemi_ground[1], s.hemi_ground[2]);
+        }
+        rc = cli_output_close(&o);
+    }
+    envl_sh_free(sh);
+    envl_envmap_free(map);
+    return rc;
+}
