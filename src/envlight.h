@@ -258,8 +258,9 @@ ENVL_API envl_result envl_lights_irradiance(const envl_lights *lights, int32_t c
 #define ENVL_WINDOW_NONE 0
 #define ENVL_WINDOW_HANN 1     /* w_l = (1 + cos(pi l / (order + 1))) / 2 */
 #define ENVL_WINDOW_LANCZOS 2  /* w_l = sinc(pi l / (order + 1)) */
-#define ENVL_WINDOW_AUTO 3     /* the least Hann-type windowing (largest width) that keeps the
-                                  reconstructed irradiance non-negative */
+#define ENVL_WINDOW_AUTO 3     /* the least windowing that keeps the reconstructed irradiance
+                                  non-negative: Hann-type factors (1 + cos(pi l / wd)) / 2
+                                  (0 for l >= wd) with the largest width wd that does */
 #define ENVL_WINDOW_COUNT 4
 ENVL_API const char *envl_window_name(int32_t window);     /* "none", "hann", ... */
 ENVL_API int32_t envl_window_from_name(const char *name);  /* -1 if unknown */

@@ -133,7 +133,7 @@ static int xyz_to_rgb_matrix(const double p[8], double out[3][3])
     if (!rgb_to_xyz_matrix(p, m) || !invert3(m, out))
         return 0;
     if (fabs(p[6] - 1.0 / 3.0) > 1e-4 || fabs(p[7] - 1.0 / 3.0) > 1e-4) {
-        double w1[3], w2[3], c1[3], c2[3], d[3][3] = {{0}};
+        double w1[3] = {0}, w2[3] = {0}, c1[3], c2[3], d[3][3] = {{0}};
         white_xyz(1.0 / 3.0, 1.0 / 3.0, w1);
         white_xyz(p[6], p[7], w2);
         for (int i = 0; i < 3; i++) {
@@ -550,7 +550,7 @@ envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
         size = 0;
     hdr_reader rd = {data, size, name};
     hdr_header hd;
-    size_t pos;
+    size_t pos = 0;
     envl_result rc = read_header(&rd, &pos, &hd);
     if (rc)
         return rc;

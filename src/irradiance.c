@@ -13,19 +13,22 @@
  *   I = integral cos^2 t dt = ((t1 - t0) + sin t1 cos t1 - sin t0 cos t0) / 2.
  * n . D = I_r (nx Sx_c + ny Sy_c) + nz Z_r: per-column and per-row factors, one multiply-add
  * per pixel. A pixel whose centre is within its angular radius of the horizon of n straddles
- * it: it is cut into SUB x SUB sub-cells, each counted by its own exact moment when its
- * centre is lit. (The plain midpoint sum L dw max(0, n.d_centre) is off by O(h^2); this
- * leaves only the sub-cells on the horizon, O(h^3 / SUB^2).) */
-#define SUB 8
+ * it: it is cut into S x S sub-cells, each counted by its own exact moment when its centre
+ * is lit. (The plain midpoint sum L dw max(0, n.d_centre) is off by O(h^2); this leaves only
+ * the sub-cells on the horizon, O(h^3 / S^2).) S is at least 8, and more for big pixels, so
+ * that sub-cells are at most SUB_DEGREES wide (tiny maps of a few pixels stay accurate). */
+#define SUB_MIN 8
+#define SUB_MAX 256
+#define SUB_DEGREES 0.25
 
 typedef struct irradiance_tables {
-    int32_t w, h;
+    int32_t w, h, sub;
     double *sx, *sy;        /* per column: sin phi1 - sin phi0, cos phi0 - cos phi1 */
     double *ccos, *csin;    /* per column: cos, sin of the centre phi */
     double *ri, *rz;        /* per row: I, (phi1 - phi0)(sin^2 t1 - sin^2 t0) / 2 */
     double *rho;            /* per row: angular radius of a pixel (+ margin) */
-    double *subsx, *subsy, *subc, *subs;   /* per column x SUB sub-columns */
-    double *subri, *subrz, *subct, *subst; /* per row x SUB sub-rows */
+    double *subsx, *subsy, *subc, *subs;   /* per column x sub sub-columns */
+    double *subri, *subrz, *subct, *subst; /* per row x sub sub-rows */
 } irradiance_tables;
 
 static void free_tables(irradiance_tables *t) { free(t->sx); }
@@ -33,7 +36,10 @@ static void free_tables(irradiance_tables *t) { free(t->sx); }
 static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
 {
     int32_t w = m->width, h = m->height;
-    size_t n = (size_t)4 * w + 3 * (size_t)h + 4 * (size_t)w * SUB + 4 * (size_t)h * SUB;
+    double pixel_deg = fmax(360.0 / w, 180.0 / h);
+    int32_t sub = (int32_t)fmin(SUB_MAX, fmax(SUB_MIN, ceil(pixel_deg / SUB_DEGREES)));
+    t->sub = sub;
+    size_t n = (size_t)4 * w + 3 * (size_t)h + 4 * (size_t)w * sub + 4 * (size_t)h * sub;
     double *mem = malloc(sizeof(double) * n);
     if (!mem)
         return envl__fail(ENVL_ERR_MEMORY, "irradiance: out of memory");
@@ -47,13 +53,13 @@ static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
     t->rz = t->ri + h;
     t->rho = t->rz + h;
     t->subsx = t->rho + h;
-    t->subsy = t->subsx + (size_t)w * SUB;
-    t->subc = t->subsy + (size_t)w * SUB;
-    t->subs = t->subc + (size_t)w * SUB;
-    t->subri = t->subs + (size_t)w * SUB;
-    t->subrz = t->subri + (size_t)h * SUB;
-    t->subct = t->subrz + (size_t)h * SUB;
-    t->subst = t->subct + (size_t)h * SUB;
+    t->subsy = t->subsx + (size_t)w * sub;
+    t->subc = t->subsy + (size_t)w * sub;
+    t->subs = t->subc + (size_t)w * sub;
+    t->subri = t->subs + (size_t)w * sub;
+    t->subrz = t->subri + (size_t)h * sub;
+    t->subct = t->subrz + (size_t)h * sub;
+    t->subst = t->subct + (size_t)h * sub;
     const double dphi = 2.0 * ENVL_PI / w;
     for (int32_t c = 0; c < w; c++) {
         /* column c spans u in [c/W, (c+1)/W]: phi from pi(1 - 2(c+1)/W) up to pi(1 - 2c/W) */
@@ -62,9 +68,9 @@ static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
         t->sy[c] = cos(p0) - cos(p1);
         t->ccos[c] = m->col_cos[c];
         t->csin[c] = m->col_sin[c];
-        for (int j = 0; j < SUB; j++) {
-            double q0 = p0 + (p1 - p0) * j / SUB, q1 = p0 + (p1 - p0) * (j + 1) / SUB;
-            size_t k = (size_t)c * SUB + j;
+        for (int j = 0; j < sub; j++) {
+            double q0 = p0 + (p1 - p0) * j / sub, q1 = p0 + (p1 - p0) * (j + 1) / sub;
+            size_t k = (size_t)c * sub + j;
             t->subsx[k] = sin(q1) - sin(q0);
             t->subsy[k] = cos(q0) - cos(q1);
             t->subc[k] = cos(0.5 * (q0 + q1));
@@ -82,11 +88,11 @@ static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
             widest = 1.0;
         double dt = t1 - t0, dw = dphi * widest;
         t->rho[r] = 0.5 * sqrt(dt * dt + dw * dw) * 1.0001 + 1e-12;
-        for (int j = 0; j < SUB; j++) {
-            double a1 = t1 - (t1 - t0) * j / SUB, a0 = t1 - (t1 - t0) * (j + 1) / SUB;
-            size_t k = (size_t)r * SUB + j;
+        for (int j = 0; j < sub; j++) {
+            double a1 = t1 - (t1 - t0) * j / sub, a0 = t1 - (t1 - t0) * (j + 1) / sub;
+            size_t k = (size_t)r * sub + j;
             t->subri[k] = 0.5 * ((a1 - a0) + sin(a1) * cos(a1) - sin(a0) * cos(a0));
-            t->subrz[k] = dphi / SUB * 0.5 * (sin(a1) * sin(a1) - sin(a0) * sin(a0));
+            t->subrz[k] = dphi / sub * 0.5 * (sin(a1) * sin(a1) - sin(a0) * sin(a0));
             t->subct[k] = cos(0.5 * (a0 + a1));
             t->subst[k] = sin(0.5 * (a0 + a1));
         }
@@ -99,11 +105,12 @@ static double straddling_pixel(const irradiance_tables *t, const double n[3], in
                                int32_t r)
 {
     double acc = 0.0;
-    for (int i = 0; i < SUB; i++) {
-        size_t ri = (size_t)r * SUB + i;
+    const int32_t sub = t->sub;
+    for (int i = 0; i < sub; i++) {
+        size_t ri = (size_t)r * sub + i;
         double ct = t->subct[ri], st = t->subst[ri], I = t->subri[ri], Z = t->subrz[ri];
-        for (int j = 0; j < SUB; j++) {
-            size_t cj = (size_t)c * SUB + j;
+        for (int j = 0; j < sub; j++) {
+            size_t cj = (size_t)c * sub + j;
             double centre = ct * (n[0] * t->subc[cj] + n[1] * t->subs[cj]) + n[2] * st;
             if (centre > 0)
                 acc += I * (n[0] * t->subsx[cj] + n[1] * t->subsy[cj]) + n[2] * Z;

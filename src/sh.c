@@ -68,18 +68,23 @@ static void project_rows(void *arg, int64_t begin, int64_t end)
         goto out; /* row_coef stays zero; the caller checks the allocation up front */
     for (int64_t r = begin; r < end; r++) {
         /* Theta_lm(r) = integral over the row of (Y_lm at phi = 0, i.e. without the azimuth
-         * factor) cos t dt, by Gauss-Legendre in t. */
+         * factor) cos t dt, by Gauss-Legendre in t on pieces no taller than pi / 64 (a map only
+         * a few rows tall needs them). */
         double t1 = ENVL_PI * (0.5 - (double)r / m->height);
         double t0 = ENVL_PI * (0.5 - (r + 1.0) / m->height);
+        int32_t pieces = (64 + m->height - 1) / m->height;
         memset(theta, 0, sizeof(double) * n);
-        for (int g = 0; g < GAUSS; g++) {
-            double t = 0.5 * (t0 + t1) + 0.5 * (t1 - t0) * gauss_x[g];
-            double wt = 0.5 * (t1 - t0) * gauss_w[g] * cos(t);
-            double d[3] = {cos(t), 0.0, sin(t)};
-            envl_sh_eval(L, d, y);
-            for (int32_t l = 0; l <= L; l++)
-                for (int32_t mm = 0; mm <= l; mm++)
-                    theta[l * (l + 1) + mm] += wt * y[l * (l + 1) + mm];
+        for (int32_t q = 0; q < pieces; q++) {
+            double a0 = t0 + (t1 - t0) * q / pieces, a1 = t0 + (t1 - t0) * (q + 1) / pieces;
+            for (int g = 0; g < GAUSS; g++) {
+                double t = 0.5 * (a0 + a1) + 0.5 * (a1 - a0) * gauss_x[g];
+                double wt = 0.5 * (a1 - a0) * gauss_w[g] * cos(t);
+                double d[3] = {cos(t), 0.0, sin(t)};
+                envl_sh_eval(L, d, y);
+                for (int32_t l = 0; l <= L; l++)
+                    for (int32_t mm = 0; mm <= l; mm++)
+                        theta[l * (l + 1) + mm] += wt * y[l * (l + 1) + mm];
+            }
         }
         /* S_m = sum over the row of L(c) Phi_m(c), for m = -L..L, per channel. */
         memset(s, 0, sizeof(double) * nm * 3);
@@ -147,8 +152,11 @@ static envl_result project(const envl_envmap *m, int32_t L, double *coef)
     return ENVL_OK;
 }
 
-/* Hann-type factor of band l for width wd (wd >= order + 1): (1 + cos(pi l / wd)) / 2. */
-static double hann(int32_t l, double wd) { return wd > 0 ? 0.5 * (1 + cos(ENVL_PI * l / wd)) : 1; }
+/* Hann-type factor of band l for width wd: (1 + cos(pi l / wd)) / 2 for l < wd, else 0. */
+static double hann(int32_t l, double wd)
+{
+    return wd <= 0 ? 1.0 : l < wd ? 0.5 * (1 + cos(ENVL_PI * l / wd)) : 0.0;
+}
 
 static void apply_window(envl_sh *sh, const double *raw, const double *factors)
 {
@@ -238,24 +246,19 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
     apply_window(sh, raw, sh->window);
     s->min_irradiance = min_irradiance(sh, dirs, buf, y);
     if (o->window == ENVL_WINDOW_AUTO && s->min_irradiance < 0) {
-        /* The least windowing: the largest Hann width wd in [L+1, inf) with non-negative
-         * irradiance, by bisection on 1/wd in (0, 1/(L+1)]. Width L+1 is the plain Hann window;
-         * if even that rings, report it as it is. */
-        double lo = 0.0, hi = 1.0 / (L + 1); /* lo: rings (no window), hi: candidate */
-        for (int32_t l = 0; l <= L; l++)
-            sh->window[l] = hann(l, L + 1);
-        apply_window(sh, raw, sh->window);
-        if (min_irradiance(sh, dirs, buf, y) >= 0) {
-            for (int it = 0; it < 40; it++) {
-                double mid = 0.5 * (lo + hi);
-                for (int32_t l = 0; l <= L; l++)
-                    sh->window[l] = hann(l, 1.0 / mid);
-                apply_window(sh, raw, sh->window);
-                if (min_irradiance(sh, dirs, buf, y) >= 0)
-                    hi = mid;
-                else
-                    lo = mid;
-            }
+        /* The least windowing: the largest Hann width wd with non-negative irradiance, by
+         * bisection on 1/wd in (0, 1]. Width L+1 is the plain Hann window; narrower ones
+         * window harder, down to wd = 1 (band 0 only: the mean, never negative). */
+        double lo = 0.0, hi = 1.0; /* lo: rings (no window), hi: non-negative */
+        for (int it = 0; it < 50; it++) {
+            double mid = 0.5 * (lo + hi);
+            for (int32_t l = 0; l <= L; l++)
+                sh->window[l] = hann(l, 1.0 / mid);
+            apply_window(sh, raw, sh->window);
+            if (min_irradiance(sh, dirs, buf, y) >= 0)
+                hi = mid;
+            else
+                lo = mid;
         }
         for (int32_t l = 0; l <= L; l++)
             sh->window[l] = hann(l, 1.0 / hi);
