@@ -12,12 +12,17 @@
  *   D = (I (sin phi1 - sin phi0), I (cos phi0 - cos phi1), (phi1 - phi0)(sin^2 t1 - sin^2 t0)/2)
  *   I = integral cos^2 t dt = ((t1 - t0) + sin t1 cos t1 - sin t0 cos t0) / 2.
  * n . D = I_r (nx Sx_c + ny Sy_c) + nz Z_r: per-column and per-row factors, one multiply-add
- * per pixel. A pixel whose centre is within its angular radius of the horizon of n straddles
- * it: it is cut into S x S sub-cells, each counted by its own exact moment when its centre
- * is lit. (The plain midpoint sum L dw max(0, n.d_centre) is off by O(h^2); this leaves only
- * the sub-cells on the horizon, O(h^3 / S^2).) S is at least 8, and more for big pixels, so
- * that sub-cells are at most SUB_DEGREES wide (tiny maps of a few pixels stay accurate). */
-#define SUB_MIN 8
+ * per pixel.
+ *
+ * A pixel whose centre is within its angular radius of the horizon of n straddles it. Along
+ * one azimuth phi, n.d = A cos t + B sin t (A = nx cos phi + ny sin phi, B = nz) is lit on one
+ * side of t* = atan(-A/B), so the integral over t is closed form:
+ *   integral (A cos t + B sin t) cos t dt = A (t + sin t cos t)/2 + B sin^2 t / 2
+ * over [t0, t1] clipped to the lit side. Only azimuth is sampled: `sub` slices per pixel (at
+ * least SUB_MIN, and more for wide pixels so that a slice is at most SUB_DEGREES wide). The
+ * plain midpoint sum L dw max(0, n.d_centre) is off by O(h^2); this leaves O((h/sub)^2) on the
+ * horizon's pixels only. */
+#define SUB_MIN 4
 #define SUB_MAX 256
 #define SUB_DEGREES 0.25
 
@@ -27,8 +32,8 @@ typedef struct irradiance_tables {
     double *ccos, *csin;    /* per column: cos, sin of the centre phi */
     double *ri, *rz;        /* per row: I, (phi1 - phi0)(sin^2 t1 - sin^2 t0) / 2 */
     double *rho;            /* per row: angular radius of a pixel (+ margin) */
-    double *subsx, *subsy, *subc, *subs;   /* per column x sub sub-columns */
-    double *subri, *subrz, *subct, *subst; /* per row x sub sub-rows */
+    double *t0, *t1, *s0, *c0, *s1, *c1; /* per row: edges, their sin and cos */
+    double *subc, *subs;    /* per column x sub slices: cos, sin of the slice's centre phi */
 } irradiance_tables;
 
 static void free_tables(irradiance_tables *t) { free(t->sx); }
@@ -36,30 +41,30 @@ static void free_tables(irradiance_tables *t) { free(t->sx); }
 static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
 {
     int32_t w = m->width, h = m->height;
-    double pixel_deg = fmax(360.0 / w, 180.0 / h);
-    int32_t sub = (int32_t)fmin(SUB_MAX, fmax(SUB_MIN, ceil(pixel_deg / SUB_DEGREES)));
+    int32_t sub = (int32_t)fmin(SUB_MAX, fmax(SUB_MIN, ceil(360.0 / w / SUB_DEGREES)));
     t->sub = sub;
-    size_t n = (size_t)4 * w + 3 * (size_t)h + 4 * (size_t)w * sub + 4 * (size_t)h * sub;
+    size_t n = (size_t)4 * w + 9 * (size_t)h + 2 * (size_t)w * sub;
     double *mem = malloc(sizeof(double) * n);
     if (!mem)
         return envl__fail(ENVL_ERR_MEMORY, "irradiance: out of memory");
     t->w = w;
     t->h = h;
-    t->sx = mem;
-    t->sy = t->sx + w;
-    t->ccos = t->sy + w;
-    t->csin = t->ccos + w;
-    t->ri = t->csin + w;
-    t->rz = t->ri + h;
-    t->rho = t->rz + h;
-    t->subsx = t->rho + h;
-    t->subsy = t->subsx + (size_t)w * sub;
-    t->subc = t->subsy + (size_t)w * sub;
-    t->subs = t->subc + (size_t)w * sub;
-    t->subri = t->subs + (size_t)w * sub;
-    t->subrz = t->subri + (size_t)h * sub;
-    t->subct = t->subrz + (size_t)h * sub;
-    t->subst = t->subct + (size_t)h * sub;
+    double *q = mem;
+    t->sx = q, q += w;
+    t->sy = q, q += w;
+    t->ccos = q, q += w;
+    t->csin = q, q += w;
+    t->ri = q, q += h;
+    t->rz = q, q += h;
+    t->rho = q, q += h;
+    t->t0 = q, q += h;
+    t->t1 = q, q += h;
+    t->s0 = q, q += h;
+    t->c0 = q, q += h;
+    t->s1 = q, q += h;
+    t->c1 = q, q += h;
+    t->subc = q, q += (size_t)w * sub;
+    t->subs = q;
     const double dphi = 2.0 * ENVL_PI / w;
     for (int32_t c = 0; c < w; c++) {
         /* column c spans u in [c/W, (c+1)/W]: phi from pi(1 - 2(c+1)/W) up to pi(1 - 2c/W) */
@@ -68,19 +73,22 @@ static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
         t->sy[c] = cos(p0) - cos(p1);
         t->ccos[c] = m->col_cos[c];
         t->csin[c] = m->col_sin[c];
-        for (int j = 0; j < sub; j++) {
-            double q0 = p0 + (p1 - p0) * j / sub, q1 = p0 + (p1 - p0) * (j + 1) / sub;
-            size_t k = (size_t)c * sub + j;
-            t->subsx[k] = sin(q1) - sin(q0);
-            t->subsy[k] = cos(q0) - cos(q1);
-            t->subc[k] = cos(0.5 * (q0 + q1));
-            t->subs[k] = sin(0.5 * (q0 + q1));
+        for (int32_t j = 0; j < sub; j++) {
+            double phi = p0 + (p1 - p0) * (j + 0.5) / sub;
+            t->subc[(size_t)c * sub + j] = cos(phi);
+            t->subs[(size_t)c * sub + j] = sin(phi);
         }
     }
     for (int32_t r = 0; r < h; r++) {
         double t1 = ENVL_PI * (0.5 - (double)r / h), t0 = ENVL_PI * (0.5 - (r + 1.0) / h);
         t->ri[r] = 0.5 * ((t1 - t0) + sin(t1) * cos(t1) - sin(t0) * cos(t0));
         t->rz[r] = dphi * 0.5 * (sin(t1) * sin(t1) - sin(t0) * sin(t0));
+        t->t0[r] = t0;
+        t->t1[r] = t1;
+        t->s0[r] = sin(t0);
+        t->c0[r] = cos(t0);
+        t->s1[r] = sin(t1);
+        t->c1[r] = cos(t1);
         /* Over the pixel, n.d moves from its centre value by at most the angle from the centre
          * to a corner: half the diagonal, the width taken at the row's widest latitude. */
         double widest = fmax(cos(t0), cos(t1));
@@ -88,35 +96,45 @@ static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
             widest = 1.0;
         double dt = t1 - t0, dw = dphi * widest;
         t->rho[r] = 0.5 * sqrt(dt * dt + dw * dw) * 1.0001 + 1e-12;
-        for (int j = 0; j < sub; j++) {
-            double a1 = t1 - (t1 - t0) * j / sub, a0 = t1 - (t1 - t0) * (j + 1) / sub;
-            size_t k = (size_t)r * sub + j;
-            t->subri[k] = 0.5 * ((a1 - a0) + sin(a1) * cos(a1) - sin(a0) * cos(a0));
-            t->subrz[k] = dphi / sub * 0.5 * (sin(a1) * sin(a1) - sin(a0) * sin(a0));
-            t->subct[k] = cos(0.5 * (a0 + a1));
-            t->subst[k] = sin(0.5 * (a0 + a1));
-        }
     }
     return ENVL_OK;
 }
 
-/* Integral of max(0, n.d) over pixel (c, r) by its sub-cells. */
+/* Integral of max(0, n.d) over pixel (c, r): exact in elevation, `sub` slices in azimuth. */
 static double straddling_pixel(const irradiance_tables *t, const double n[3], int32_t c,
                                int32_t r)
 {
-    double acc = 0.0;
     const int32_t sub = t->sub;
-    for (int i = 0; i < sub; i++) {
-        size_t ri = (size_t)r * sub + i;
-        double ct = t->subct[ri], st = t->subst[ri], I = t->subri[ri], Z = t->subrz[ri];
-        for (int j = 0; j < sub; j++) {
-            size_t cj = (size_t)c * sub + j;
-            double centre = ct * (n[0] * t->subc[cj] + n[1] * t->subs[cj]) + n[2] * st;
-            if (centre > 0)
-                acc += I * (n[0] * t->subsx[cj] + n[1] * t->subsy[cj]) + n[2] * Z;
+    const double B = n[2], slice = 2.0 * ENVL_PI / t->w / sub;
+    double acc = 0.0;
+    for (int32_t j = 0; j < sub; j++) {
+        size_t k = (size_t)c * sub + j;
+        double A = n[0] * t->subc[k] + n[1] * t->subs[k];
+        /* lit side of t* (A cos t* + B sin t* = 0, t* in [-pi/2, pi/2]) */
+        double a = t->t0[r], sa = t->s0[r], ca = t->c0[r];
+        double b = t->t1[r], sb = t->s1[r], cb = t->c1[r];
+        if (B == 0.0) {
+            if (!(A > 0))
+                continue;
+        } else {
+            double R = sqrt(A * A + B * B);
+            double ss = (B > 0 ? -A : A) / R, cs = fabs(B) / R; /* sin t*, cos t* */
+            double ts = atan2(ss, cs);
+            if (B > 0) { /* lit above t* */
+                if (ts >= b)
+                    continue;
+                if (ts > a)
+                    a = ts, sa = ss, ca = cs;
+            } else {     /* lit below t* */
+                if (ts <= a)
+                    continue;
+                if (ts < b)
+                    b = ts, sb = ss, cb = cs;
+            }
         }
+        acc += A * 0.5 * ((b - a) + sb * cb - sa * ca) + B * 0.5 * (sb * sb - sa * sa);
     }
-    return acc;
+    return acc * slice;
 }
 
 static void irradiance_one(const envl_envmap *m, const irradiance_tables *t, const double n[3],

@@ -69,12 +69,12 @@ static envl_envmap *constant_map(int w, int h, float v)
 
 /* White furnace: L00 = 2 sqrt(pi) L exactly, every other coefficient below 1e-6 of it, any
  * order; irradiance pi L everywhere. The error measure compares with the integrator, exact
- * but for the sub-cells on each normal's horizon: relative error at most 4 (h/S)^2 with h the
- * pixel's angular size and S = clamp(h / 0.25 degree, 8, 256) sub-cells a side. */
+ * but on each normal's horizon, where pixels are sliced in azimuth only: relative error at
+ * most 4 (h/S)^2, h the column's angular width, S = clamp(h / 0.25 degree, 4, 256) slices. */
 static void check_furnace(envl_envmap *m, double value)
 {
-    double hdeg = fmax(360.0 / envl_envmap_width(m), 180.0 / envl_envmap_height(m));
-    double sub = fmin(256, fmax(8, ceil(hdeg / 0.25)));
+    double hdeg = 360.0 / envl_envmap_width(m);
+    double sub = fmin(256, fmax(4, ceil(hdeg / 0.25)));
     double hs = hdeg / sub * PI / 180;
     envl_sh *sh;
     CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.bands = 9}, &sh));
