@@ -15,6 +15,7 @@
  * for our own error text; nothing is printed on stderr.
  */
 #include "internal.h"
+#include "color.h"
 
 #include <openexr.h>
 
@@ -108,65 +109,7 @@ static int64_t exr_fd_write(exr_const_context_t ctxt, void *userdata, const void
 
 /* ---- colour: primaries -> XYZ ------------------------------------------------------------- */
 
-static const float rec709_chroma[8] = {0.64f, 0.33f, 0.30f, 0.60f, 0.15f, 0.06f, 0.3127f, 0.3290f};
-
-static double det3(const double m[3][3])
-{
-    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-           m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-}
-
-static bool invert3(const double m[3][3], double inv[3][3])
-{
-    double d = det3(m);
-    if (!(fabs(d) > 1e-12) || !isfinite(d))
-        return false;
-    inv[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / d;
-    inv[0][1] = (m[0][2] * m[2][1] - m[0][1] * m[2][2]) / d;
-    inv[0][2] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) / d;
-    inv[1][0] = (m[1][2] * m[2][0] - m[1][0] * m[2][2]) / d;
-    inv[1][1] = (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / d;
-    inv[1][2] = (m[0][2] * m[1][0] - m[0][0] * m[1][2]) / d;
-    inv[2][0] = (m[1][0] * m[2][1] - m[1][1] * m[2][0]) / d;
-    inv[2][1] = (m[0][1] * m[2][0] - m[0][0] * m[2][1]) / d;
-    inv[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) / d;
-    return true;
-}
-
-/* RGB -> XYZ matrix (column vectors: XYZ = M * RGB) of primaries c = {xr, yr, xg, yg, xb, yb,
- * xw, yw}, normalised so that RGB (1,1,1) is the white point with luminance Y = 1:
- *   P = [xr xg xb; yr yg yb; zr zg zb] with z = 1 - x - y (each column a primary's xyz),
- *   W = (xw / yw, 1, zw / yw)  (the white point's XYZ at Y = 1),
- *   S = P^-1 W,   M = P diag(S).
- * Written with unnormalised primary columns (as OpenEXR's RGBtoXYZ does) so a primary with
- * y = 0, such as the blue of the XYZ "primaries" (0, 0), needs no division by its y.
- * False when the primaries are degenerate. */
-static bool rgb_to_xyz_matrix(const float c[8], double m[3][3])
-{
-    for (int i = 0; i < 8; i++)
-        if (!isfinite(c[i]))
-            return false;
-    double xw = c[6], yw = c[7];
-    if (!(fabs(yw) > 1e-9))
-        return false;
-    double p[3][3], pinv[3][3];
-    for (int j = 0; j < 3; j++) {
-        double x = c[2 * j], y = c[2 * j + 1];
-        p[0][j] = x;
-        p[1][j] = y;
-        p[2][j] = 1.0 - x - y;
-    }
-    if (!invert3(p, pinv))
-        return false;
-    double w[3] = {xw / yw, 1.0, (1.0 - xw - yw) / yw};
-    for (int j = 0; j < 3; j++) {
-        double s = pinv[j][0] * w[0] + pinv[j][1] * w[1] + pinv[j][2] * w[2];
-        for (int i = 0; i < 3; i++)
-            m[i][j] = p[i][j] * s;
-    }
-    return true;
-}
+static const double rec709_chroma[8] = {0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290};
 
 /* ---- channels ----------------------------------------------------------------------------- */
 
@@ -740,12 +683,13 @@ static envl_result read_part(exr_context_t ctxt, exr_stream *s, const char *name
                                   : env == EXR_ENVMAP_CUBE  ? ENVL_LAYOUT_EXR_CUBE
                                                             : 0;
     exr_attr_chromaticities_t chr;
-    float chroma[8];
+    double chroma[8];
     memcpy(chroma, rec709_chroma, sizeof chroma);
     if (exr_attr_get_chromaticities(ctxt, part, "chromaticities", &chr) == EXR_ERR_SUCCESS) {
         float c[8] = {chr.red_x, chr.red_y, chr.green_x, chr.green_y,
                       chr.blue_x, chr.blue_y, chr.white_x, chr.white_y};
-        memcpy(chroma, c, sizeof c);
+        for (int i = 0; i < 8; i++)
+            chroma[i] = c[i];
         memcpy(out->meta.primaries, c, sizeof c);
         out->meta.has_primaries = 1;
     }
@@ -809,9 +753,9 @@ static envl_result read_part(exr_context_t ctxt, exr_stream *s, const char *name
     }
 
     double to_xyz[3][3], xyz709[3][3], to709[3][3], m[3][3];
-    bool chroma_ok = rgb_to_xyz_matrix(chroma, to_xyz);
+    bool chroma_ok = envl__rgb_to_xyz_matrix(chroma, to_xyz);
     if (!chroma_ok)
-        rgb_to_xyz_matrix(rec709_chroma, to_xyz);
+        envl__rgb_to_xyz_matrix(rec709_chroma, to_xyz);
     if (r.pick.mode == PICK_GREY) {
         for (size_t i = 0; i < npx; i++)
             px[3 * i + 1] = px[3 * i + 2] = px[3 * i];
@@ -835,13 +779,11 @@ static envl_result read_part(exr_context_t ctxt, exr_stream *s, const char *name
     /* Other primaries: RGB -> XYZ -> linear Rec.709 (no white-point adaptation, as OpenEXR). */
     bool is709 = true;
     for (int i = 0; i < 8; i++)
-        if (fabsf(chroma[i] - rec709_chroma[i]) > 1e-3f)
+        if (fabs(chroma[i] - rec709_chroma[i]) > 1e-3)
             is709 = false;
-    if (!is709 && chroma_ok && rgb_to_xyz_matrix(rec709_chroma, xyz709) && invert3(xyz709, m)) {
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++)
-                to709[i][j] = m[i][0] * to_xyz[0][j] + m[i][1] * to_xyz[1][j] +
-                              m[i][2] * to_xyz[2][j];
+    if (!is709 && chroma_ok && envl__rgb_to_xyz_matrix(rec709_chroma, xyz709) &&
+        envl__invert3(xyz709, m)) {
+        envl__mul3(m, to_xyz, to709);
         for (size_t i = 0; i < npx; i++) {
             float *p = px + 3 * i;
             double a = p[0], b = p[1], c = p[2];

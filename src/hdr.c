@@ -22,6 +22,7 @@
  * and of the buffer; failures name the file, the byte offset and what was expected.
  */
 #include "internal.h"
+#include "color.h"
 
 #include <errno.h>
 #include <math.h>
@@ -63,36 +64,6 @@ static const double hdr_ivkmat[3][3] = {{0.8156, 0.0472, 0.1372},
                                         {0.3791, 0.5769, 0.0440},
                                         {-0.0123, 0.0167, 0.9955}};
 
-static double det3(const double m[3][3])
-{
-    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-           m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-}
-
-/* Inverse by cofactors; 0 if (near) singular. */
-static int invert3(const double m[3][3], double inv[3][3])
-{
-    double d = det3(m);
-    if (!(fabs(d) > 1e-12))
-        return 0;
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++) {
-            int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
-            inv[i][j] = (m[i1][j1] * m[i2][j2] - m[i1][j2] * m[i2][j1]) / d;
-        }
-    return 1;
-}
-
-static void mul3(const double a[3][3], const double b[3][3], double out[3][3])
-{
-    double t[3][3];
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            t[i][j] = a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j];
-    memcpy(out, t, sizeof t);
-}
-
 /* XYZ of chromaticity (x, y) at Y = 1. */
 static int white_xyz(double x, double y, double w[3])
 {
@@ -104,33 +75,11 @@ static int white_xyz(double x, double y, double w[3])
     return 1;
 }
 
-/* RGB -> XYZ for primaries p (rx ry gx gy bx by wx wy); 0 if degenerate. */
-static int rgb_to_xyz_matrix(const double p[8], double m[3][3])
-{
-    double prim[3][3], inv[3][3], w[3];
-    for (int i = 0; i < 3; i++) {
-        double x = p[2 * i], y = p[2 * i + 1];
-        if (!(fabs(y) > 1e-9))
-            return 0;
-        prim[0][i] = x / y;
-        prim[1][i] = 1.0;
-        prim[2][i] = (1.0 - x - y) / y;
-    }
-    if (!white_xyz(p[6], p[7], w) || !invert3(prim, inv))
-        return 0;
-    for (int i = 0; i < 3; i++) {
-        double s = inv[i][0] * w[0] + inv[i][1] * w[1] + inv[i][2] * w[2];
-        for (int r = 0; r < 3; r++)
-            m[r][i] = prim[r][i] * s;
-    }
-    return 1;
-}
-
 /* ra_xyze -r's matrix for primaries p; 0 if they do not span a colour space. */
 static int xyz_to_rgb_matrix(const double p[8], double out[3][3])
 {
     double m[3][3];
-    if (!rgb_to_xyz_matrix(p, m) || !invert3(m, out))
+    if (!envl__rgb_to_xyz_matrix(p, m) || !envl__invert3(m, out))
         return 0;
     if (fabs(p[6] - 1.0 / 3.0) > 1e-4 || fabs(p[7] - 1.0 / 3.0) > 1e-4) {
         double w1[3] = {0}, w2[3] = {0}, c1[3], c2[3], d[3][3] = {{0}};
@@ -144,9 +93,9 @@ static int xyz_to_rgb_matrix(const double p[8], double out[3][3])
             d[i][i] = c2[i] / c1[i];
         }
         double wb[3][3];
-        mul3(hdr_ivkmat, d, wb);
-        mul3(wb, hdr_vkmat, wb);
-        mul3(out, wb, out);
+        envl__mul3(hdr_ivkmat, d, wb);
+        envl__mul3(wb, hdr_vkmat, wb);
+        envl__mul3(out, wb, out);
     }
     return 1;
 }
@@ -154,7 +103,7 @@ static int xyz_to_rgb_matrix(const double p[8], double out[3][3])
 static void xyz_image_to_rgb(float *px, size_t n, const double mat[3][3])
 {
     double mstd[3][3];
-    rgb_to_xyz_matrix(hdr_std_prims, mstd); /* cannot fail */
+    envl__rgb_to_xyz_matrix(hdr_std_prims, mstd); /* cannot fail */
     const double bf[3] = {mstd[1][0], mstd[1][1], mstd[1][2]}; /* Radiance's CIE_rf/gf/bf */
     for (size_t i = 0; i < n; i++, px += 3) {
         double x = px[0], y = px[1], z = px[2], c[3];

@@ -195,6 +195,8 @@ static int split_median(const envl_envmap *m, const double *sat, const region *r
     b->energy = r->energy - a->energy;
     if (b->energy < 0)
         b->energy = 0;
+    a->priority = a->energy;
+    b->priority = b->energy;
     normalise_columns(m, b);
 #undef PART
     return 1;
@@ -358,6 +360,7 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
     rs[0].energy = rect_energy(m, sat, rs[0].x0, rs[0].x1, 0, m->height);
     int32_t k = 1;
     if (method == ENVL_METHOD_MEDIAN) {
+        rs[0].priority = rs[0].energy;
         while (2 * k <= n) {
             int32_t before = k;
             for (int32_t i = 0; i < before; i++) {
@@ -370,45 +373,34 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
             if (k == before)
                 break;
         }
-        while (k < n) {
-            int32_t best = -1;
-            for (int32_t i = 0; i < k; i++)
-                if ((rs[i].x1 - rs[i].x0 > 1 || rs[i].y1 - rs[i].y0 > 1) &&
-                    (best < 0 || rs[i].energy > rs[best].energy))
-                    best = i;
-            if (best < 0)
-                break;
-            region a, b;
-            split_median(m, sat, &rs[best], &a, &b);
-            rs[best] = a;
-            rs[k++] = b;
-        }
     } else {
         rs[0].priority = region_variance(m, &rs[0]);
-        while (k < n) {
-            int32_t best = -1;
-            for (int32_t i = 0; i < k; i++)
-                if ((rs[i].x1 - rs[i].x0 > 1 || rs[i].y1 - rs[i].y0 > 1) &&
-                    (best < 0 || rs[i].priority > rs[best].priority))
-                    best = i;
-            if (best < 0)
-                break;
-            region a, b;
-            double va, vb;
-            int s = split_variance(m, &rs[best], &a, &b, &va, &vb);
+    }
+    /* Then the splittable region of highest priority (energy, or variance) next. */
+    while (k < n) {
+        int32_t best = -1;
+        for (int32_t i = 0; i < k; i++)
+            if ((rs[i].x1 - rs[i].x0 > 1 || rs[i].y1 - rs[i].y0 > 1) &&
+                (best < 0 || rs[i].priority > rs[best].priority))
+                best = i;
+        if (best < 0)
+            break;
+        region a, b;
+        if (method == ENVL_METHOD_MEDIAN) {
+            split_median(m, sat, &rs[best], &a, &b);
+        } else {
+            int s = split_variance(m, &rs[best], &a, &b, &a.priority, &b.priority);
             if (s < 0) {
                 free(rs);
                 return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
             }
             if (s == 0)
                 break;
-            a.priority = va;
-            b.priority = vb;
             a.energy = rect_energy(m, sat, a.x0, a.x1, a.y0, a.y1);
             b.energy = rect_energy(m, sat, b.x0, b.x1, b.y0, b.y1);
-            rs[best] = a;
-            rs[k++] = b;
         }
+        rs[best] = a;
+        rs[k++] = b;
     }
     *out = rs;
     *count = k;
