@@ -254,6 +254,9 @@ static const char main_help[] =
     "  convert IN OUT              convert between .hdr/.exr/.pfm and into the canonical lat-long\n"
     "  lights [FILE]               directional lights: median cut, variance cut, fit + SH remainder\n"
     "  sh [FILE]                   spherical harmonics of any order, windowed, artist forms\n"
+    "  pov [FILE] -o OUT.inc       POV-Ray include: light_sources, ambient, sky\n"
+    "  prefilter [FILE] -o DIR     irradiance map, GGX specular chain, RGBM atlas\n"
+    "  brdf-lut -o FILE            split-sum GGX BRDF table\n"
     "  bench [FILES...]            accuracy against time, as Markdown tables\n"
     "  version                     library version\n"
     "\n"
@@ -283,6 +286,12 @@ int main(int argc, char **argv)
         return cli_lights(argc - 1, argv + 1);
     if (!strcmp(cmd, "sh"))
         return cli_sh(argc - 1, argv + 1);
+    if (!strcmp(cmd, "pov"))
+        return cli_pov(argc - 1, argv + 1);
+    if (!strcmp(cmd, "prefilter"))
+        return cli_prefilter(argc - 1, argv + 1);
+    if (!strcmp(cmd, "brdf-lut"))
+        return cli_brdf_lut(argc - 1, argv + 1);
     if (!strcmp(cmd, "bench"))
         return cli_bench(argc - 1, argv + 1);
     fprintf(stderr, "envlight: unknown command '%s'\n\n%s", cmd, main_help);

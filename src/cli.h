@@ -59,5 +59,8 @@ int cli_convert(int argc, char **argv);
 int cli_lights(int argc, char **argv);
 int cli_bench(int argc, char **argv);
 int cli_sh(int argc, char **argv);
+int cli_pov(int argc, char **argv);
+int cli_prefilter(int argc, char **argv);
+int cli_brdf_lut(int argc, char **argv);
 
 #endif
