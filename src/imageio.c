@@ -8,6 +8,8 @@
 /* Whole-file read limit: a 2^28-pixel float RGBA EXR plus headroom. */
 #define ENVL_MAX_FILE_BYTES ((size_t)1 << 33)
 
+static const char *extension_format(const char *path);
+
 envl_result envl__read_image_memory(const uint8_t *data, size_t size, const char *name,
                                     const envl_limits *lim, envl_image *out)
 {
@@ -16,6 +18,15 @@ envl_result envl__read_image_memory(const uint8_t *data, size_t size, const char
         return envl__read_exr(data, size, name, lim, out);
     if (size >= 2 && data[0] == 'P' && (data[1] == 'F' || data[1] == 'f'))
         return envl__read_pfm(data, size, name, lim, out);
+    /* Content decides; but a file named .exr or .pfm whose first bytes are not that format's
+     * signature is reported as such, not as a malformed Radiance file. */
+    const char *ext = name ? extension_format(name) : NULL;
+    if (ext && !strcmp(ext, "exr"))
+        return envl__fail(ENVL_ERR_FORMAT, "%s: not an OpenEXR file (the first 4 bytes are not "
+                          "the magic number 76 2f 31 01)", name);
+    if (ext && !strcmp(ext, "pfm"))
+        return envl__fail(ENVL_ERR_FORMAT, "%s: not a PFM file (expected \"PF\" or \"Pf\")",
+                          name);
     /* Radiance: "#?RADIANCE", "#?RGBE", or a legacy file without the signature line. The
      * reader itself decides whether a header without signature is acceptable. */
     return envl__read_hdr(data, size, name, lim, out);

@@ -62,6 +62,17 @@ printf 'PF\n1000000 1000000\n-1\n' > huge.pfm
 expect 1 "absurd size refused before allocation" -- "$ENVLIGHT" info huge.pfm
 contains err.txt "exceeds the limit" "limit message"
 
+# A damaged file named .exr is reported as not being OpenEXR (when the data is present).
+if [ -f "$ENVL_SHARED_DATA/openexr/OpenEXRTest/invalid.exr" ]; then
+  expect 1 "invalid.exr" -- "$ENVLIGHT" info "$ENVL_SHARED_DATA/openexr/OpenEXRTest/invalid.exr"
+  contains err.txt "invalid.exr: not an OpenEXR file" "bad magic named"
+else
+  echo "SKIP: $ENVL_SHARED_DATA/openexr/OpenEXRTest/invalid.exr absent"
+fi
+printf 'garbage!' > bad.pfm
+expect 1 "bad pfm" -- "$ENVLIGHT" info bad.pfm
+contains err.txt "bad.pfm: not a PFM file" "bad pfm named"
+
 # convert: the sky to PFM, then back through info; sizes and power agree.
 expect 0 "convert sky to pfm" -- "$ENVLIGHT" convert - sky.pfm --sky-width 256
 expect 0 "info on the converted file" -- "$ENVLIGHT" info sky.pfm --json
