@@ -145,12 +145,23 @@ static int bench_speed(int width, const bench_opts *o)
         tl[r] = s.seconds;
         envl_lights_free(ls);
     }
-    double med = median_of(tl, o->runs);
+    double med = median_of(tl, o->runs), ts[16];
+    for (int r = 0; r < o->runs; r++) {
+        envl_sh *sh;
+        if (envl_sh_compute(m, &(envl_sh_options){.bands = 3}, &sh))
+            return cli_fail();
+        envl_sh_summary s;
+        envl_sh_get_summary(sh, &s);
+        ts[r] = s.seconds;
+        envl_sh_free(sh);
+    }
+    double sh2 = median_of(ts, o->runs);
     printf("\n#### Speed on a %d x %d map (built-in sky), medians of %d runs\n\n", width,
            width / 2, o->runs);
     printf("| stage | seconds | ratio to baseline | target |\n|---|---|---|---|\n");
     printf("| baseline: one pass summing the floats | %.4f | 1.00 | |\n", base);
     printf("| SAT + median cut, 256 lights | %.4f | %.2f | <= 3 |\n", med, med / base);
+    printf("| SH order 2 projection | %.4f | %.2f | <= 1.5 |\n", sh2, sh2 / base);
     printf("\npeak resident memory so far: %.0f MiB (the map's floats: %.0f MiB)\n",
            peak_rss_mib(), (double)width * (width / 2) * 12 / (1 << 20));
     if (sink == 42.0)

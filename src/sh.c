@@ -47,7 +47,7 @@ double envl_sh_cosine_lobe(int32_t l) { return envl_sh_cosine_factor(l); }
 typedef struct project_job {
     const envl_envmap *m;
     int32_t order, n;
-    const double *phi_tab;   /* (2 order + 1) x W: column integrals, index order + m */
+    const double *phi_tab;   /* W x (2 order + 1): column integrals, index c (2L+1) + L + m */
     double *row_coef;        /* H x n x 3: each row's contribution */
 } project_job;
 
@@ -56,6 +56,33 @@ static const double gauss_x[GAUSS] = {-0.8611363115940526, -0.3399810435848563,
                                       0.3399810435848563, 0.8611363115940526};
 static const double gauss_w[GAUSS] = {0.3478548451374538, 0.6521451548625461,
                                       0.6521451548625461, 0.3478548451374538};
+
+/* phi_tab is laid out column-major: phi_tab[c * nm + k] = Phi_(k - L)(c). */
+static void row_sums_any(const float *p, const double *phi, int32_t w, int32_t nm, double *s)
+{
+    memset(s, 0, sizeof(double) * nm * 3);
+    for (int32_t c = 0; c < w; c++, p += 3, phi += nm)
+        for (int32_t k = 0; k < nm; k++) {
+            s[3 * k] += phi[k] * p[0];
+            s[3 * k + 1] += phi[k] * p[1];
+            s[3 * k + 2] += phi[k] * p[2];
+        }
+}
+
+/* The same for order 2 (5 frequencies), with the 15 sums in registers. */
+static void row_sums_order2(const float *p, const double *phi, int32_t w, double *s)
+{
+    double a[15] = {0};
+    for (int32_t c = 0; c < w; c++, p += 3, phi += 5) {
+        double r = p[0], g = p[1], b = p[2];
+        for (int k = 0; k < 5; k++) {
+            a[3 * k] += phi[k] * r;
+            a[3 * k + 1] += phi[k] * g;
+            a[3 * k + 2] += phi[k] * b;
+        }
+    }
+    memcpy(s, a, sizeof a);
+}
 
 static void project_rows(void *arg, int64_t begin, int64_t end)
 {
@@ -86,21 +113,13 @@ static void project_rows(void *arg, int64_t begin, int64_t end)
                         theta[l * (l + 1) + mm] += wt * y[l * (l + 1) + mm];
             }
         }
-        /* S_m = sum over the row of L(c) Phi_m(c), for m = -L..L, per channel. */
-        memset(s, 0, sizeof(double) * nm * 3);
+        /* S_m = sum over the row of L(c) Phi_m(c), for m = -L..L, per channel: every column
+         * feeds 3 (2L+1) independent accumulators (no add waits for another). */
         const float *p = m->px + (size_t)r * w * 3;
-        for (int32_t k = 0; k < nm; k++) {
-            const double *ph = j->phi_tab + (size_t)k * w;
-            double a0 = 0, a1 = 0, a2 = 0;
-            for (int32_t c = 0; c < w; c++) {
-                a0 += ph[c] * p[3 * c];
-                a1 += ph[c] * p[3 * c + 1];
-                a2 += ph[c] * p[3 * c + 2];
-            }
-            s[3 * k] = a0;
-            s[3 * k + 1] = a1;
-            s[3 * k + 2] = a2;
-        }
+        if (L == 2)
+            row_sums_order2(p, j->phi_tab, w, s);
+        else
+            row_sums_any(p, j->phi_tab, w, nm, s);
         double *out = j->row_coef + (size_t)r * n * 3;
         for (int32_t l = 0; l <= L; l++)
             for (int32_t mm = -l; mm <= l; mm++) {
@@ -137,7 +156,7 @@ static envl_result project(const envl_envmap *m, int32_t L, double *coef)
                 v = (sin(mm * p1) - sin(mm * p0)) / mm;
             else
                 v = (cos(-mm * p0) - cos(-mm * p1)) / -mm;
-            phi_tab[(size_t)(L + mm) * w + c] = v;
+            phi_tab[(size_t)c * nm + (L + mm)] = v;
         }
     }
     project_job job = {m, L, n, phi_tab, row_coef};
