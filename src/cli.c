@@ -244,6 +244,7 @@ int cli_output_close(cli_output *o)
     return rc ? cli_fail() : CLI_OK;
 }
 
+#ifndef ENVL_NO_MAIN /* the option-parsing fuzzer has its own entry point */
 static const char main_help[] =
     "envlight: HDR environment images into lights, spherical harmonics and prefiltered maps.\n"
     "\n"
@@ -297,3 +298,4 @@ int main(int argc, char **argv)
     fprintf(stderr, "envlight: unknown command '%s'\n\n%s", cmd, main_help);
     return CLI_USAGE;
 }
+#endif
