@@ -4,10 +4,12 @@
 #include "cli.h"
 
 #include <dirent.h>
+#include <errno.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <time.h>
 
 static double now(void)
@@ -61,6 +63,38 @@ typedef struct bench_opts {
     int quick;
 } bench_opts;
 
+/* Every measured point, for the CSV and the plots. */
+typedef struct bench_point {
+    char map[128];
+    char series[32];  /* "median", "variance", "fit", "sh-none", ... : one curve each */
+    int param;        /* lights asked, or SH order */
+    int count;        /* lights used (SH: coefficients) */
+    double error, seconds;
+} bench_point;
+
+static bench_point *points;
+static int npoints, cap_points;
+
+static void record(const char *map, const char *series, int param, int count, double error,
+                   double seconds)
+{
+    if (npoints == cap_points) {
+        int cap = cap_points ? 2 * cap_points : 256;
+        bench_point *p = realloc(points, sizeof *p * cap);
+        if (!p)
+            return;
+        points = p;
+        cap_points = cap;
+    }
+    bench_point *b = &points[npoints++];
+    snprintf(b->map, sizeof b->map, "%s", map);
+    snprintf(b->series, sizeof b->series, "%s", series);
+    b->param = param;
+    b->count = count;
+    b->error = error;
+    b->seconds = seconds;
+}
+
 /* One lights configuration: median seconds over runs (tables dropped before each), error. */
 static int bench_lights_one(envl_envmap *m, int method, int n, const bench_opts *o,
                             double *seconds, double *error, int *count)
@@ -83,7 +117,7 @@ static int bench_lights_one(envl_envmap *m, int method, int n, const bench_opts 
     return CLI_OK;
 }
 
-static int bench_lights_table(const char *name, envl_envmap *m, const bench_opts *o, FILE *csv)
+static int bench_lights_table(const char *name, envl_envmap *m, const bench_opts *o)
 {
     static const int counts[] = {1, 2, 4, 8, 16, 32, 64, 128, 256};
     int ncounts = o->quick ? 5 : 9;
@@ -114,13 +148,152 @@ static int bench_lights_table(const char *name, envl_envmap *m, const bench_opts
             else
                 printf(" %.3f (%.3f s) |", 100 * err, sec);
             fflush(stdout);
-            if (csv)
-                fprintf(csv, "%s,lights,%s,%d,%d,%.9g,%.9g\n", name, envl_method_name(method), n,
-                        count, err, sec);
+            record(name, envl_method_name(method), n, count, err, sec);
         }
         printf("\n");
     }
     return CLI_OK;
+}
+
+/* SH order 1..8 with each window: error of the irradiance, median seconds. */
+static int bench_sh_table(const char *name, envl_envmap *m, const bench_opts *o)
+{
+    int maxorder = o->quick ? 4 : 8;
+    printf("\n#### SH irradiance: %s\n\ndiffuse error %% (seconds)\n\n| window |", name);
+    for (int l = 1; l <= maxorder; l++)
+        printf(" order %d |", l);
+    printf("\n|---|");
+    for (int l = 1; l <= maxorder; l++)
+        printf("---|");
+    printf("\n");
+    for (int w = 0; w < ENVL_WINDOW_COUNT; w++) {
+        printf("| %s |", envl_window_name(w));
+        for (int l = 1; l <= maxorder; l++) {
+            double t[16], err = 0;
+            for (int r = 0; r < o->runs; r++) {
+                envl_sh *sh;
+                if (envl_sh_compute(m, &(envl_sh_options){.bands = l + 1, .window = w}, &sh))
+                    return cli_fail();
+                envl_sh_summary s;
+                envl_sh_get_summary(sh, &s);
+                t[r] = s.seconds;
+                err = s.diffuse_error;
+                envl_sh_free(sh);
+            }
+            double sec = median_of(t, o->runs);
+            printf(" %.3f (%.4f s) |", 100 * err, sec);
+            fflush(stdout);
+            char series[32];
+            snprintf(series, sizeof series, "sh-%s", envl_window_name(w));
+            record(name, series, l, (l + 1) * (l + 1), err, sec);
+        }
+        printf("\n");
+    }
+    return CLI_OK;
+}
+
+static void plot_name(const char *map, char *out, size_t n)
+{
+    size_t k = 0;
+    for (const char *p = map; *p && k + 1 < n; p++)
+        out[k++] = (char)((*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') ||
+                                  (*p >= '0' && *p <= '9') || *p == '_' || *p == '-'
+                              ? *p
+                              : '_');
+    out[k] = '\0';
+}
+
+/* One PNG per map (gnuplot): error against seconds, log axes, a curve per series, the Pareto
+ * front (no other point both faster and more accurate) drawn over them. */
+static int write_plots(const char *dir)
+{
+    char path[4096];
+    int rc = CLI_OK;
+    for (int i = 0; i < npoints; i++) {
+        int first = 1;
+        for (int j = 0; j < i; j++)
+            if (!strcmp(points[j].map, points[i].map))
+                first = 0;
+        if (!first)
+            continue;
+        const char *map = points[i].map;
+        char base[160];
+        plot_name(map, base, sizeof base);
+        snprintf(path, sizeof path, "%s/%s.dat", dir, base);
+        FILE *f = fopen(path, "w");
+        if (!f) {
+            cli_error("%s: cannot write: %s", path, strerror(errno));
+            return CLI_FAIL;
+        }
+        /* one gnuplot data block per series, then the Pareto front */
+        char series[64][32];
+        int ns = 0;
+        for (int j = 0; j < npoints; j++) {
+            if (strcmp(points[j].map, map))
+                continue;
+            int known = 0;
+            for (int k = 0; k < ns; k++)
+                known |= !strcmp(series[k], points[j].series);
+            if (!known && ns < 64)
+                snprintf(series[ns++], sizeof series[0], "%s", points[j].series);
+        }
+        for (int k = 0; k < ns; k++) {
+            fprintf(f, "# %s\n", series[k]);
+            for (int j = 0; j < npoints; j++)
+                if (!strcmp(points[j].map, map) && !strcmp(points[j].series, series[k]) &&
+                    points[j].error > 0 && points[j].seconds > 0)
+                    fprintf(f, "%.9g %.9g %d\n", points[j].seconds, 100 * points[j].error,
+                            points[j].param);
+            fprintf(f, "\n\n");
+        }
+        fprintf(f, "# pareto\n");
+        double last_err = INFINITY;
+        for (;;) { /* increasing seconds, each strictly more accurate than all faster ones */
+            int best = -1;
+            for (int j = 0; j < npoints; j++) {
+                bench_point *p = &points[j];
+                if (strcmp(p->map, map) || !(p->error > 0 && p->seconds > 0) ||
+                    !(p->error < last_err))
+                    continue;
+                if (best < 0 || p->seconds < points[best].seconds ||
+                    (p->seconds == points[best].seconds && p->error < points[best].error))
+                    best = j;
+            }
+            if (best < 0)
+                break;
+            /* among points faster than the next candidate none is better: take it */
+            fprintf(f, "%.9g %.9g\n", points[best].seconds, 100 * points[best].error);
+            last_err = points[best].error;
+        }
+        fclose(f);
+        snprintf(path, sizeof path, "%s/%s.gp", dir, base);
+        f = fopen(path, "w");
+        if (!f) {
+            cli_error("%s: cannot write: %s", path, strerror(errno));
+            return CLI_FAIL;
+        }
+        fprintf(f, "set terminal pngcairo size 900,600 noenhanced\n"
+                   "set output '%s/%s.png'\n"
+                   "set title 'envlight: %s: diffuse error against time'\n"
+                   "set logscale xy\nset xlabel 'seconds'\nset ylabel 'diffuse error (%%)'\n"
+                   "set key outside right\nset grid\n"
+                   "plot ", dir, base, map);
+        for (int k = 0; k < ns; k++)
+            fprintf(f, "'%s/%s.dat' index %d using 1:2 with linespoints title '%s', ", dir,
+                    base, k, series[k]);
+        fprintf(f, "'%s/%s.dat' index %d using 1:2 with steps lw 3 lc rgb 'black' title "
+                   "'Pareto front'\n", dir, base, ns);
+        fclose(f);
+        char cmd[8300];
+        snprintf(cmd, sizeof cmd, "gnuplot '%s' 2>&1", path);
+        if (system(cmd) != 0) {
+            cli_error("gnuplot failed on %s (is gnuplot installed?)", path);
+            rc = CLI_FAIL;
+        } else {
+            printf("\nplot: %s/%s.png\n", dir, base);
+        }
+    }
+    return rc;
 }
 
 /* Speed on a large map: stage time / baseline pass time, both measured here. */
@@ -171,18 +344,21 @@ static int bench_speed(int width, const bench_opts *o)
 }
 
 static const char bench_help[] =
-    "Usage: envlight bench [FILES...] [--runs N] [--quick] [--csv FILE] [--speed-width W]\n"
+    "Usage: envlight bench [FILES...] [--runs N] [--quick] [--csv FILE] [--plots DIR]\n"
+    "                      [--speed-width W]\n"
     "Accuracy against time as Markdown tables: every lights method at 1..256 lights (fit to\n"
     "16), diffuse error and median seconds of N runs (default 3), each from scratch. Default\n"
     "maps: the built-in sky and every .hdr under $ENVL_SHARED_DATA/latlong_hdri (default\n"
     "../shared/data). Then the speed of the stages on a large map as ratios to one plain pass\n"
-    "over its floats measured in the same run (--speed-width, default 8192; 0 skips).\n";
+    "over its floats measured in the same run (--speed-width, default 8192; 0 skips).\n"
+    "Also SH orders 1..8 with each window. --csv writes every point; --plots DIR writes one\n"
+    "PNG per map (gnuplot): error against seconds, log axes, the Pareto front marked.\n";
 
 int cli_bench(int argc, char **argv)
 {
     cli_common c = {0};
     bench_opts o = {.runs = 3};
-    const char *files[256], *csv_path = NULL;
+    const char *files[256], *csv_path = NULL, *plots = NULL;
     int nfiles = 0;
     long long speed_width = 8192, n;
     for (int i = 1; i < argc; i++) {
@@ -204,6 +380,10 @@ int cli_bench(int argc, char **argv)
             if (r < 0)
                 return cli_usage("bench", "--csv needs a file name");
             csv_path = v;
+        } else if ((r = cli_value(argc, argv, &i, "--plots", &v)) != 0) {
+            if (r < 0)
+                return cli_usage("bench", "--plots needs a folder");
+            plots = v;
         } else if ((r = cli_value(argc, argv, &i, "--speed-width", &v)) != 0) {
             if (r < 0 || cli_parse_int(v, 0, 65536, &speed_width))
                 return cli_usage("bench", "--speed-width takes 0..65536");
@@ -238,14 +418,6 @@ int cli_bench(int argc, char **argv)
             fprintf(stderr, "envlight bench: %s absent: the built-in sky only\n", dir);
         }
     }
-    FILE *csv = NULL;
-    cli_output co;
-    if (csv_path) {
-        if (cli_output_open(&co, csv_path))
-            return CLI_FAIL;
-        csv = co.f;
-        fprintf(csv, "map,product,method,asked,count,diffuse_error,seconds\n");
-    }
     printf("### envlight bench\n\nmedian of %d runs; error: relative RMS irradiance error over "
            "1024 normals against the exact integrator\n", o.runs);
     int rc = CLI_OK;
@@ -256,14 +428,29 @@ int cli_bench(int argc, char **argv)
             rc = CLI_FAIL;
             break;
         }
-        const char *name = strcmp(files[i], "-") ? strrchr(files[i], '/') ? strrchr(files[i], '/') + 1 : files[i]
-                                                 : "built-in sky";
-        rc = bench_lights_table(name, m, &o, csv);
+        const char *slash = strrchr(files[i], '/');
+        const char *name = !strcmp(files[i], "-") ? "built-in sky" : slash ? slash + 1 : files[i];
+        rc = bench_lights_table(name, m, &o);
+        if (rc == CLI_OK)
+            rc = bench_sh_table(name, m, &o);
         envl_envmap_free(m);
     }
     if (rc == CLI_OK && speed_width > 0)
         rc = bench_speed((int)speed_width, &o);
-    if (csv_path && (cli_output_close(&co) || rc))
-        rc = CLI_FAIL;
+    if (rc == CLI_OK && csv_path) {
+        cli_output co;
+        if (cli_output_open(&co, csv_path))
+            return CLI_FAIL;
+        fprintf(co.f, "map,series,param,count,diffuse_error,seconds\n");
+        for (int i = 0; i < npoints; i++)
+            fprintf(co.f, "%s,%s,%d,%d,%.9g,%.9g\n", points[i].map, points[i].series,
+                    points[i].param, points[i].count, points[i].error, points[i].seconds);
+        rc = cli_output_close(&co);
+    }
+    if (rc == CLI_OK && plots) {
+        mkdir(plots, 0755);
+        rc = write_plots(plots);
+    }
+    free(points);
     return rc;
 }
