@@ -357,6 +357,9 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
     envl_result rc = envl__energy_sat(m, &sat);
     if (rc)
         return rc;
+    /* A region holds at least one pixel: never more regions than pixels. */
+    if ((int64_t)n > (int64_t)m->width * m->height)
+        n = (int32_t)((int64_t)m->width * m->height);
     region *rs = malloc(sizeof(region) * (size_t)n);
     if (!rs)
         return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
