@@ -1,0 +1,182 @@
+"""EnvLight: turn the world's HDR into sun lamps plus a residual or SH world (libenvlight).
+
+Properties > World > EnvLight: pick the source (the world's Environment Texture, also one
+inside a node group, or a file), the number of lights, the method, shadows and the world mode,
+then press Create Lights. Everything the add-on creates is tagged and replaced on the next run;
+the user's own lamps and nodes are never touched.
+"""
+
+bl_info = {
+    "name": "EnvLight",
+    "author": "envlight developers",
+    "version": (0, 1, 0),
+    "blender": (3, 4, 0),
+    "location": "Properties > World > EnvLight",
+    "description": "Turn the world's HDR into sun lamps plus a residual or SH world",
+    "category": "Lighting",
+}
+
+import bpy  # noqa: E402
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty,  # noqa
+                       IntProperty, PointerProperty, StringProperty)
+
+from . import core  # noqa: E402
+
+METHODS = [
+    ("fit", "Fit", "Fitted lights + a low-order SH remainder: the best accuracy for a few lights"),
+    ("median", "Median Cut", "Debevec's median cut: many cheap lights (64+)"),
+    ("variance", "Variance Cut", "Variance-minimising cut: fewer lights than median cut"),
+]
+SHADOWS = [
+    ("SOFT", "Soft", "Sun angle = the light's angular diameter"),
+    ("SHARP", "Sharp", "Sun angle 0"),
+    ("NONE", "None", "Suns cast no shadows"),
+]
+MODES = [
+    ("RESIDUAL", "Residual",
+     "Camera and glossy rays see the HDR; other rays see what the lights did not take"),
+    ("SH", "SH World", "The world's lighting is a smooth SH node tree (no image, noise-free)"),
+    ("LIGHTS", "Lights Only", "The lamps carry all the light (camera and glossy rays see the HDR)"),
+]
+
+
+class EnvLightSettings(bpy.types.PropertyGroup):
+    source: EnumProperty(name="Source", items=[
+        ("WORLD", "World Texture", "The image of the world's Environment Texture (also inside "
+         "a node group), with its Mapping rotation"),
+        ("FILE", "File", "An HDR file (.hdr, .exr, .pfm)")], default="WORLD")
+    filepath: StringProperty(name="File", subtype="FILE_PATH")
+    count: IntProperty(name="Lights", default=4, min=1, max=1024,
+                       description="Number of lights (fit may return fewer)")
+    method: EnumProperty(name="Method", items=METHODS, default="fit")
+    order: IntProperty(name="Remainder Order", default=2, min=0, max=2,
+                       description="Fit: SH order of the remainder (the SH world evaluates up "
+                       "to order 2)")
+    shadows: EnumProperty(name="Shadows", items=SHADOWS, default="SOFT")
+    world_mode: EnumProperty(name="World", items=MODES, default="RESIDUAL")
+    keep_background: BoolProperty(name="Keep Background", default=True,
+                                  description="SH world: camera rays still see the HDR")
+    # results, shown by the panel
+    has_result: BoolProperty(default=False)
+    result_count: IntProperty(name="Lamps")
+    result_error: FloatProperty(name="Diffuse Error", subtype="PERCENTAGE")
+    result_seconds: FloatProperty(name="Time", unit="TIME_ABSOLUTE")
+    result_power: FloatVectorProperty(name="Power", size=3)
+    result_residual_power: FloatVectorProperty(name="Residual Power", size=3)
+    result_message: StringProperty()
+
+
+class ENVLIGHT_OT_create_lights(bpy.types.Operator):
+    """Create sun lamps (and world nodes) from the world's HDR"""
+    bl_idname = "envlight.create_lights"
+    bl_label = "Create Lights"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and context.scene.world is not None
+
+    def execute(self, context):
+        world = context.scene.world
+        settings = world.envlight
+        wm = context.window_manager
+        wm.progress_begin(0, 100)
+        try:
+            result = core.create_lights(context, settings,
+                                        progress=lambda v: wm.progress_update(int(v * 100)))
+        except ImportError as e:
+            self.report({"ERROR"}, "EnvLight: the envlight library cannot be loaded: %s" % e)
+            return {"CANCELLED"}
+        except Exception as e:  # envlight.Error, RuntimeError, bad files: a report, no traceback
+            self.report({"ERROR"}, "EnvLight: %s" % e)
+            settings.result_message = str(e)
+            return {"CANCELLED"}
+        finally:
+            wm.progress_end()
+        settings.has_result = True
+        settings.result_count = result["count"]
+        settings.result_error = 100.0 * result["diffuse_error"]
+        settings.result_seconds = result["seconds"]
+        settings.result_power = result["power"]
+        settings.result_residual_power = result["residual_power"]
+        settings.result_message = "; ".join(result["warnings"])
+        for w in result["warnings"]:
+            self.report({"WARNING"}, "EnvLight: " + w)
+        self.report({"INFO"}, "EnvLight: %d lamps, diffuse error %.3f %%, %.2f s"
+                    % (result["count"], 100.0 * result["diffuse_error"], result["seconds"]))
+        return {"FINISHED"}
+
+
+class ENVLIGHT_OT_remove(bpy.types.Operator):
+    """Remove the lamps and world nodes EnvLight created (nothing else)"""
+    bl_idname = "envlight.remove"
+    bl_label = "Remove EnvLight"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        try:
+            n = core.remove_created(context.scene.world)
+        except Exception as e:
+            self.report({"ERROR"}, "EnvLight: %s" % e)
+            return {"CANCELLED"}
+        if context.scene.world:
+            context.scene.world.envlight.has_result = False
+        self.report({"INFO"}, "EnvLight: removed %d lamps" % n)
+        return {"FINISHED"}
+
+
+class WORLD_PT_envlight(bpy.types.Panel):
+    bl_label = "EnvLight"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "world"
+
+    @classmethod
+    def poll(cls, context):
+        return context.world is not None
+
+    def draw(self, context):
+        layout = self.layout
+        s = context.world.envlight
+        layout.use_property_split = True
+        layout.prop(s, "source")
+        if s.source == "FILE":
+            layout.prop(s, "filepath")
+        else:
+            src = core.find_environment_texture(context.world)
+            if src is None or src.node.image is None:
+                layout.label(text="No Environment Texture with an image", icon="ERROR")
+            else:
+                layout.label(text=src.node.image.name, icon="IMAGE_DATA")
+        layout.prop(s, "count")
+        layout.prop(s, "method")
+        if s.method == "fit":
+            layout.prop(s, "order")
+        layout.prop(s, "shadows")
+        layout.prop(s, "world_mode")
+        if s.world_mode == "SH":
+            layout.prop(s, "keep_background")
+        row = layout.row(align=True)
+        row.operator(ENVLIGHT_OT_create_lights.bl_idname, icon="LIGHT_SUN")
+        row.operator(ENVLIGHT_OT_remove.bl_idname, text="", icon="TRASH")
+        if s.has_result:
+            box = layout.box()
+            box.label(text="%d lamps, diffuse error %.3f %%" % (s.result_count, s.result_error))
+            box.label(text="time %.2f s" % s.result_seconds)
+            if s.result_message:
+                box.label(text=s.result_message, icon="INFO")
+
+
+classes = (EnvLightSettings, ENVLIGHT_OT_create_lights, ENVLIGHT_OT_remove, WORLD_PT_envlight)
+
+
+def register():
+    for c in classes:
+        bpy.utils.register_class(c)
+    bpy.types.World.envlight = PointerProperty(type=EnvLightSettings)
+
+
+def unregister():
+    del bpy.types.World.envlight
+    for c in reversed(classes):
+        bpy.utils.unregister_class(c)

@@ -1,0 +1,423 @@
+"""The one loader, the structure mirrors and the one table of argtypes/restypes of libenvlight.
+
+Everything here mirrors src/envlight.h at ENVL_ABI_VERSION == ABI_VERSION. When the header
+changes a struct or a signature it bumps ENVL_ABI_VERSION, and load_library() refuses the
+library until this file is updated to match.
+"""
+import ctypes
+import glob
+import os
+from ctypes import (POINTER, Structure, c_char, c_char_p, c_double, c_float, c_int32,
+                    c_int64, c_size_t, c_uint8, c_void_p)
+
+#: ENVL_ABI_VERSION of the envlight.h these bindings mirror.
+ABI_VERSION = 1
+
+_HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+class Error(Exception):
+    """A libenvlight call failed. ``code`` is the envl_result value, ``name`` its name
+    (e.g. ``"ENVL_ERR_FORMAT"``) and ``message`` the library's envl_last_error() text."""
+
+    def __init__(self, code, name, message):
+        self.code = code
+        self.name = name
+        self.message = message
+        super().__init__("%s: %s" % (name, message))
+
+
+# ---- structure mirrors (field for field, fixed-width types, as in envlight.h) ---------------
+
+class LoadOptions(Structure):
+    _fields_ = [
+        ("layout", c_int32),
+        ("width", c_int32),
+        ("rotate_degrees", c_double),
+        ("max_pixels", c_int64),
+        ("strict", c_int32),
+        ("apply_exposure", c_int32),
+        ("exr_part", c_char_p),
+        ("threads", c_int32),
+    ]
+
+
+class Info(Structure):
+    _fields_ = [
+        ("file", c_char * 1024),
+        ("format", c_char * 8),
+        ("layout", c_int32),
+        ("layout_guessed", c_int32),
+        ("source_width", c_int32),
+        ("source_height", c_int32),
+        ("channels", c_int32),
+        ("width", c_int32),
+        ("height", c_int32),
+        ("mean", c_double * 3),
+        ("power", c_double * 3),
+        ("max", c_double * 3),
+        ("brightest_direction", c_double * 3),
+        ("nonfinite_pixels", c_int64),
+        ("negative_pixels", c_int64),
+        ("exposure", c_double),
+        ("has_primaries", c_int32),
+        ("primaries", c_float * 8),
+        ("rotate_degrees", c_double),
+    ]
+
+
+class SkyOptions(Structure):
+    _fields_ = [
+        ("sun_elevation_degrees", c_double),
+        ("sun_azimuth_degrees", c_double),
+        ("width", c_int32),
+        ("sun_irradiance", c_double),
+        ("zenith_radiance", c_double),
+        ("ground_albedo", c_double),
+        ("sun_elevation_is_set", c_int32),
+    ]
+
+
+class SaveOptions(Structure):
+    _fields_ = [
+        ("pixel_type", c_int32),
+        ("format", c_char_p),
+    ]
+
+
+class LightsOptions(Structure):
+    _fields_ = [
+        ("method", c_int32),
+        ("count", c_int32),
+        ("remainder_bands", c_int32),
+    ]
+
+
+class Light(Structure):
+    _fields_ = [
+        ("direction", c_double * 3),
+        ("rgb", c_double * 3),
+        ("solid_angle", c_double),
+        ("angle", c_double),
+        ("rect", c_int32 * 4),
+    ]
+
+
+class LightsSummary(Structure):
+    _fields_ = [
+        ("method", c_int32),
+        ("count", c_int32),
+        ("power", c_double * 3),
+        ("lights_power", c_double * 3),
+        ("residual_power", c_double * 3),
+        ("remainder_order", c_int32),
+        ("diffuse_error", c_double),
+        ("seconds", c_double),
+        ("no_light", c_int32),
+    ]
+
+
+class SHOptions(Structure):
+    _fields_ = [
+        ("bands", c_int32),
+        ("window", c_int32),
+    ]
+
+
+class SHSummary(Structure):
+    _fields_ = [
+        ("order", c_int32),
+        ("window", c_int32),
+        ("window_width", c_double),
+        ("min_irradiance", c_double),
+        ("diffuse_error", c_double),
+        ("seconds", c_double),
+        ("ambient", c_double * 3),
+        ("deltas", (c_double * 3) * 3),
+        ("hemi_axis", c_double * 3),
+        ("hemi_sky", c_double * 3),
+        ("hemi_ground", c_double * 3),
+    ]
+
+
+class PrefilterOptions(Structure):
+    _fields_ = [
+        ("levels", c_int32),
+        ("width", c_int32),
+        ("min_width", c_int32),
+        ("samples", c_int32),
+        ("unfiltered", c_int32),
+        ("irradiance_method", c_int32),
+        ("irradiance_width", c_int32),
+        ("irradiance_order", c_int32),
+        ("threads", c_int32),
+    ]
+
+
+class Level(Structure):
+    _fields_ = [
+        ("roughness", c_double),
+        ("alpha", c_double),
+        ("width", c_int32),
+        ("height", c_int32),
+        ("rgb", POINTER(c_float)),
+        ("samples", c_int32),
+        ("filtered", c_int32),
+        ("energy_scale", c_double),
+        ("glossy_error", c_double),
+        ("seconds", c_double),
+    ]
+
+
+class IrradianceMap(Structure):
+    _fields_ = [
+        ("method", c_int32),
+        ("width", c_int32),
+        ("height", c_int32),
+        ("rgb", POINTER(c_float)),
+        ("diffuse_error", c_double),
+        ("seconds", c_double),
+    ]
+
+
+class BrdfOptions(Structure):
+    _fields_ = [
+        ("size", c_int32),
+        ("samples", c_int32),
+        ("multiscatter", c_int32),
+        ("threads", c_int32),
+    ]
+
+
+class Request(Structure):
+    _fields_ = [
+        ("diffuse", c_int32),
+        ("irradiance_map", c_int32),
+        ("mirror", c_int32),
+        ("shadows", c_int32),
+        ("specular_chain", c_int32),
+        ("n_roughness", c_int32),
+        ("roughness", POINTER(c_double)),
+        ("brdf_lut", c_int32),
+        ("measure", c_int32),
+        ("sh_order", c_int32),
+        ("prefilter", PrefilterOptions),
+        ("lights", LightsOptions),
+        ("brdf", BrdfOptions),
+    ]
+
+
+class ProductsSummary(Structure):
+    _fields_ = [
+        ("sh_projections", c_int32),
+        ("pyramids_built", c_int32),
+        ("pyramid_levels", c_int32),
+        ("specular_levels", c_int32),
+        ("irradiance_maps", c_int32),
+        ("lights_computed", c_int32),
+        ("brdf_tables", c_int32),
+        ("seconds", c_double),
+        ("seconds_sh", c_double),
+        ("seconds_pyramid", c_double),
+        ("seconds_specular", c_double),
+        ("seconds_irradiance", c_double),
+        ("seconds_lights", c_double),
+        ("seconds_brdf", c_double),
+    ]
+
+
+class ExportOptions(Structure):
+    _fields_ = [
+        ("format", c_char_p),
+        ("layout", c_int32),
+    ]
+
+
+#: Every public struct mirrored here, by its C name (the tests compare sizes and offsets
+#: against the C compiler's).
+STRUCTS = {
+    "envl_load_options": LoadOptions,
+    "envl_info": Info,
+    "envl_sky_options": SkyOptions,
+    "envl_save_options": SaveOptions,
+    "envl_lights_options": LightsOptions,
+    "envl_light": Light,
+    "envl_lights_summary": LightsSummary,
+    "envl_sh_options": SHOptions,
+    "envl_sh_summary": SHSummary,
+    "envl_prefilter_options": PrefilterOptions,
+    "envl_level": Level,
+    "envl_irradiance_map": IrradianceMap,
+    "envl_brdf_options": BrdfOptions,
+    "envl_request": Request,
+    "envl_products_summary": ProductsSummary,
+    "envl_export_options": ExportOptions,
+}
+
+# ---- the one table of functions: name -> (restype, argtypes) -------------------------------
+# envl_result is int32_t; functions returning it are checked by _check().
+_R = c_int32
+_map = c_void_p      # envl_envmap *
+_lts = c_void_p      # envl_lights *
+_sh = c_void_p       # envl_sh *
+_prod = c_void_p     # envl_products *
+_pd = POINTER(c_double)
+_pf = POINTER(c_float)
+
+FUNCTIONS = {
+    "envl_abi_version": (c_int32, []),
+    "envl_version_string": (c_char_p, []),
+    "envl_result_name": (c_char_p, [c_int32]),
+    "envl_result_text": (c_char_p, [c_int32]),
+    "envl_last_error": (c_char_p, []),
+    "envl_layout_name": (c_char_p, [c_int32]),
+    "envl_layout_from_name": (c_int32, [c_char_p]),
+    "envl_envmap_load": (_R, [c_char_p, POINTER(LoadOptions), POINTER(_map)]),
+    "envl_envmap_from_pixels": (_R, [_pf, c_int32, c_int32, c_int32, POINTER(LoadOptions),
+                                     POINTER(_map)]),
+    "envl_envmap_free": (None, [_map]),
+    "envl_envmap_info": (_R, [_map, POINTER(Info)]),
+    "envl_envmap_width": (c_int32, [_map]),
+    "envl_envmap_height": (c_int32, [_map]),
+    "envl_envmap_pixels": (_pf, [_map]),
+    "envl_envmap_solid_angle": (c_double, [_map, c_int32]),
+    "envl_envmap_direction": (None, [_map, c_int32, c_int32, _pd]),
+    "envl_latlong_solid_angle": (c_double, [c_int32, c_int32, c_int32]),
+    "envl_latlong_direction": (None, [c_int32, c_int32, c_double, c_double, _pd]),
+    "envl_latlong_pixel": (None, [c_int32, c_int32, _pd, _pd, _pd]),
+    "envl_envmap_sky": (_R, [POINTER(SkyOptions), POINTER(_map)]),
+    "envl_image_save": (_R, [c_char_p, _pf, c_int32, c_int32, POINTER(SaveOptions)]),
+    "envl_envmap_save": (_R, [_map, c_char_p, POINTER(SaveOptions)]),
+    "envl_envmap_to_layout": (_R, [_map, c_int32, c_int32, POINTER(_pf), POINTER(c_int32),
+                                   POINTER(c_int32)]),
+    "envl_free": (None, [c_void_p]),
+    "envl_file_write_atomic": (_R, [c_char_p, c_void_p, c_size_t]),
+    "envl_irradiance_exact": (_R, [_map, c_int32, _pd, _pd]),
+    "envl_fibonacci_direction": (None, [c_int32, c_int32, _pd]),
+    "envl_relative_rms_luminance": (c_double, [c_int32, _pd, _pd]),
+    "envl_envmap_reference_irradiance": (_R, [_map, POINTER(_pd)]),
+    "envl_luminance": (c_double, [c_double, c_double, c_double]),
+    "envl_envmap_drop_caches": (None, [_map, c_int32]),
+    "envl_method_name": (c_char_p, [c_int32]),
+    "envl_method_from_name": (c_int32, [c_char_p]),
+    "envl_lights_compute": (_R, [_map, POINTER(LightsOptions), POINTER(_lts)]),
+    "envl_lights_free": (None, [_lts]),
+    "envl_lights_count": (c_int32, [_lts]),
+    "envl_lights_get": (_R, [_lts, c_int32, POINTER(Light)]),
+    "envl_lights_get_summary": (_R, [_lts, POINTER(LightsSummary)]),
+    "envl_lights_remainder": (_pd, [_lts, POINTER(c_int32)]),
+    "envl_lights_residual": (_pf, [_lts]),
+    "envl_lights_irradiance": (_R, [_lts, c_int32, _pd, _pd]),
+    "envl_window_name": (c_char_p, [c_int32]),
+    "envl_window_from_name": (c_int32, [c_char_p]),
+    "envl_sh_compute": (_R, [_map, POINTER(SHOptions), POINTER(_sh)]),
+    "envl_sh_free": (None, [_sh]),
+    "envl_sh_get_summary": (_R, [_sh, POINTER(SHSummary)]),
+    "envl_sh_radiance": (_pd, [_sh]),
+    "envl_sh_irradiance": (_pd, [_sh]),
+    "envl_sh_window_factors": (_pd, [_sh]),
+    "envl_sh_eval_radiance": (_R, [_sh, c_int32, _pd, _pd]),
+    "envl_sh_eval_irradiance": (_R, [_sh, c_int32, _pd, _pd]),
+    "envl_sh_basis": (None, [c_int32, _pd, _pd]),
+    "envl_sh_cosine_lobe": (c_double, [c_int32]),
+    # prefiltered maps, BRDF table, requests
+    "envl_irradiance_method_name": (c_char_p, [c_int32]),
+    "envl_irradiance_method_from_name": (c_int32, [c_char_p]),
+    "envl_prefilter_level_width": (c_int32, [POINTER(PrefilterOptions), c_double]),
+    "envl_compute": (_R, [_map, POINTER(Request), POINTER(_prod)]),
+    "envl_products_free": (None, [_prod]),
+    "envl_products_get_summary": (_R, [_prod, POINTER(ProductsSummary)]),
+    "envl_products_level_count": (c_int32, [_prod]),
+    "envl_products_level": (_R, [_prod, c_int32, POINTER(Level)]),
+    "envl_products_find_level": (c_int32, [_prod, c_double]),
+    "envl_products_irradiance": (_R, [_prod, POINTER(IrradianceMap)]),
+    "envl_products_sh": (_sh, [_prod]),
+    "envl_products_lights": (_lts, [_prod]),
+    "envl_products_brdf": (_pf, [_prod, POINTER(c_int32), POINTER(c_int32)]),
+    "envl_prefilter_specular": (_R, [_map, c_double, c_int32, POINTER(PrefilterOptions),
+                                     POINTER(_pf), POINTER(Level)]),
+    "envl_envmap_mips": (_R, [_map, POINTER(c_int32)]),
+    "envl_envmap_drop_mips": (None, [_map]),
+    "envl_prefilter_reference": (_R, [_map, c_double, c_int32, _pd, _pd]),
+    "envl_latlong_sample": (None, [_pf, c_int32, c_int32, _pd, _pd]),
+    "envl_glossy_error": (_R, [_map, c_double, _pf, c_int32, c_int32, _pd]),
+    "envl_brdf_lut": (_R, [POINTER(BrdfOptions), POINTER(_pf), POINTER(c_int32)]),
+    "envl_brdf_eval": (_R, [c_double, c_double, c_int32, _pd]),
+    "envl_rgbm_encode": (None, [_pf, c_double, POINTER(c_uint8)]),
+    "envl_rgbm_decode": (None, [POINTER(c_uint8), c_double, _pf]),
+    "envl_png_save_rgbm": (_R, [c_char_p, _pf, c_int32, c_int32, c_double]),
+    "envl_png_save_srgb": (_R, [c_char_p, _pf, c_int32, c_int32]),
+    "envl_export_layout_name": (c_char_p, [c_int32]),
+    "envl_export_layout_from_name": (c_int32, [c_char_p]),
+    "envl_products_export": (_R, [_prod, c_char_p, POINTER(ExportOptions)]),
+}
+
+# Constants of envlight.h the Python side uses.
+ENVL_CACHE_SAT = 1
+ENVL_CACHE_REFERENCE = 2
+ENVL_REMAINDER_NONE = -1
+ENVL_ERROR_NORMALS = 1024
+ENVL_PIXEL_FLOAT = 0
+ENVL_PIXEL_HALF = 1
+
+
+def _candidates():
+    env = os.environ.get("ENVLIGHT_LIBRARY")
+    if env:
+        return [env], True
+    found = []
+    for folder in (_HERE, os.path.join(os.path.dirname(_HERE), "lib")):
+        found += sorted(glob.glob(os.path.join(folder, "libenvlight.so*")), key=len)
+    repo = os.path.dirname(os.path.dirname(_HERE))  # <repo>/py_shim/envlight -> <repo>
+    found.append(os.path.join(repo, "build", "libenvlight.so"))
+    return found, False
+
+
+def load_library(path=None):
+    """Loads libenvlight (``path``, else $ENVLIGHT_LIBRARY, else next to the package, else the
+    build tree), checks its ABI version and declares every function of FUNCTIONS."""
+    if path:
+        paths, explicit = [path], True
+    else:
+        paths, explicit = _candidates()
+    tried = []
+    lib = None
+    for p in paths:
+        if not explicit and not os.path.exists(p):
+            tried.append(p + " (absent)")
+            continue
+        try:
+            lib = ctypes.CDLL(p)
+            break
+        except OSError as e:
+            tried.append("%s (%s)" % (p, e))
+    if lib is None:
+        raise ImportError("envlight: cannot load libenvlight; tried: " + "; ".join(tried) +
+                          ". Set ENVLIGHT_LIBRARY to the built libenvlight.so.")
+    lib.envl_abi_version.restype = c_int32
+    lib.envl_abi_version.argtypes = []
+    abi = lib.envl_abi_version()
+    if abi != ABI_VERSION:
+        raise ImportError("envlight: %s has ABI version %d, these bindings were written for %d"
+                          % (lib._name, abi, ABI_VERSION))
+    for name, (restype, argtypes) in FUNCTIONS.items():
+        fn = getattr(lib, name)  # AttributeError names a symbol the library lacks
+        fn.restype = restype
+        fn.argtypes = argtypes
+    return lib
+
+
+lib = load_library()
+#: the path of the loaded library
+library_path = lib._name
+
+
+def _str(b):
+    return b.decode("utf-8", "replace") if b is not None else ""
+
+
+def _check(rc):
+    """Raises Error with the library's message for every nonzero envl_result."""
+    if rc != 0:
+        raise Error(rc, _str(lib.envl_result_name(rc)), _str(lib.envl_last_error()))
+    return rc

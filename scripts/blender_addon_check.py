@@ -1,0 +1,296 @@
+"""Runs inside Blender (headless) for tests/py_blender_addon.py and the benchmark:
+
+    blender -b --factory-startup --python scripts/blender_addon_check.py -- SPEC.json
+
+SPEC (JSON): {"zip": add-on zip to install (optional: else the add-on must be importable),
+  "hdr": image for the world's Environment Texture, "group": put the texture in a node group,
+  "mapping": {"type": "POINT", "rotation": [x, y, z] degrees} (optional), "strength": 1.0,
+  "settings": {count, method, shadows, world_mode, ...}, "runs": 2, "undo": true,
+  "user_lamp": true, "panorama": PATH.exr (render the world through an equirectangular camera),
+  "render": {...} (see render_sphere), "out": RESULT.json}
+Writes RESULT.json with what the tests check (lamps, powers, panel values, node counts)."""
+import json
+import math
+import os
+import sys
+import time
+
+import bpy
+import mathutils
+import numpy as np
+
+
+def spec_from_argv():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    with open(argv[0]) as f:
+        return json.load(f)
+
+
+def install(zip_path):
+    bpy.ops.preferences.addon_install(filepath=zip_path, overwrite=True)
+    bpy.ops.preferences.addon_enable(module="envlight_addon")
+    import envlight_addon
+    return envlight_addon
+
+
+def setup_world(spec):
+    scene = bpy.context.scene
+    world = bpy.data.worlds.new("HDR World")
+    scene.world = world
+    world.use_nodes = True
+    tree = world.node_tree
+    bg = tree.nodes["Background"]
+    bg.inputs["Strength"].default_value = spec.get("strength", 1.0)
+    img = bpy.data.images.load(spec["hdr"])
+    mp = spec.get("mapping")
+    if spec.get("group"):
+        grp = bpy.data.node_groups.new("UserEnvGroup", "ShaderNodeTree")
+        gout = grp.nodes.new("NodeGroupOutput")
+        if hasattr(grp, "outputs"):
+            grp.outputs.new("NodeSocketColor", "Color")
+        else:  # 4.x interface API
+            grp.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+        t = grp
+        env = t.nodes.new("ShaderNodeTexEnvironment")
+        env.image = img
+        t.links.new(env.outputs["Color"], gout.inputs[0])
+        gnode = tree.nodes.new("ShaderNodeGroup")
+        gnode.node_tree = grp
+        tree.links.new(gnode.outputs[0], bg.inputs["Color"])
+    else:
+        t = tree
+        env = t.nodes.new("ShaderNodeTexEnvironment")
+        env.image = img
+        t.links.new(env.outputs["Color"], bg.inputs["Color"])
+    if mp:
+        tc = t.nodes.new("ShaderNodeTexCoord")
+        m = t.nodes.new("ShaderNodeMapping")
+        m.vector_type = mp.get("type", "POINT")
+        m.inputs["Rotation"].default_value = [math.radians(a) for a in mp["rotation"]]
+        t.links.new(tc.outputs["Generated"], m.inputs["Vector"])
+        t.links.new(m.outputs["Vector"], env.inputs["Vector"])
+    # a node of the user's own that must survive
+    v = tree.nodes.new("ShaderNodeValue")
+    v.name = "UserValue"
+    return world, env
+
+
+def lamps():
+    out = []
+    for o in bpy.data.objects:
+        if o.type != "LIGHT":
+            continue
+        d = o.matrix_world.to_3x3() @ mathutils.Vector((0, 0, 1))
+        out.append({"name": o.name, "tagged": bool(o.get("envlight")),
+                    "collection": [c.name for c in o.users_collection],
+                    "type": o.data.type, "energy": o.data.energy, "color": list(o.data.color),
+                    "angle": getattr(o.data, "angle", None),
+                    "cast_shadow": bool(o.data.cycles.cast_shadow)
+                    if hasattr(o.data, "cycles") else None,
+                    "direction": list(d.normalized())})
+    return out
+
+
+def latlong_power(pixels_bottom_up, w, h, ch):
+    a = np.asarray(pixels_bottom_up, dtype=np.float64).reshape(h, w, ch)[::-1, :, :3]
+    r = np.arange(h)
+    sa = (2 * np.pi / w) * (np.sin(np.pi * (0.5 - r / h)) - np.sin(np.pi * (0.5 - (r + 1) / h)))
+    return list((a * sa[:, None, None]).sum(axis=(0, 1)))
+
+
+def world_state(world):
+    tree = world.node_tree
+    active = [n.name for n in tree.nodes
+              if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output]
+    res = next((n for n in tree.nodes if n.get("envlight") and
+                n.bl_idname == "ShaderNodeTexEnvironment"), None)
+    out = {"nodes": len(tree.nodes), "tagged_nodes": sum(1 for n in tree.nodes if n.get("envlight")),
+           "user_value": "UserValue" in tree.nodes, "active_outputs": active,
+           "images": [i.name for i in bpy.data.images]}
+    if res is not None and res.image is not None:
+        img = res.image
+        buf = np.empty(img.size[0] * img.size[1] * img.channels, np.float32)
+        img.pixels.foreach_get(buf)
+        out["residual_image"] = {"name": img.name, "size": list(img.size),
+                                 "packed": img.packed_file is not None,
+                                 "power": latlong_power(buf, img.size[0], img.size[1],
+                                                        img.channels)}
+    return out
+
+
+def setup_render(scene, spec):
+    r = spec.get("render", {})
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.use_denoising = False
+    scene.cycles.samples = r.get("samples", 16)
+    if hasattr(scene.cycles, "use_adaptive_sampling"):
+        scene.cycles.use_adaptive_sampling = False
+    scene.cycles.max_bounces = r.get("bounces", 1)
+    scene.cycles.seed = r.get("seed", 0)
+    scene.render.resolution_x = r.get("size", 64)
+    scene.render.resolution_y = r.get("size", 64)
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.threads_mode = "FIXED"
+    scene.render.threads = r.get("threads", 2)
+
+
+def render_panorama(scene, path, w=256):
+    """The world as seen from the origin, through an equirectangular camera oriented so that
+    the render is the canonical lat-long frame (measured: rotation (90, 0, -90) degrees)."""
+    cam = bpy.data.cameras.new("EnvLightCheckPano")
+    cam.type = "PANO"
+    if hasattr(cam, "cycles") and hasattr(cam.cycles, "panorama_type"):
+        cam.cycles.panorama_type = "EQUIRECTANGULAR"
+    else:
+        cam.panorama_type = "EQUIRECTANGULAR"
+    obj = bpy.data.objects.new("EnvLightCheckPano", cam)
+    scene.collection.objects.link(obj)
+    obj.rotation_euler = (math.radians(90), 0, math.radians(-90))
+    old_cam, old = scene.camera, (scene.render.resolution_x, scene.render.resolution_y)
+    scene.camera = obj
+    setup_render(scene, {"render": {"samples": 1, "size": w}})
+    scene.render.resolution_x, scene.render.resolution_y = w, w // 2
+    scene.cycles.filter_width = 0.01
+    # hide lamps and meshes: the world only
+    hidden = []
+    for o in scene.objects:
+        if o.type in ("LIGHT", "MESH") and not o.hide_render:
+            o.hide_render = True
+            hidden.append(o)
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    for o in hidden:
+        o.hide_render = False
+    scene.camera = old_cam
+    scene.render.resolution_x, scene.render.resolution_y = old
+    bpy.data.objects.remove(obj)
+    return path
+
+
+def render_sphere(scene, path, spec):
+    """A white diffuse sphere (radius 1 at the origin) seen by a camera on -Y, Cycles."""
+    if "EnvLightCheckSphere" not in bpy.data.objects:
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0)
+        sph = bpy.context.active_object
+        sph.name = "EnvLightCheckSphere"
+        bpy.ops.object.shade_smooth()
+        mat = bpy.data.materials.new("EnvLightCheckWhite")
+        mat.use_nodes = True
+        nt = mat.node_tree
+        for n in list(nt.nodes):
+            if n.bl_idname != "ShaderNodeOutputMaterial":
+                nt.nodes.remove(n)
+        diff = nt.nodes.new("ShaderNodeBsdfDiffuse")
+        diff.inputs["Color"].default_value = (1, 1, 1, 1)
+        nt.links.new(diff.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+        sph.data.materials.append(mat)
+        cam = bpy.data.cameras.new("EnvLightCheckCam")
+        cam.type = "ORTHO"
+        cam.ortho_scale = 2.2
+        co = bpy.data.objects.new("EnvLightCheckCam", cam)
+        scene.collection.objects.link(co)
+        co.location = (0, -5, 0)
+        co.rotation_euler = (math.radians(90), 0, 0)
+        scene.camera = co
+    setup_render(scene, spec)
+    scene.render.film_transparent = True  # the background is not part of the comparison
+    scene.render.filepath = path
+    t = time.perf_counter()
+    bpy.ops.render.render(write_still=True)
+    seconds = time.perf_counter() - t
+    # the pixels, row 0 at the top, as .npy for the tests
+    img = bpy.data.images.load(path)
+    buf = np.empty(img.size[0] * img.size[1] * img.channels, np.float32)
+    img.pixels.foreach_get(buf)
+    np.save(path + ".npy", buf.reshape(img.size[1], img.size[0], img.channels)[::-1])
+    bpy.data.images.remove(img)
+    return seconds
+
+
+def main():
+    spec = spec_from_argv()
+    result = {"blender": bpy.app.version_string}
+    scene = bpy.context.scene
+    for o in list(bpy.data.objects):  # factory startup: cube, camera, light
+        bpy.data.objects.remove(o)
+    if spec.get("zip"):
+        mod = install(spec["zip"])
+    else:
+        import envlight_addon as mod
+        mod.register()
+    from envlight_addon import core
+    pkg = core.shim()
+    result["addon_file"] = mod.__file__
+    result["library_path"] = os.path.realpath(pkg.library_path)
+    world, env_node = setup_world(spec)
+    if spec.get("user_lamp", True):
+        ld = bpy.data.lights.new("UserLamp", "POINT")
+        ud = bpy.data.objects.new("UserLamp", ld)
+        scene.collection.objects.link(ud)
+    s = world.envlight
+    for k, v in spec.get("settings", {}).items():
+        setattr(s, k, v)
+    if spec.get("reference_render"):
+        result["reference_seconds"] = render_sphere(scene, spec["reference_render"], spec)
+    if spec.get("reference_render_2"):  # another seed: the render noise
+        spec2 = dict(spec, render=dict(spec.get("render", {}),
+                                       seed=spec.get("render", {}).get("seed", 0) + 1))
+        render_sphere(scene, spec["reference_render_2"], spec2)
+    if spec.get("panorama_before"):
+        render_panorama(scene, spec["panorama_before"])
+    runs = []
+    if spec.get("undo"):
+        bpy.ops.ed.undo_push(message="before envlight")
+    for i in range(spec.get("runs", 1)):
+        t = time.perf_counter()
+        rc = bpy.ops.envlight.create_lights()
+        runs.append({"rc": list(rc), "seconds": time.perf_counter() - t, "lamps": lamps(),
+                     "world": world_state(world),
+                     "panel": {"count": s.result_count, "error_percent": s.result_error,
+                               "seconds": s.result_seconds, "power": list(s.result_power),
+                               "residual_power": list(s.result_residual_power),
+                               "message": s.result_message}})
+    result["runs"] = runs
+    if spec.get("render_after"):
+        result["approx_seconds"] = render_sphere(scene, spec["render_after"], spec)
+    if spec.get("panorama"):
+        render_panorama(scene, spec["panorama"])
+    if spec.get("undo"):
+        try:
+            bpy.ops.ed.undo()
+            scene = bpy.context.scene
+            world = scene.world
+            result["after_undo"] = {"lamps": lamps(), "world": world_state(world) if world else None}
+        except Exception as e:
+            result["after_undo"] = {"error": "%s: %s" % (type(e).__name__, e)}
+    if spec.get("bad_file"):
+        s.source = "FILE"
+        s.filepath = spec["bad_file"]
+        try:
+            rc = bpy.ops.envlight.create_lights()
+            result["bad_file"] = {"rc": list(rc)}
+        except RuntimeError as e:  # the operator's ERROR report surfaces as RuntimeError
+            result["bad_file"] = {"report": str(e)}
+        result["bad_file"]["message"] = s.result_message
+        result["bad_file"]["lamps_after"] = len(lamps())
+        s.source = "WORLD"
+    if spec.get("remove"):
+        bpy.ops.envlight.remove()
+        result["after_remove"] = {"lamps": lamps(), "world": world_state(scene.world)}
+    with open(spec["out"], "w") as f:
+        json.dump(result, f, indent=1)
+    print("ENVLIGHT_CHECK_DONE", spec["out"])
+
+
+try:
+    main()
+except Exception:
+    import traceback
+    traceback.print_exc()
+    sys.exit(1)
+sys.exit(0)

@@ -1,0 +1,440 @@
+"""The ctypes shim (py_shim/envlight) against the built library: loading, structure layouts,
+pixels from memory, errors, lights energy, SH, handle lifetime, pip install.
+
+Run by ctest as `python3 -m pytest -q tests/py_shim.py` with ENVLIGHT_LIBRARY, PYTHONPATH,
+ENVLIGHT (the CLI), ENVL_TEST_TMP set (tests/CMakeLists.txt)."""
+import array
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+np = pytest.importorskip("numpy", reason="SKIP: numpy is not installed (python3-numpy)")
+import envlight  # noqa: E402
+from envlight import _lib  # noqa: E402
+
+TMP = os.environ.get("ENVL_TEST_TMP") or os.path.join(os.path.dirname(__file__), "..", "build",
+                                                      "tmp", "py_shim")
+os.makedirs(TMP, exist_ok=True)
+SRC = os.environ.get("ENVL_SOURCE_DIR") or os.path.dirname(os.path.dirname(os.path.abspath(
+    __file__)))
+CLI = os.environ.get("ENVLIGHT")
+
+
+def solid_angles(h, w):
+    """Exact per-row solid angle of a w x h lat-long map (DESIGN.md), computed here in numpy."""
+    r = np.arange(h)
+    return (2 * np.pi / w) * (np.sin(np.pi * (0.5 - r / h)) - np.sin(np.pi * (0.5 - (r + 1) / h)))
+
+
+def power_of(img):
+    h, w, _ = img.shape
+    return (img.astype(np.float64) * solid_angles(h, w)[:, None, None]).sum(axis=(0, 1))
+
+
+def spot_image(w=64, h=32, col=40, row=9, value=1000.0, base=0.05):
+    img = np.full((h, w, 3), base, dtype=np.float32)
+    img[row, col] = (value, 0.5 * value, 0.25 * value)
+    return img
+
+
+# ---- loading and the ABI -----------------------------------------------------------------
+
+def test_library_loaded_with_matching_abi():
+    assert envlight.lib.envl_abi_version() == envlight.ABI_VERSION == 1
+    assert envlight.version()
+    want = os.environ.get("ENVLIGHT_LIBRARY")
+    if want:
+        assert os.path.realpath(envlight.library_path) == os.path.realpath(want)
+
+
+def test_abi_mismatch_is_refused(monkeypatch):
+    monkeypatch.setattr(_lib, "ABI_VERSION", 999)
+    with pytest.raises(ImportError, match="ABI version 1.*written for 999"):
+        _lib.load_library(envlight.library_path)
+
+
+def test_missing_library_is_a_clear_import_error():
+    with pytest.raises(ImportError, match="cannot load libenvlight"):
+        _lib.load_library(os.path.join(TMP, "no-such-libenvlight.so"))
+
+
+def test_every_header_function_is_in_the_table():
+    """Every ENVL_API function of envlight.h has an entry in the one argtypes/restypes table
+    (and nothing in the table is absent from the header)."""
+    import re
+    header = open(os.path.join(SRC, "src", "envlight.h")).read()
+    header = re.sub(r"/\*.*?\*/", "", header, flags=re.S)
+    declared = set(re.findall(r"ENVL_API[^;(]*?\b(envl_\w+)\s*\(", header))
+    assert declared, "no ENVL_API declarations found"
+    assert declared == set(_lib.FUNCTIONS), (declared ^ set(_lib.FUNCTIONS))
+
+
+def test_struct_layouts_match_the_c_compiler():
+    """sizeof/offsetof of every mirrored struct and field, as gcc computes them from
+    envlight.h, equal ctypes' layout."""
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if not cc:
+        pytest.skip("SKIP: no C compiler to compute the reference layout")
+    lines = ['#include <stdio.h>', '#include <stddef.h>', '#include "envlight.h"',
+             'int main(void) {']
+    for cname, st in _lib.STRUCTS.items():
+        lines.append('printf("%s %%zu\\n", sizeof(%s));' % (cname, cname))
+        for field, _ in st._fields_:
+            lines.append('printf("%s.%s %%zu\\n", offsetof(%s, %s));'
+                         % (cname, field, cname, field))
+    lines.append("return 0; }")
+    csrc = os.path.join(TMP, "layout.c")
+    exe = os.path.join(TMP, "layout")
+    with open(csrc, "w") as f:
+        f.write("\n".join(lines))
+    subprocess.run([cc, "-std=c11", "-I", os.path.join(SRC, "src"), csrc, "-o", exe], check=True)
+    out = subprocess.run([exe], check=True, capture_output=True, text=True).stdout
+    c_layout = dict(line.rsplit(" ", 1) for line in out.split("\n") if line)
+    for cname, st in _lib.STRUCTS.items():
+        assert int(c_layout[cname]) == _sizeof(st), cname
+        for field, _ in st._fields_:
+            assert int(c_layout[cname + "." + field]) == getattr(st, field).offset, \
+                cname + "." + field
+
+
+def _sizeof(st):
+    import ctypes
+    return ctypes.sizeof(st)
+
+
+# ---- load, info, save ----------------------------------------------------------------------
+
+def test_load_info_round_trip_against_the_cli():
+    path = os.path.join(TMP, "spot.hdr")
+    img = spot_image()
+    envlight.save_image(path, img)
+    with envlight.load(path) as env:
+        info = env.info()
+        assert (info["width"], info["height"], info["format"]) == (64, 32, "hdr")
+        assert info["layout"] == "latlong" and info["layout_guessed"]
+        assert info["file"] == path
+        assert env.width == 64 and env.height == 32
+        px = env.pixels()
+        assert px.shape == (32, 64, 3) and px.dtype == np.float32
+        # RGBE keeps ~1 % precision; the spot is where we put it
+        assert np.allclose(px, img, rtol=0.01)
+        # power from envl_info == numpy's integral of the loaded pixels (checks the struct's
+        # double[3] fields land where C writes them)
+        assert np.allclose(info["power"], power_of(px), rtol=1e-9)
+        assert np.allclose(info["mean"], power_of(px) / (4 * np.pi), rtol=1e-9)
+        assert info["max"][0] == pytest.approx(float(px[..., 0].max()))
+        d = np.array(info["brightest_direction"])
+        assert np.allclose(d, env.direction(40, 9), atol=1e-12)
+        assert info["nonfinite_pixels"] == 0 and info["negative_pixels"] == 0
+        assert info["exposure"] == 1.0 and info["rotate_degrees"] == 0.0
+        if CLI:
+            js = json.loads(subprocess.run([CLI, "info", path, "--json"], check=True,
+                                           capture_output=True, text=True).stdout)
+            assert np.allclose(js["power"], info["power"], rtol=1e-6)
+            assert np.allclose(js["brightest_direction"], d, atol=1e-6)
+        out = os.path.join(TMP, "spot_copy.pfm")
+        env.save(out)
+    with envlight.load(out) as again:
+        assert np.array_equal(again.pixels(), px)
+
+
+def test_load_options_rotate_and_width():
+    path = os.path.join(TMP, "spot2.hdr")
+    envlight.save_image(path, spot_image())
+    with envlight.load(path, layout="latlong", rotate=90, width=128) as env:
+        info = env.info()
+        assert (info["width"], info["height"]) == (128, 64)
+        assert info["rotate_degrees"] == 90.0 and not info["layout_guessed"]
+        with envlight.load(path) as plain:
+            d0 = np.array(plain.info()["brightest_direction"])
+        # +90 degrees about +Z (counter-clockwise from above): (x, y) -> (-y, x)
+        d1 = np.array(info["brightest_direction"])
+        want = np.array([-d0[1], d0[0], d0[2]])
+        assert np.degrees(np.arccos(np.clip(d1 @ want, -1, 1))) < 3.0  # one source pixel
+
+
+def test_sky():
+    with envlight.sky(sun_elevation=35, sun_azimuth=90, width=256) as env:
+        info = env.info()
+        assert info["format"] == "sky" and info["width"] == 256
+        d = np.array(info["brightest_direction"])
+        want = np.array([0.0, math.cos(math.radians(35)), math.sin(math.radians(35))])
+        assert np.degrees(np.arccos(np.clip(d @ want, -1, 1))) < 1.0
+
+
+# ---- from_pixels ---------------------------------------------------------------------------
+
+def test_from_pixels_numpy_buffer_and_flip_agree():
+    img = spot_image()
+    h, w, _ = img.shape
+    rgba = np.concatenate([img, np.ones((h, w, 1), np.float32)], axis=2)
+    with envlight.from_pixels(img) as a:
+        pa = a.pixels()
+        assert a.info()["format"] == "memory"
+    assert np.array_equal(pa, img)
+    # any buffer: array.array('f') of RGBA, with the sizes given
+    buf = array.array("f", rgba.reshape(-1).tolist())
+    with envlight.from_pixels(buf, w, h, 4) as b:
+        assert np.array_equal(b.pixels(), img)
+    # raw bytes of float32
+    with envlight.from_pixels(img.tobytes(), w, h, 3) as c:
+        assert np.array_equal(c.pixels(), img)
+    # Blender's Image.pixels: RGBA, row 0 at the bottom -> flip=True gives the same map
+    bottom_up = rgba[::-1].reshape(-1).copy()
+    with envlight.from_pixels(bottom_up, w, h, 4, flip=True) as d:
+        assert np.array_equal(d.pixels(), img)
+    with envlight.from_pixels(array.array("f", bottom_up.tolist()), w, h, 4, flip=True) as e:
+        assert np.array_equal(e.pixels(), img)
+    # a float64 array is converted; grey (2-D) too
+    with envlight.from_pixels(img.astype(np.float64)) as f:
+        assert np.array_equal(f.pixels(), img)
+    with envlight.from_pixels(img[..., 1].copy()) as g:
+        assert np.array_equal(g.pixels()[..., 2], img[..., 1])
+
+
+def test_from_pixels_short_buffer_is_refused_before_the_library_reads_it():
+    with pytest.raises(ValueError, match="needs 6144"):
+        envlight.from_pixels(np.zeros(100, np.float32), 64, 32, 3)
+    with pytest.raises(ValueError, match="bytes"):
+        envlight.from_pixels(b"\0" * 100, 64, 32, 3)
+
+
+# ---- errors carry the library's message ----------------------------------------------------
+
+def test_errors_raise_with_the_library_message():
+    missing = os.path.join(TMP, "does-not-exist.hdr")
+    with pytest.raises(envlight.Error) as e:
+        envlight.load(missing)
+    assert e.value.name == "ENVL_ERR_IO" and e.value.code == 2
+    assert missing in e.value.message and missing in str(e.value)
+
+    bad = os.path.join(TMP, "bad.hdr")
+    with open(bad, "wb") as f:
+        f.write(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n\x02\x02")
+    with pytest.raises(envlight.Error) as e:
+        envlight.load(bad)
+    assert e.value.name == "ENVL_ERR_FORMAT" and bad in e.value.message
+
+    with pytest.raises(envlight.Error) as e:
+        envlight.from_pixels(np.zeros((4, 8, 2), np.float32))
+    assert e.value.name == "ENVL_ERR_ARGUMENT"
+    assert "2 channels (expected 1, 3 or 4)" in e.value.message
+
+    big = os.path.join(TMP, "limit.hdr")
+    envlight.save_image(big, spot_image())
+    with pytest.raises(envlight.Error) as e:
+        envlight.load(big, max_pixels=100)
+    assert e.value.name == "ENVL_ERR_LIMIT" and big in e.value.message
+
+    with pytest.raises(ValueError, match="unknown method"):
+        with envlight.sky(width=64) as s:
+            s.lights(4, method="nope")
+
+
+def test_lights_error_from_the_library():
+    with envlight.sky(width=64) as env:
+        with pytest.raises(envlight.Error) as e:
+            env.lights(4, method="fit", order=40)   # remainder bands 41 > 9
+        assert e.value.name == "ENVL_ERR_ARGUMENT" and e.value.message
+
+
+# ---- lights: energy, directions, residual --------------------------------------------------
+
+@pytest.mark.parametrize("method,n", [("median", 16), ("variance", 8), ("fit", 4)])
+def test_lights_energy_is_conserved(method, n):
+    with envlight.sky(width=256) as env:
+        power = np.array(env.info()["power"])
+        with env.lights(n, method=method) as res:
+            s = res.summary
+            assert s["method"] == method and s["count"] == len(res.lights) >= 1
+            rgb = np.array([l.rgb for l in res.lights])
+            residual = res.residual
+            assert residual.shape == (128, 256, 3)
+            # sum of the lights' rgb + the residual's power (integrated here) == the map's power
+            total = rgb.sum(axis=0) + power_of(residual)
+            assert np.allclose(total, power, rtol=1e-6), (total, power)
+            assert np.allclose(s["lights_power"], rgb.sum(axis=0), rtol=1e-12)
+            assert np.allclose(s["residual_power"], power_of(residual), rtol=1e-5, atol=1e-9)
+            for l in res.lights:
+                assert abs(np.linalg.norm(l.direction) - 1) < 1e-9
+                want = 2 * math.acos(max(-1.0, 1 - l.solid_angle / (2 * math.pi)))
+                assert l.angle == pytest.approx(min(want, math.pi), abs=1e-12)
+                e, c = l.blender_sun()
+                assert np.allclose(np.array(c) * e, l.rgb, rtol=1e-12) and max(c) == 1.0
+            assert 0 <= s["diffuse_error"] < 0.3 and s["seconds"] >= 0
+            if method == "fit":
+                assert res.remainder.shape == (9, 3) and res.remainder_order == 2
+                rad = res.remainder_radiance
+                assert np.allclose(rad[0] * math.pi, res.remainder[0])
+                assert np.allclose(rad[1:4] * 2 * math.pi / 3, res.remainder[1:4])
+                assert np.allclose(rad[4:9] * math.pi / 4, res.remainder[4:9])
+            else:
+                assert res.remainder is None and s["remainder_order"] is None
+            # the predicted irradiance reproduces the reported error
+            normals = envlight.fibonacci_directions()
+            err = envlight.relative_rms_luminance(res.irradiance(normals),
+                                                  env.reference_irradiance())
+            assert err == pytest.approx(s["diffuse_error"], rel=1e-6)
+
+
+def test_one_bright_pixel_light_points_at_it():
+    img = spot_image(w=128, h=64, col=80, row=20, value=1e6, base=1e-3)
+    with envlight.from_pixels(img) as env:
+        d = np.array(env.direction(80, 20))
+        with env.lights(4, method="fit", order=None) as res:
+            best = max(res.lights, key=lambda l: sum(l.rgb))
+            assert np.degrees(np.arccos(min(1.0, np.dot(best.direction, d)))) < 0.5
+            assert res.remainder is None
+
+
+def test_lights_match_the_cli():
+    if not CLI:
+        pytest.skip("SKIP: ENVLIGHT (the CLI) not set")
+    out = subprocess.run([CLI, "lights", "-", "--method", "fit", "-n", "4", "--json"],
+                         check=True, capture_output=True, text=True).stdout
+    js = json.loads(out)
+    with envlight.sky() as env, env.lights(4, method="fit") as res:
+        assert len(res.lights) == js["count"]
+        for a, b in zip(res.lights, js["lights"]):
+            assert np.allclose(a.direction, b["direction"], atol=1e-6)
+            assert np.allclose(a.rgb, b["rgb"], rtol=1e-6)
+        assert res.summary["diffuse_error"] == pytest.approx(js["error"]["diffuse"], rel=1e-5)
+
+
+def test_save_residual(tmp_path=None):
+    with envlight.sky(width=128) as env, env.lights(2, method="fit") as res:
+        p = os.path.join(TMP, "residual.pfm")
+        res.save_residual(p)
+        with envlight.load(p) as back:
+            assert np.array_equal(back.pixels(), res.residual)
+
+
+# ---- SH --------------------------------------------------------------------------------------
+
+def test_sh_of_a_constant_map():
+    L = 0.75
+    with envlight.from_pixels(np.full((32, 64, 3), L, np.float32)) as env:
+        with env.sh(2) as sh:
+            assert sh.radiance.shape == (9, 3)
+            assert np.allclose(sh.radiance[0], 2 * math.sqrt(math.pi) * L, rtol=1e-9)
+            assert np.allclose(sh.radiance[1:], 0, atol=1e-9)
+            assert np.allclose(sh.irradiance[0], math.pi * sh.radiance[0], rtol=1e-12)
+            assert np.allclose(sh.summary["ambient"], math.pi * L, rtol=1e-9)
+            for k in "xyz":
+                assert np.allclose(sh.summary["deltas"][k], 0, atol=1e-9)
+            assert sh.summary["diffuse_error"] < 1e-5  # the reference integrator sums in float pixels
+            dirs = [(1, 0, 0), (0, 0, -1), (0.6, 0.8, 0)]
+            assert np.allclose(sh.eval_radiance(dirs), L, rtol=1e-9)
+            assert np.allclose(sh.eval_irradiance(dirs), math.pi * L, rtol=1e-9)
+            assert sh.window_factors == [1.0, 1.0, 1.0]
+        with env.sh(4, window="hann") as sh4:
+            assert sh4.summary["window"] == "hann" and sh4.radiance.shape == (25, 3)
+    y = envlight.sh_basis(2, (0, 0, 1))
+    assert y[0] == pytest.approx(0.282095, abs=1e-6) and y[2] == pytest.approx(0.488603, abs=1e-6)
+    assert envlight.cosine_lobe(2) == pytest.approx(math.pi / 4)
+
+
+# ---- lifetime ----------------------------------------------------------------------------------
+
+def test_context_managers_close_handles():
+    with envlight.sky(width=64) as env:
+        with env.lights(2, method="median") as res:
+            pass
+        assert res.closed
+        with pytest.raises(ValueError, match="closed"):
+            res.irradiance([(0, 0, 1)])
+        assert len(res.lights) == 2 and res.summary["count"] == 2  # copies stay usable
+        sh = env.sh(1)
+        sh.close()
+        sh.close()  # idempotent
+        assert sh.closed
+    assert env.closed
+    with pytest.raises(ValueError, match="Envmap is closed"):
+        env.info()
+    env.close()
+
+
+def test_handles_are_freed():
+    """Many maps created and closed: the process does not grow (each map + residual is 3 MB,
+    20 leaked would be 60 MB)."""
+    def rss():
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    img = np.random.default_rng(1).random((256, 512, 3), dtype=np.float32)
+    for _ in range(3):
+        envlight.from_pixels(img).close()
+    before = rss()
+    for _ in range(20):
+        with envlight.from_pixels(img) as env, env.lights(4, method="median") as res:
+            res.residual
+    assert rss() - before < 30e6
+
+
+# ---- pip install -----------------------------------------------------------------------------
+
+def test_pip_install_from_the_source_tree():
+    target = os.path.join(TMP, "pip_target")
+    shutil.rmtree(target, ignore_errors=True)
+    build_tmp = os.path.join(TMP, "pip_build")
+    shutil.rmtree(build_tmp, ignore_errors=True)
+    shutil.copytree(os.path.join(SRC, "py_shim"), build_tmp,
+                    ignore=shutil.ignore_patterns("__pycache__", "build", "*.egg-info"))
+    r = subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--no-index",
+                        "--no-build-isolation", "--target", target, build_tmp],
+                       capture_output=True, text=True)
+    if r.returncode != 0 and "No module named pip" in r.stderr:
+        pytest.skip("SKIP: pip is not installed")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert os.path.exists(os.path.join(target, "envlight", "__init__.py"))
+    code = textwrap.dedent("""
+        import envlight, sys
+        assert envlight.__file__.startswith(sys.argv[1]), envlight.__file__
+        with envlight.sky(width=64) as s:
+            print(len(s.lights(2, method='median').lights))
+    """)
+    env = dict(os.environ, PYTHONPATH=target)
+    out = subprocess.run([sys.executable, "-c", code, target], env=env, capture_output=True,
+                         text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "2"
+
+
+# ---- prefiltered maps (bound because envlight.h declares them) ---------------------------------
+
+def test_prefilter_constant_map():
+    L = 0.5
+    with envlight.from_pixels(np.full((64, 128, 3), L, np.float32)) as env:
+        with env.prefilter(roughness=[0.5, 1.0], irradiance=True, diffuse=True, brdf=True,
+                           brdf_size=16, width=64) as p:
+            s = p.summary
+            assert s["specular_levels"] == 2 and s["irradiance_maps"] == 1
+            assert s["brdf_tables"] == 1 and s["lights_computed"] == 0  # only what was asked
+            for lv in p.levels:
+                # a constant world prefilters to itself at any roughness
+                assert np.allclose(lv["rgb"], L, rtol=1e-4), lv["roughness"]
+                assert lv["alpha"] == pytest.approx(lv["roughness"] ** 2)
+            assert p.find_level(0.5)["roughness"] == 0.5 and p.find_level(0.3) is None
+            assert np.allclose(p.irradiance["rgb"], math.pi * L, rtol=1e-5)
+            assert np.allclose(p.sh_irradiance[0], math.pi * 2 * math.sqrt(math.pi) * L,
+                               rtol=1e-6)
+            assert p.brdf.shape == (16, 16, 2)
+            out = os.path.join(TMP, "prefilter_out")
+            os.makedirs(out, exist_ok=True)
+            p.export(out, format="pfm")
+            assert os.path.exists(os.path.join(out, "prefilter.json"))
+        rgb, st = env.specular(0.25, 32)
+        assert rgb.shape == (16, 32, 3) and st["width"] == 32
+        assert np.allclose(rgb, L, rtol=1e-4)
+    a, b = envlight.brdf_eval(0.5, 0.5)
+    lut = envlight.brdf_lut(8)
+    assert lut.shape == (8, 8, 2) and 0 < a < 1 and 0 <= b < 1
+    with pytest.raises(envlight.Error) as e:
+        with envlight.from_pixels(np.full((8, 16, 3), 1.0, np.float32)) as env:
+            env.prefilter(irradiance=True).export(os.path.join(TMP, "no", "such", "dir"))
+    assert e.value.name == "ENVL_ERR_IO" and "no/such/dir" in e.value.message
