@@ -69,18 +69,20 @@ static void row_sums_any(const float *p, const double *phi, int32_t w, int32_t n
         }
 }
 
-/* The same for order 2 (5 frequencies), with the 15 sums in registers. */
+/* The same for order 2 (5 frequencies), the 15 sums spelled out so they stay in registers. */
 static void row_sums_order2(const float *p, const double *phi, int32_t w, double *s)
 {
-    double a[15] = {0};
+    double r0 = 0, g0 = 0, b0 = 0, r1 = 0, g1 = 0, b1 = 0, r2 = 0, g2 = 0, b2 = 0;
+    double r3 = 0, g3 = 0, b3 = 0, r4 = 0, g4 = 0, b4 = 0;
     for (int32_t c = 0; c < w; c++, p += 3, phi += 5) {
         double r = p[0], g = p[1], b = p[2];
-        for (int k = 0; k < 5; k++) {
-            a[3 * k] += phi[k] * r;
-            a[3 * k + 1] += phi[k] * g;
-            a[3 * k + 2] += phi[k] * b;
-        }
+        r0 += phi[0] * r, g0 += phi[0] * g, b0 += phi[0] * b;
+        r1 += phi[1] * r, g1 += phi[1] * g, b1 += phi[1] * b;
+        r2 += phi[2] * r, g2 += phi[2] * g, b2 += phi[2] * b;
+        r3 += phi[3] * r, g3 += phi[3] * g, b3 += phi[3] * b;
+        r4 += phi[4] * r, g4 += phi[4] * g, b4 += phi[4] * b;
     }
+    const double a[15] = {r0, g0, b0, r1, g1, b1, r2, g2, b2, r3, g3, b3, r4, g4, b4};
     memcpy(s, a, sizeof a);
 }
 
