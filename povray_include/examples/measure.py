@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Render time and diffuse error of the generated includes in POV-Ray 3.7, as in
-docs/povray.md: a white diffuse sphere (orthographic, SIZE x SIZE, no anti-aliasing, +FH)
+README.md (section POV-Ray): a white diffuse sphere (orthographic, SIZE x SIZE, no anti-aliasing, +FH)
 lit by `envlight pov` with lights only, lights + SH ambient and lights + hemispheric
 ambient; error = relative RMS of luminance over the sphere's pixels against the exact
 irradiance E(n) / pi (the library's brute-force integrator). Also the reference: the HDR
