@@ -1,29 +1,10 @@
 #!/usr/bin/env bash
 # The command-line contract (DESIGN.md): exit statuses 0 / 1 / 2, errors on stderr naming the
 # file and the cause, stdout carries only the requested output, outputs written atomically.
-set -u
-: "${ENVLIGHT:?} ${ENVL_TEST_TMP:?}"
-mkdir -p "$ENVL_TEST_TMP"; cd "$ENVL_TEST_TMP" || exit 1
-fails=0; checks=0
-expect() { # expect STATUS DESCRIPTION -- command...
-  local want=$1 what=$2; shift 3
-  "$@" >out.txt 2>err.txt; local got=$?
-  checks=$((checks + 1))
-  if [ "$got" != "$want" ]; then
-    fails=$((fails + 1)); echo "FAIL: $what: exit $got, expected $want: $*"; cat err.txt
-  fi
-}
-contains() { # contains FILE TEXT DESCRIPTION
-  checks=$((checks + 1))
-  grep -qF -- "$2" "$1" || { fails=$((fails + 1)); echo "FAIL: $3: '$2' not in $1:"; cat "$1"; }
-}
-empty() {
-  checks=$((checks + 1))
-  [ ! -s "$1" ] || { fails=$((fails + 1)); echo "FAIL: $2: $1 not empty:"; cat "$1"; }
-}
+. "$(dirname "$0")/clitest.sh"
 
 expect 0 "info on the built-in sky" -- "$ENVLIGHT" info
-contains out.txt "built-in sky" "info names the sky"
+has out.txt "built-in sky" "info names the sky"
 expect 0 "info --json" -- "$ENVLIGHT" info - --json
 python3 - <<'PY' || { fails=$((fails + 1)); echo "FAIL: info JSON contract"; }
 import json, math
@@ -42,41 +23,41 @@ empty err.txt "info writes nothing on stderr for the sky"
 expect 2 "no command" -- "$ENVLIGHT"
 expect 2 "unknown command" -- "$ENVLIGHT" frobnicate
 expect 2 "unknown option" -- "$ENVLIGHT" info --bogus
-contains err.txt "unknown option '--bogus'" "usage error names the option"
+has err.txt "unknown option '--bogus'" "usage error names the option"
 expect 2 "bad number" -- "$ENVLIGHT" info --rotate abc
 expect 2 "missing value" -- "$ENVLIGHT" info --rotate
 expect 0 "help" -- "$ENVLIGHT" info --help
-contains out.txt "Usage: envlight info" "help on stdout"
+has out.txt "Usage: envlight info" "help on stdout"
 expect 0 "convert help" -- "$ENVLIGHT" convert --help
 
 expect 1 "missing file" -- "$ENVLIGHT" info does-not-exist.hdr
-contains err.txt "does-not-exist.hdr: cannot open" "error names the file and the cause"
+has err.txt "does-not-exist.hdr: cannot open" "error names the file and the cause"
 empty out.txt "nothing on stdout on error"
 mkdir -p adir
 expect 1 "directory as input" -- "$ENVLIGHT" info adir
-contains err.txt "adir: not a regular file" "directory refused"
+has err.txt "adir: not a regular file" "directory refused"
 : > empty.hdr
 expect 1 "empty file" -- "$ENVLIGHT" info empty.hdr
-contains err.txt "empty.hdr: file is empty" "empty file refused"
+has err.txt "empty.hdr: file is empty" "empty file refused"
 printf 'PF\n1000000 1000000\n-1\n' > huge.pfm
 expect 1 "absurd size refused before allocation" -- "$ENVLIGHT" info huge.pfm
-contains err.txt "exceeds the limit" "limit message"
+has err.txt "exceeds the limit" "limit message"
 
 # A damaged file named .exr is reported as not being OpenEXR (when the data is present).
 if [ -f "$ENVL_SHARED_DATA/openexr/OpenEXRTest/invalid.exr" ]; then
   expect 1 "invalid.exr" -- "$ENVLIGHT" info "$ENVL_SHARED_DATA/openexr/OpenEXRTest/invalid.exr"
-  contains err.txt "invalid.exr: not an OpenEXR file" "bad magic named"
+  has err.txt "invalid.exr: not an OpenEXR file" "bad magic named"
 else
   echo "SKIP: $ENVL_SHARED_DATA/openexr/OpenEXRTest/invalid.exr absent"
 fi
 printf 'garbage!' > bad.pfm
 expect 1 "bad pfm" -- "$ENVLIGHT" info bad.pfm
-contains err.txt "bad.pfm: not a PFM file" "bad pfm named"
+has err.txt "bad.pfm: not a PFM file" "bad pfm named"
 
 # convert: the sky to PFM, then back through info; sizes and power agree.
 expect 0 "convert sky to pfm" -- "$ENVLIGHT" convert - sky.pfm --sky-width 256
 expect 0 "info on the converted file" -- "$ENVLIGHT" info sky.pfm --json
-contains out.txt '"width": 256' "converted size"
+has out.txt '"width": 256' "converted size"
 # A failed convert leaves an existing output as it was, and no temporary file behind.
 cp sky.pfm keep.pfm
 expect 1 "convert from a missing file" -- "$ENVLIGHT" convert nothing.hdr keep.pfm
@@ -86,5 +67,4 @@ expect 1 "unknown output extension" -- "$ENVLIGHT" convert - out.xyz
 ls | grep -q 'tmp-' && { fails=$((fails + 1)); echo "FAIL: temporary file left behind"; ls; }
 checks=$((checks + 1))
 
-echo "$checks passed, $fails failed" | sed "s/^$checks passed/$((checks - fails)) passed/"
-[ "$fails" = 0 ]
+finish

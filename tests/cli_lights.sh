@@ -1,13 +1,7 @@
 #!/usr/bin/env bash
 # envlight lights: the JSON and CSV contract of DESIGN.md, energy bookkeeping through the
 # saved residual, usage errors.
-set -u
-: "${ENVLIGHT:?} ${ENVL_TEST_TMP:?}"
-mkdir -p "$ENVL_TEST_TMP"; cd "$ENVL_TEST_TMP" || exit 1
-fails=0; checks=0
-run() { checks=$((checks + 1)); "$@" >out.txt 2>err.txt || { fails=$((fails + 1)); echo "FAIL ($?): $*"; cat err.txt; }; }
-usage() { checks=$((checks + 1)); "$@" >out.txt 2>err.txt; local rc=$?
-  [ $rc = 2 ] || { fails=$((fails + 1)); echo "FAIL: exit $rc, expected 2: $*"; }; }
+. "$(dirname "$0")/clitest.sh"
 
 for method in median variance fit; do
   run "$ENVLIGHT" lights - --sky-width 256 -n 8 --method "$method" --json -o "l_$method.json" \
@@ -57,5 +51,4 @@ usage "$ENVLIGHT" lights -n 0
 usage "$ENVLIGHT" lights --order 9
 usage "$ENVLIGHT" lights a.hdr b.hdr
 
-echo "$((checks - fails)) passed, $fails failed"
-[ "$fails" = 0 ]
+finish

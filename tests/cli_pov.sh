@@ -1,15 +1,7 @@
 #!/usr/bin/env bash
 # envlight pov: what the include holds for each option (only what the scene asks for),
 # escaping of names, atomic output, usage errors. Renders are in tests/py_pov.py.
-set -u
-: "${ENVLIGHT:?} ${ENVL_TEST_TMP:?}"
-mkdir -p "$ENVL_TEST_TMP"; cd "$ENVL_TEST_TMP" || exit 1
-fails=0; checks=0
-run() { checks=$((checks + 1)); "$@" >out.txt 2>err.txt || { fails=$((fails + 1)); echo "FAIL ($?): $*"; cat err.txt; }; }
-usage() { checks=$((checks + 1)); "$@" >out.txt 2>err.txt; local rc=$?
-  [ $rc = 2 ] || { fails=$((fails + 1)); echo "FAIL: exit $rc, expected 2: $*"; }; }
-has() { checks=$((checks + 1)); grep -q -- "$2" "$1" || { fails=$((fails + 1)); echo "FAIL: $1 lacks '$2'"; }; }
-hasnt() { checks=$((checks + 1)); ! grep -q -- "$2" "$1" || { fails=$((fails + 1)); echo "FAIL: $1 has '$2'"; }; }
+. "$(dirname "$0")/clitest.sh"
 
 S="--sky-width 128"
 run "$ENVLIGHT" pov - $S -o default.inc
@@ -82,5 +74,4 @@ else
   echo "SKIP: povray absent: the includes are not parsed"
 fi
 
-echo "$((checks - fails)) passed, $fails failed"
-[ "$fails" = 0 ]
+finish
