@@ -227,6 +227,25 @@ static double variance_of(double e, const double s[3])
     return e > 0 ? fmax(0.0, e - (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]) / e) : 0.0;
 }
 
+typedef struct best_split {
+    double worst;           /* the larger of the halves' variances */
+    double va, vb;
+    int axis;               /* 0: columns, 1: rows, -1: none yet */
+    int32_t at;
+} best_split;
+
+/* Keeps the split [.., at) | [at, ..) when its larger half-variance is the least so far; the
+ * first half holds energy le and direction sum ls of the total (tot_e, tot_s). */
+static void consider_split(double le, const double ls[3], double tot_e, const double tot_s[3],
+                           int axis, int32_t at, best_split *b)
+{
+    double rs[3] = {tot_s[0] - ls[0], tot_s[1] - ls[1], tot_s[2] - ls[2]};
+    double va = variance_of(le, ls), vb = variance_of(tot_e - le, rs);
+    if (fmax(va, vb) < b->worst) {
+        *b = (best_split){fmax(va, vb), va, vb, axis, at};
+    }
+}
+
 /* Splits where the larger of the halves' variances is least, over both axes. Marginals of the
  * region (per column: sum e, e cos t, e sin t; per row: sum e, e cos p, e sin p) give every
  * candidate's sums by prefix sums. Cost: one pass over the region. */
@@ -259,9 +278,7 @@ static int split_variance(const envl_envmap *m, region *r, region *a, region *b,
             rw[2] += e * m->col_sin[c];
         }
     }
-    double best = INFINITY, best_va = 0, best_vb = 0;
-    int best_axis = -1;
-    int32_t best_s = 0;
+    best_split best = {INFINITY, 0, 0, -1, 0};
     double tot_e = 0, tot_s[3] = {0, 0, 0};
     for (int32_t i = 0; i < w; i++) {
         int32_t c = r->x0 + i < W ? r->x0 + i : r->x0 + i - W;
@@ -278,15 +295,7 @@ static int split_variance(const envl_envmap *m, region *r, region *a, region *b,
         ls[0] += m->col_cos[c] * col[3 * (i - 1) + 1];
         ls[1] += m->col_sin[c] * col[3 * (i - 1) + 1];
         ls[2] += col[3 * (i - 1) + 2];
-        double rs[3] = {tot_s[0] - ls[0], tot_s[1] - ls[1], tot_s[2] - ls[2]};
-        double va = variance_of(le, ls), vb = variance_of(tot_e - le, rs);
-        if (fmax(va, vb) < best) {
-            best = fmax(va, vb);
-            best_axis = 0;
-            best_s = r->x0 + i;
-            best_va = va;
-            best_vb = vb;
-        }
+        consider_split(le, ls, tot_e, tot_s, 0, r->x0 + i, &best);
     }
     /* along y: top = rows [y0, y0 + i) */
     le = 0;
@@ -298,32 +307,24 @@ static int split_variance(const envl_envmap *m, region *r, region *a, region *b,
         ls[0] += m->row_cos[y] * rw[1];
         ls[1] += m->row_cos[y] * rw[2];
         ls[2] += m->row_sin[y] * rw[0];
-        double rs[3] = {tot_s[0] - ls[0], tot_s[1] - ls[1], tot_s[2] - ls[2]};
-        double va = variance_of(le, ls), vb = variance_of(tot_e - le, rs);
-        if (fmax(va, vb) < best) {
-            best = fmax(va, vb);
-            best_axis = 1;
-            best_s = r->y0 + i;
-            best_va = va;
-            best_vb = vb;
-        }
+        consider_split(le, ls, tot_e, tot_s, 1, r->y0 + i, &best);
     }
     free(col);
     free(row);
-    if (best_axis < 0)
+    if (best.axis < 0)
         return 0;
     *a = *r;
     *b = *r;
-    if (best_axis == 0) {
-        a->x1 = best_s;
-        b->x0 = best_s;
+    if (best.axis == 0) {
+        a->x1 = best.at;
+        b->x0 = best.at;
     } else {
-        a->y1 = best_s;
-        b->y0 = best_s;
+        a->y1 = best.at;
+        b->y0 = best.at;
     }
     normalise_columns(m, b);
-    *var_a = best_va;
-    *var_b = best_vb;
+    *var_a = best.va;
+    *var_b = best.vb;
     return 1;
 }
 
