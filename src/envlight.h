@@ -304,6 +304,193 @@ ENVL_API envl_result envl_sh_eval_irradiance(const envl_sh *sh, int32_t count,
 ENVL_API void envl_sh_basis(int32_t order, const double direction[3], double *y);
 ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l */
 
+/* ---- prefiltered maps, the split-sum BRDF table, requests (prefilter.c, brdf.c, png.c) ------
+ * Conventions (README "Prefiltered maps"; DESIGN.md): every map is a lat-long image in the
+ * canonical frame. GGX alpha = roughness^2. The prefiltered specular radiance of roughness r
+ * (split sum, N = V = R, Karis 2013) is
+ *   P(R) = sum L(l) D(h) max(R.l, 0) dw / sum D(h) max(R.l, 0) dw,  h = normalize(R + l).
+ * The specular chain has K levels (default 6); level k has roughness r_k = k / (K - 1) (K = 1:
+ * r = 0) and, by default, width max(32, w_0 >> k) (w_0 = 512: 512, 256, 128, 64, 32, 32). A level
+ * of any other roughness r gets the size of chain level floor(r (K - 1)) (never coarser). */
+#define ENVL_DEFAULT_LEVELS 6
+
+#define ENVL_IRRADIANCE_RESAMPLED 0 /* exact sum over an area-resampled copy of the map, 256 wide
+                                       (default: fast and within ~1e-3 of exact) */
+#define ENVL_IRRADIANCE_SH 1        /* from the SH irradiance of order irradiance_order (fast) */
+#define ENVL_IRRADIANCE_EXACT 2     /* envl_irradiance_exact per texel (reference; slow) */
+#define ENVL_IRRADIANCE_COUNT 3
+ENVL_API const char *envl_irradiance_method_name(int32_t method); /* "resampled", "sh", "exact" */
+ENVL_API int32_t envl_irradiance_method_from_name(const char *name); /* -1 if unknown */
+
+typedef struct envl_prefilter_options {
+    int32_t levels;           /* K levels of the chain; default 6 */
+    int32_t width;            /* lat-long width of the roughness-0 level; default 512 */
+    int32_t min_width;        /* no specular level narrower than this; default 32 */
+    int32_t samples;          /* GGX samples per texel; default 128 */
+    int32_t unfiltered;       /* nonzero: plain GGX importance sampling of the full-resolution
+                                 map (no mip filtering): the benchmark's baseline */
+    int32_t irradiance_method;/* ENVL_IRRADIANCE_*; default RESAMPLED */
+    int32_t irradiance_width; /* lat-long width of the irradiance map; default 64 */
+    int32_t irradiance_order; /* ENVL_IRRADIANCE_SH: SH order 0..32; default 2 */
+    int32_t threads;          /* default: the map's */
+} envl_prefilter_options;
+
+/* Width of the specular level of `roughness` under `options` (height = width / 2). */
+ENVL_API int32_t envl_prefilter_level_width(const envl_prefilter_options *options,
+                                            double roughness);
+
+typedef struct envl_level {
+    double roughness, alpha;  /* alpha = roughness^2 */
+    int32_t width, height;    /* lat-long */
+    const float *rgb;         /* width * height * 3, row 0 = top; owned by the products */
+    int32_t samples;          /* per texel (0 for roughness 0: the map resampled by area) */
+    int32_t filtered;         /* 1: filtered importance sampling, 0: plain */
+    double energy_scale;      /* factor applied so that the level's integral of L dw equals the
+                                 map's (the continuous P(R) preserves it exactly); luminance
+                                 ratio before the correction, 1 when none was needed */
+    double glossy_error;      /* DESIGN.md's glossy error (request.measure), else -1 */
+    double seconds;           /* to compute the level (the error measure excluded) */
+} envl_level;
+
+typedef struct envl_irradiance_map {
+    int32_t method, width, height;
+    const float *rgb;         /* owned by the products */
+    double diffuse_error;     /* DESIGN.md's diffuse error (request.measure), else -1 */
+    double seconds;
+} envl_irradiance_map;
+
+typedef struct envl_brdf_options {
+    int32_t size;             /* table size S x S; default 128 */
+    int32_t samples;          /* GGX samples per texel (integrated in double); default 4096 */
+    int32_t multiscatter;     /* nonzero: the multiscatter form (see envl_brdf_lut) */
+    int32_t threads;          /* default: all cores */
+} envl_brdf_options;
+
+/* What a scene needs. Zero-initialised = nothing. Products are computed once each, sharing the
+ * intermediate work (one SH projection; one mip pyramid, cached on the map, for every specular
+ * level). */
+typedef struct envl_request {
+    int32_t diffuse;          /* diffuse ambient: SH irradiance coefficients of order sh_order */
+    int32_t irradiance_map;   /* an irradiance map (prefilter.irradiance_*) */
+    int32_t mirror;           /* mirror reflections / background: the roughness-0 level */
+    int32_t shadows;          /* lights for shadows (options in `lights`) */
+    int32_t specular_chain;   /* all K levels of the chain */
+    int32_t n_roughness;      /* glossy reflections at these roughness values (0..1): one level
+                                 each, nothing else */
+    const double *roughness;
+    int32_t brdf_lut;         /* the split-sum table (options in `brdf`) */
+    int32_t measure;          /* nonzero: also measure the diffuse / glossy error of each
+                                 product (the brute-force glossy reference is slow) */
+    int32_t sh_order;         /* default 2 */
+    envl_prefilter_options prefilter;
+    envl_lights_options lights;
+    envl_brdf_options brdf;
+} envl_request;
+
+/* What a call computed: counters that show the sharing, and times. */
+typedef struct envl_products_summary {
+    int32_t sh_projections;   /* SH passes over the map (0 or 1) */
+    int32_t pyramids_built;   /* mip pyramids built by this call (0: none needed, or cached) */
+    int32_t pyramid_levels;   /* levels of the map's pyramid (0 if it has none) */
+    int32_t specular_levels;  /* levels computed */
+    int32_t irradiance_maps, lights_computed, brdf_tables;
+    double seconds;           /* everything (error measures excluded) */
+    double seconds_sh, seconds_pyramid, seconds_specular, seconds_irradiance, seconds_lights,
+        seconds_brdf;
+} envl_products_summary;
+
+typedef struct envl_products envl_products;
+ENVL_API envl_result envl_compute(envl_envmap *map, const envl_request *request,
+                                  envl_products **out);
+ENVL_API void envl_products_free(envl_products *products);
+ENVL_API envl_result envl_products_get_summary(const envl_products *products,
+                                               envl_products_summary *out);
+/* Specular levels: the mirror level first (if asked and not in the chain), then the chain in
+ * order, then the requested roughness values not already computed, in the order given. */
+ENVL_API int32_t envl_products_level_count(const envl_products *products);
+ENVL_API envl_result envl_products_level(const envl_products *products, int32_t index,
+                                         envl_level *out);
+/* Index of the level of exactly `roughness` (-1 if none). */
+ENVL_API int32_t envl_products_find_level(const envl_products *products, double roughness);
+/* ENVL_ERR_ARGUMENT when the product was not requested. */
+ENVL_API envl_result envl_products_irradiance(const envl_products *products,
+                                              envl_irradiance_map *out);
+ENVL_API const envl_sh *envl_products_sh(const envl_products *products);       /* or NULL */
+ENVL_API const envl_lights *envl_products_lights(const envl_products *products); /* or NULL */
+/* The BRDF table (size x size x 2 floats) or NULL. */
+ENVL_API const float *envl_products_brdf(const envl_products *products, int32_t *size,
+                                         int32_t *multiscatter);
+
+/* One specular level on its own: roughness in [0, 1], lat-long width x width/2 (0: by the
+ * options' mapping). *rgb is allocated (envl_free). */
+ENVL_API envl_result envl_prefilter_specular(envl_envmap *map, double roughness, int32_t width,
+                                             const envl_prefilter_options *options, float **rgb,
+                                             envl_level *stats);
+/* The map's area-averaged mip pyramid (level 0 = the map, each next level half the size, down
+ * to 1 x 1), built once and cached on the map; envl_envmap_drop_mips frees it. */
+ENVL_API envl_result envl_envmap_mips(envl_envmap *map, int32_t *levels);
+ENVL_API void envl_envmap_drop_mips(envl_envmap *map);
+
+/* The brute-force reference: P(R) above summed over every pixel of the map, in double, for
+ * `count` unit directions (roughness 0: the pixel that contains R). */
+ENVL_API envl_result envl_prefilter_reference(const envl_envmap *map, double roughness,
+                                              int32_t count, const double *directions,
+                                              double *rgb_out);
+/* Bilinear lookup of a lat-long RGB image in a direction (wraps in azimuth, clamps rows). */
+ENVL_API void envl_latlong_sample(const float *rgb, int32_t width, int32_t height,
+                                  const double direction[3], double out[3]);
+/* DESIGN.md's glossy error of a lat-long level (sampled bilinearly) against the reference at
+ * the 1024 Fibonacci directions. */
+ENVL_API envl_result envl_glossy_error(const envl_envmap *map, double roughness,
+                                       const float *rgb, int32_t width, int32_t height,
+                                       double *error);
+
+/* Split-sum BRDF table (GGX, height-correlated Smith visibility), integrated in double by GGX
+ * importance sampling (Hammersley). Texel (i, j), j = row from the top: NoV = (i + 0.5) / S,
+ * roughness = (j + 0.5) / S (alpha = roughness^2); uploaded as is (first row at v = 0) it is
+ * sampled at (u, v) = (NoV, roughness). Channels:
+ *   single scatter: (A, B), Karis's scale and bias: specular = F0 A + B,
+ *     A = int (1 - Fc) f NoL dl / F, B = int Fc f NoL dl / F, Fc = (1 - VoH)^5;
+ *   multiscatter: (B, A + B) = (DFG1, DFG2): single scatter = mix(DFG1, DFG2, F0), and the
+ *     energy compensation of Turquin 2019 / Fdez-Aguera 2019 (as Filament applies it):
+ *     specular *= 1 + F0 (1 / (A + B) - 1).
+ * *rg gets size * size * 2 floats (envl_free). */
+ENVL_API envl_result envl_brdf_lut(const envl_brdf_options *options, float **rg,
+                                   int32_t *size);
+/* One value of the single-scatter (A, B) at (NoV, roughness), `samples` (0: 4096). */
+ENVL_API envl_result envl_brdf_eval(double nov, double roughness, int32_t samples,
+                                    double ab[2]);
+
+/* RGBM with range M (the atlas uses 6): rgb = M * rgbm.rgb * rgbm.a; a = ceil(255 max(rgb) /
+ * M) / 255 (values above M clamp to M), rgbm.rgb = round(255 rgb / (M a)). */
+#define ENVL_RGBM_RANGE 6.0
+ENVL_API void envl_rgbm_encode(const float rgb[3], double range, uint8_t rgbm[4]);
+ENVL_API void envl_rgbm_decode(const uint8_t rgbm[4], double range, float rgb[3]);
+/* PNG files (libpng), written atomically: RGBM RGBA8, or RGB8 sRGB-encoded (values clamped to
+ * [0, 1], sRGB chunk). */
+ENVL_API envl_result envl_png_save_rgbm(const char *path, const float *rgb, int32_t width,
+                                        int32_t height, double range);
+ENVL_API envl_result envl_png_save_srgb(const char *path, const float *rgb, int32_t width,
+                                        int32_t height);
+
+/* Export of products into a directory (README "Prefiltered maps" gives names and layouts). All
+ * files are written to temporaries first and renamed only when every one is complete, so a
+ * failed export leaves existing files as they were. A JSON sidecar `prefilter.json` states the
+ * conventions (frame, roughness mapping, RGBM range, layout) and every file. */
+#define ENVL_EXPORT_LATLONG 0
+#define ENVL_EXPORT_CUBE 1     /* six files per map: _px _nx _py _ny _pz _nz (canonical axes) */
+#define ENVL_EXPORT_CROSS 2    /* vertical cross, as envl_envmap_to_layout */
+#define ENVL_EXPORT_ATLAS 3    /* the specular levels in one image (see README) */
+#define ENVL_EXPORT_COUNT 4
+ENVL_API const char *envl_export_layout_name(int32_t layout); /* "latlong", "cube", ... */
+ENVL_API int32_t envl_export_layout_from_name(const char *name);
+typedef struct envl_export_options {
+    const char *format;       /* "exr" (default, float), "hdr", "pfm", "rgbm-png" */
+    int32_t layout;           /* ENVL_EXPORT_*; default lat-long */
+} envl_export_options;
+ENVL_API envl_result envl_products_export(const envl_products *products, const char *dir,
+                                          const envl_export_options *options);
+
 #ifdef __cplusplus
 }
 #endif

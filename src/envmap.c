@@ -319,6 +319,7 @@ void envl_envmap_free(envl_envmap *m)
     free(m->col_sin);
     free(m->reference);
     free(m->energy_sat);
+    free(m->mip_px);
     free(m);
 }
 

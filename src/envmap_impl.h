@@ -16,6 +16,12 @@ struct envl_envmap {
     int32_t threads;
     double *reference;    /* cached exact irradiance at the ENVL_ERROR_NORMALS Fibonacci normals */
     double *energy_sat;   /* cached summed-area table of luminance x solid angle, (W+1)(H+1) */
+    /* prefilter.c: the cached area-averaged mip pyramid. Level 0 is px itself; levels 1 ..
+     * mip_levels - 1 live in mip_px at mip_offset[level] (floats). mip_levels 0: not built. */
+    float *mip_px;
+    int32_t mip_levels;
+    int32_t mip_w[40], mip_h[40];
+    size_t mip_offset[40];
 };
 
 /* The map's summed-area table of luminance x solid angle (double), built once and cached:

@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# envlight prefilter / brdf-lut: outputs and their sidecars, layouts, usage errors, a failed
+# run leaving existing files alone.
+set -u
+: "${ENVLIGHT:?} ${ENVL_TEST_TMP:?}"
+mkdir -p "$ENVL_TEST_TMP"; cd "$ENVL_TEST_TMP" || exit 1
+fails=0; checks=0
+run() { checks=$((checks + 1)); "$@" >out.txt 2>err.txt || { fails=$((fails + 1)); echo "FAIL ($?): $*"; cat err.txt; }; }
+status() { local want=$1; shift; checks=$((checks + 1)); "$@" >out.txt 2>err.txt; local rc=$?
+  [ $rc = "$want" ] || { fails=$((fails + 1)); echo "FAIL: exit $rc, expected $want: $*"; }; }
+py() { checks=$((checks + 1)); python3 - "$@" || { fails=$((fails + 1)); echo "FAIL: python check $*"; }; }
+
+S="--sky-width 128 --quiet"
+run "$ENVLIGHT" prefilter --help
+grep -q -- "--roughness" out.txt || { fails=$((fails + 1)); echo "FAIL: help"; }
+run "$ENVLIGHT" brdf-lut --help
+
+# Default: irradiance + the 6-level chain, lat-long EXR, errors and times on stdout.
+run "$ENVLIGHT" prefilter - -o ll $S --size 64 --samples 32
+grep -q "glossy error" out.txt || { fails=$((fails + 1)); echo "FAIL: no error in summary"; cat out.txt; }
+py <<'PY'
+import json, os
+d = json.load(open("ll/prefilter.json"))
+assert d["frame"] == "blender-z-up" and d["layout"] == "latlong" and d["format"] == "exr"
+assert d["ggx"]["alpha"] == "roughness^2" and d["ggx"]["levels"] == 6
+assert [l["roughness"] for l in d["specular"]] == [0, 0.2, 0.4, 0.6, 0.8, 1]
+for l in d["specular"]:
+    for f in l["files"]:
+        assert os.path.getsize("ll/" + f) > 0
+    assert l["glossy_error"] is not None and l["seconds"] >= 0
+assert d["irradiance"]["diffuse_error"] < 0.02
+PY
+# Cube faces and the cross; hdr and pfm.
+run "$ENVLIGHT" prefilter - -o cube $S --size 16 --samples 16 --layout cube --format hdr --no-error
+for f in px nx py ny pz nz; do [ -s cube/specular_05_$f.hdr ] || { fails=$((fails + 1)); echo "FAIL: cube face $f"; }; done
+run "$ENVLIGHT" prefilter - -o cross $S --size 16 --samples 16 --layout cross --format pfm --no-error --specular
+run "$ENVLIGHT" info cross/specular_00.pfm --json --quiet
+py <<'PY'
+import json
+d = json.load(open("out.txt"))
+assert d["width"] == 48 and d["height"] == 64, d
+PY
+# The RGBM atlas with the BRDF table as sRGB PNG.
+run "$ENVLIGHT" prefilter - -o atlas $S --size 64 --samples 16 --format rgbm-png --layout atlas --no-error --json
+py <<'PY'
+import json, struct
+d = json.load(open("out.txt"))
+assert d["rgbm"]["range"] == 6 and d["atlas"]["width"] == 64 and d["atlas"]["height"] == 64
+assert [s["y"] for s in d["atlas"]["slots"]] == [32, 16, 8, 4, 2, 1]
+for name in ["atlas/specular_atlas.png", "atlas/brdf_lut.png"]:
+    b = open(name, "rb").read(33)
+    assert b[:8] == b"\x89PNG\r\n\x1a\n"
+    w, h, depth, ctype = struct.unpack(">IIBB", b[16:26])
+    assert (w, h, depth) == ((64, 64, 8) if "atlas" in name.split("/")[1] else (128, 128, 8)), (name, w, h)
+    assert ctype == (6 if "specular" in name else 2)
+PY
+# Only the levels asked for.
+run "$ENVLIGHT" prefilter - -o one $S --roughness 0.4 --no-error --json
+py <<'PY'
+import json
+d = json.load(open("out.txt"))
+assert "irradiance" not in d and [l["roughness"] for l in d["specular"]] == [0.4]
+PY
+# A failed run leaves the existing files as they were.
+cp ll/specular_00.exr before.exr
+status 1 "$ENVLIGHT" prefilter nonexistent.hdr -o ll
+cmp -s before.exr ll/specular_00.exr || { fails=$((fails + 1)); echo "FAIL: file changed"; }
+# Usage errors.
+status 2 "$ENVLIGHT" prefilter -
+status 2 "$ENVLIGHT" prefilter - -o x --format tiff
+status 2 "$ENVLIGHT" prefilter - -o x --roughness 0.5,2
+status 2 "$ENVLIGHT" prefilter - -o x --levels 0
+status 2 "$ENVLIGHT" prefilter - -o x --bogus
+status 2 "$ENVLIGHT" brdf-lut
+status 2 "$ENVLIGHT" brdf-lut -o lut.tiff
+# BRDF tables.
+run "$ENVLIGHT" brdf-lut -o lut.exr --size 16 --samples 256
+run "$ENVLIGHT" brdf-lut -o lut.png --size 16 --samples 256 --multiscatter --json
+py <<'PY'
+import json
+d = json.load(open("lut.png.json"))
+assert d["multiscatter"] is True and d["size"] == 16 and d["integration_error"] < 0.05
+assert json.load(open("out.txt"))["size"] == 16
+PY
+run "$ENVLIGHT" info lut.exr --json --quiet
+
+echo "cli_prefilter: $checks checks, $fails failed"
+[ $fails = 0 ]
