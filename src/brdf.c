@@ -23,15 +23,6 @@
 #define BRDF_DEFAULT_SIZE 128
 #define BRDF_DEFAULT_SAMPLES 4096
 
-static double radical_inverse(uint32_t i)
-{
-    i = (i << 16) | (i >> 16);
-    i = ((i & 0x55555555u) << 1) | ((i & 0xAAAAAAAAu) >> 1);
-    i = ((i & 0x33333333u) << 2) | ((i & 0xCCCCCCCCu) >> 2);
-    i = ((i & 0x0F0F0F0Fu) << 4) | ((i & 0xF0F0F0F0u) >> 4);
-    i = ((i & 0x00FF00FFu) << 8) | ((i & 0xFF00FF00u) >> 8);
-    return (double)i * (1.0 / 4294967296.0);
-}
 
 static double vis_smith_correlated(double nov, double nol, double a)
 {
@@ -50,7 +41,7 @@ static void integrate(double nov, double roughness, int32_t n, double ab[2])
     double vx = sqrt(1.0 - nov * nov), vz = nov; /* v = (vx, 0, vz) */
     double A = 0, B = 0;
     for (int32_t i = 0; i < n; i++) {
-        double e1 = (i + 0.5) / n, e2 = radical_inverse((uint32_t)i);
+        double e1 = (i + 0.5) / n, e2 = envl__radical_inverse((uint32_t)i);
         /* GGX: cos^2(theta_h) = (1 - e1) / (1 + (a^2 - 1) e1) */
         double c2 = (1.0 - e1) / (1.0 + (a2 - 1.0) * e1);
         double ct = sqrt(c2), st = sqrt(fmax(0.0, 1.0 - c2));

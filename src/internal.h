@@ -17,6 +17,18 @@ static inline double envl__lum(double r, double g, double b)
     return 0.2126 * r + 0.7152 * g + 0.0722 * b;
 }
 
+/* Van der Corput radical inverse in base 2 (bit reversal): the second coordinate of the
+ * Hammersley point set used by the GGX samplers (prefilter.c, brdf.c). */
+static inline double envl__radical_inverse(uint32_t i)
+{
+    i = (i << 16) | (i >> 16);
+    i = ((i & 0x55555555u) << 1) | ((i & 0xAAAAAAAAu) >> 1);
+    i = ((i & 0x33333333u) << 2) | ((i & 0xCCCCCCCCu) >> 2);
+    i = ((i & 0x0F0F0F0Fu) << 4) | ((i & 0xF0F0F0F0u) >> 4);
+    i = ((i & 0x00FF00FFu) << 8) | ((i & 0xFF00FF00u) >> 8);
+    return (double)i * (1.0 / 4294967296.0);
+}
+
 /* ---- errors (error.c) ---- */
 /* Records "printf-style message" as this thread's last error and returns `code`. */
 envl_result envl__fail(envl_result code, const char *fmt, ...)

@@ -912,6 +912,17 @@ done:
 
 #define CONE_BINS 16384
 
+/* Angular bin of pixel (c, r) around `dir`: floor(sin(angle / 2) BINS), with sin(angle/2) =
+ * sqrt((1 - cos) / 2): monotonic in the angle, no trigonometry per pixel. */
+static int32_t cone_bin(const envl_envmap *m, int32_t c, int32_t r, const double dir[3])
+{
+    double d[3];
+    envl_envmap_direction(m, c, r, d);
+    double t = sqrt(fmax(0.0, 0.5 * (1.0 - dot_n(d, dir, 3))));
+    int32_t b = (int32_t)(t * CONE_BINS);
+    return b < CONE_BINS ? b : CONE_BINS - 1;
+}
+
 static envl_result take_cones(const envl_envmap *m, envl_lights *ls)
 {
     int32_t W = m->width, H = m->height;
@@ -933,18 +944,11 @@ static envl_result take_cones(const envl_envmap *m, envl_lights *ls)
         }
     for (int32_t oi = 0; oi < ls->summary.count; oi++) {
         envl_light *l = &ls->lights[order[oi]];
-        /* bin = floor(sin(angle / 2) * BINS), sin(angle/2) = sqrt((1 - cos) / 2): monotonic in
-         * the angle, no trigonometry per pixel. */
         memset(hist, 0, sizeof(double[3]) * CONE_BINS);
         for (int32_t r = 0; r < H; r++) {
             double om = m->row_omega[r];
             for (int32_t c = 0; c < W; c++) {
-                double d[3];
-                envl_envmap_direction(m, c, r, d);
-                double t = sqrt(fmax(0.0, 0.5 * (1.0 - dot_n(d, l->direction, 3))));
-                int32_t b = (int32_t)(t * CONE_BINS);
-                if (b >= CONE_BINS)
-                    b = CONE_BINS - 1;
+                int32_t b = cone_bin(m, c, r, l->direction);
                 const float *p = ls->residual + 3 * ((size_t)r * W + c);
                 for (int k = 0; k < 3; k++)
                     hist[b][k] += p[k] * om;
@@ -975,10 +979,7 @@ static envl_result take_cones(const envl_envmap *m, envl_lights *ls)
         for (int32_t r = 0; r < H; r++) {
             double om = m->row_omega[r];
             for (int32_t c = 0; c < W; c++) {
-                double d[3];
-                envl_envmap_direction(m, c, r, d);
-                double t = sqrt(fmax(0.0, 0.5 * (1.0 - dot_n(d, l->direction, 3))));
-                int32_t b = (int32_t)(t * CONE_BINS);
+                int32_t b = cone_bin(m, c, r, l->direction);
                 if (b > last)
                     continue;
                 float *p = ls->residual + 3 * ((size_t)r * W + c);

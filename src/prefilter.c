@@ -278,15 +278,6 @@ static inline double ggx_d(double noh2, double a2)
     return a2 / (ENVL_PI * q * q);
 }
 
-static double radical_inverse(uint32_t i)
-{
-    i = (i << 16) | (i >> 16);
-    i = ((i & 0x55555555u) << 1) | ((i & 0xAAAAAAAAu) >> 1);
-    i = ((i & 0x33333333u) << 2) | ((i & 0xCCCCCCCCu) >> 2);
-    i = ((i & 0x0F0F0F0Fu) << 4) | ((i & 0xF0F0F0F0u) >> 4);
-    i = ((i & 0x00FF00FFu) << 8) | ((i & 0xFF00FF00u) >> 8);
-    return (double)i * (1.0 / 4294967296.0);
-}
 
 typedef struct ggx_sample {
     double l[3];       /* in the tangent frame (east, north, R) */
@@ -301,7 +292,7 @@ static int32_t make_samples(double alpha, int32_t n, int32_t w0, int32_t h0, ggx
     double log2_texel = 2.0 * log2(ENVL_PI / h0);
     int32_t k = 0;
     for (int32_t i = 0; i < n; i++) {
-        double e1 = (i + 0.5) / n, e2 = radical_inverse((uint32_t)i);
+        double e1 = (i + 0.5) / n, e2 = envl__radical_inverse((uint32_t)i);
         double c2 = (1.0 - e1) / (1.0 + (a2 - 1.0) * e1);
         double ct = sqrt(c2), st = sqrt(fmax(0.0, 1.0 - c2));
         double phi = 2.0 * ENVL_PI * e2;
