@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets with clang (ASan + UBSan + coverage) into build-fuzz and runs
 # each for SECONDS (default 60) from a seed corpus made of ../shared/data's small files and
-# files envlight writes itself. A crash leaves its input in build-fuzz/crashes/ and fails.
+# files envlight writes itself. A crash leaves its input in build-fuzz/crashes/ and fails: add it
+# to tests/fuzz_regressions/ with a test in tests/test_fuzz_regressions.c once fixed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
@@ -23,6 +24,9 @@ if [ -x "$cli" ]; then
   "$cli" convert - "$corpus/any/cross.pfm" --sky-width 16 --layout-out cross --size 4 --quiet
 fi
 printf 'PF\n2 1\n-1.0\n%024d' 0 > "$corpus/pfm/tiny.pfm"
+for f in tests/fuzz_regressions/*; do   # inputs that once crashed (tests/test_fuzz_regressions.c)
+  case "$f" in *.exr) cp "$f" "$corpus/exr/";; *.hdr|*.pic) cp "$f" "$corpus/hdr/";; *.pfm) cp "$f" "$corpus/pfm/";; esac
+done
 cp "$corpus"/hdr/* "$corpus"/exr/* "$corpus"/pfm/* "$corpus/any/" 2>/dev/null || true
 printf -- '--rotate\0000\0--width\00064\0--layout-in\0angular' > "$corpus/cli/a"
 printf -- '--sun-elevation=10\0-n\0004\0--strict' > "$corpus/cli/b"

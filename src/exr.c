@@ -349,20 +349,21 @@ static envl_result decode_chunk(exr_reader *r, const exr_chunk_info_t *ci, int64
         exr_coding_channel_info_t *dc = &r->dec.channels[c];
         int slot = slot_of(r, dc->channel_name);
         dc->decode_to_ptr = NULL;
-        if (slot < 0)
-            continue;
         dc->user_data_type = EXR_PIXEL_FLOAT;
         dc->user_bytes_per_element = 4;
         if (dc->width < 0 || dc->height < 0)
             return envl__fail(ENVL_ERR_FORMAT, "%s: channel %s: bad chunk size", r->name,
                               dc->channel_name);
-        if (!r->sampled && (dc->width != cw || dc->height != ch))
+        if (!r->sampled && slot >= 0 && (dc->width != cw || dc->height != ch))
             return envl__fail(ENVL_ERR_FORMAT, "%s: channel %s: chunk of %d x %d samples, "
                               "expected %lld x %lld", r->name, dc->channel_name, dc->width,
                               dc->height, (long long)cw, (long long)ch);
-        need += (size_t)dc->width * (size_t)sampled_lines(dc, cy0, ch);
+        /* Channels we do not use are decoded too, into the scratch buffer: OpenEXRCore 3.1.5's
+         * unpackers can write through a NULL destination (found by the fuzzer). */
+        if (!direct || slot < 0)
+            need += (size_t)dc->width * (size_t)sampled_lines(dc, cy0, ch);
     }
-    if (!direct && need > r->scratch_cap) {
+    if (need > r->scratch_cap) {
         float *p = realloc(r->scratch, need * sizeof(float));
         if (!p)
             return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate a chunk of %zu values",
@@ -374,11 +375,16 @@ static envl_result decode_chunk(exr_reader *r, const exr_chunk_info_t *ci, int64
     for (int c = 0; c < r->dec.channel_count; c++) {
         exr_coding_channel_info_t *dc = &r->dec.channels[c];
         int slot = slot_of(r, dc->channel_name);
-        if (slot < 0)
-            continue;
         int64_t lines = sampled_lines(dc, cy0, ch);
         if (dc->width == 0 || lines == 0)
             continue; /* a subsampled channel without samples in this chunk */
+        if (slot < 0) {
+            dc->decode_to_ptr = (uint8_t *)(r->scratch + off);
+            dc->user_pixel_stride = (int32_t)sizeof(float);
+            dc->user_line_stride = (int32_t)sizeof(float) * dc->width;
+            off += (size_t)dc->width * (size_t)lines;
+            continue;
+        }
         filled++;
         if (direct) {
             size_t at = ((size_t)(cy0 - r->dy0) * (size_t)out->width + (size_t)(cx0 - r->dx0)) * 3;
@@ -414,10 +420,12 @@ static envl_result decode_chunk(exr_reader *r, const exr_chunk_info_t *ci, int64
         const exr_coding_channel_info_t *dc = &r->dec.channels[c];
         int slot = slot_of(r, dc->channel_name);
         int64_t lines = sampled_lines(dc, cy0, ch);
-        if (slot < 0 || dc->width == 0 || lines == 0)
+        if (dc->width == 0 || lines == 0)
             continue;
         const float *src = r->scratch + off;
         off += (size_t)dc->width * (size_t)lines;
+        if (slot < 0)
+            continue;
         if (!r->sampled) {
             /* displayed part of the chunk */
             int64_t x0 = cx0 > r->dx0 ? cx0 : r->dx0, x1 = cx0 + cw - 1 < r->dx1 ? cx0 + cw - 1 : r->dx1;
