@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets with clang (ASan + UBSan + coverage) into build-fuzz and runs
-# each for SECONDS (default 60) from a seed corpus made of ../shared/data's small files and
+# each from a seed corpus made of ../shared/data's small files and
 # files envlight writes itself. A crash leaves its input in build-fuzz/crashes/ and fails: add it
 # to tests/fuzz_regressions/ with a test in tests/test_fuzz_regressions.c once fixed.
+#   bash fuzz/run.sh SECONDS   each target for SECONDS with a random seed (exploring)
+#   bash fuzz/run.sh ci        each target for a fixed number of runs with seed 1, about a
+#                              minute each: the same inputs every time (what CI runs)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-seconds=${1:-60}
+mode=${1:-60}
 CC=clang cmake -S . -B build-fuzz -DENVL_FUZZ=ON -DENVL_SANITIZE=ON -DENVL_TESTS=OFF \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build build-fuzz -j"$(nproc)" >/dev/null
@@ -31,11 +34,17 @@ cp "$corpus"/hdr/* "$corpus"/exr/* "$corpus"/pfm/* "$corpus/any/" 2>/dev/null ||
 printf -- '--rotate\0000\0--width\00064\0--layout-in\0angular' > "$corpus/cli/a"
 printf -- '--sun-elevation=10\0-n\0004\0--strict' > "$corpus/cli/b"
 status=0
+declare -A ci_runs=([hdr]=60000 [exr]=30000 [pfm]=100000 [any]=30000 [cli]=1000000)
 for t in hdr exr pfm any cli; do
   name=fuzz_$t
   [ $t = cli ] && name=fuzz_cli_options
-  echo "== $name for ${seconds}s"
-  if ! "build-fuzz/$name" -max_total_time="$seconds" -rss_limit_mb=4096 -timeout=20 \
+  if [ "$mode" = ci ]; then
+    limit=(-seed=1 -runs="${ci_runs[$t]}")
+  else
+    limit=(-max_total_time="$mode")
+  fi
+  echo "== $name ${limit[*]}"
+  if ! "build-fuzz/$name" "${limit[@]}" -rss_limit_mb=4096 -timeout=20 \
       -artifact_prefix=build-fuzz/crashes/ "$corpus/$t" 2>build-fuzz/$name.log; then
     echo "FAIL: $name found a crash:"; tail -40 build-fuzz/$name.log; status=1
   else
