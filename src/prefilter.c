@@ -137,40 +137,54 @@ int32_t envl_prefilter_level_width(const envl_prefilter_options *options, double
 
 /* ---- the mip pyramid ---- */
 
+/* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */
+static envl_result build_pyramid(const float *px, int32_t w, int32_t h, float **buf_out,
+                                 int32_t *n_out, int32_t mw[40], int32_t mh[40], size_t off[40])
+{
+    int32_t n = 1;
+    size_t total = 0;
+    mw[0] = w, mh[0] = h, off[0] = 0;
+    while ((w > 1 || h > 1) && n < 40) {
+        w = w > 1 ? w / 2 : 1;
+        h = h > 1 ? h / 2 : 1;
+        mw[n] = w, mh[n] = h, off[n] = total;
+        total += (size_t)w * h * 3;
+        n++;
+    }
+    float *buf = malloc(sizeof(float) * (total ? total : 1));
+    if (!buf)
+        return envl__fail(ENVL_ERR_MEMORY, "mip pyramid: out of memory");
+    const float *prev = px;
+    for (int32_t k = 1; k < n; k++) {
+        float *lev;
+        /* Levels nest (each texel edge of level k is one of level k - 1, in azimuth and in
+         * z), so resampling the previous level is the same as resampling the map. */
+        envl_result rc = envl__latlong_resample(prev, mw[k - 1], mh[k - 1], mw[k], mh[k],
+                                                0.0, &lev);
+        if (rc) {
+            free(buf);
+            return rc;
+        }
+        memcpy(buf + off[k], lev, sizeof(float) * (size_t)mw[k] * mh[k] * 3);
+        free(lev);
+        prev = buf + off[k];
+    }
+    *buf_out = buf;
+    *n_out = n;
+    return ENVL_OK;
+}
+
 envl_result envl_envmap_mips(envl_envmap *m, int32_t *levels)
 {
     if (!m)
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_mips: map is NULL");
     if (!m->mip_levels) {
-        int32_t n = 1, w = m->width, h = m->height;
-        int32_t mw[40], mh[40];
-        size_t off[40], total = 0;
-        mw[0] = w, mh[0] = h, off[0] = 0;
-        while ((w > 1 || h > 1) && n < 40) {
-            w = w > 1 ? w / 2 : 1;
-            h = h > 1 ? h / 2 : 1;
-            mw[n] = w, mh[n] = h, off[n] = total;
-            total += (size_t)w * h * 3;
-            n++;
-        }
-        float *buf = malloc(sizeof(float) * (total ? total : 1));
-        if (!buf)
-            return envl__fail(ENVL_ERR_MEMORY, "mip pyramid: out of memory");
-        const float *prev = m->px;
-        for (int32_t k = 1; k < n; k++) {
-            float *lev;
-            /* Levels nest (each texel edge of level k is one of level k - 1, in azimuth and in
-             * z), so resampling the previous level is the same as resampling the map. */
-            envl_result rc = envl__latlong_resample(prev, mw[k - 1], mh[k - 1], mw[k], mh[k],
-                                                    0.0, &lev);
-            if (rc) {
-                free(buf);
-                return rc;
-            }
-            memcpy(buf + off[k], lev, sizeof(float) * (size_t)mw[k] * mh[k] * 3);
-            free(lev);
-            prev = buf + off[k];
-        }
+        int32_t n, mw[40], mh[40];
+        size_t off[40];
+        float *buf;
+        envl_result rc = build_pyramid(m->px, m->width, m->height, &buf, &n, mw, mh, off);
+        if (rc)
+            return rc;
         m->mip_px = buf;
         for (int32_t k = 0; k < n; k++)
             m->mip_w[k] = mw[k], m->mip_h[k] = mh[k], m->mip_offset[k] = off[k];
@@ -437,8 +451,236 @@ static void image_energy(const float *px, int32_t w, int32_t h, double e[3])
     }
 }
 
+/* ---- bright pixels as point lobes ----
+ * A sun (0.5 degrees, 1e5 times the sky) is far below what any sample pattern resolves. So
+ * before sampling, pixels brighter than T = SPLIT_K x the map's mean luminance (at most
+ * SPLIT_MAX of them: T is raised to the luminance of the next brightest pixel if needed) are
+ * split: the residual keeps the pixel scaled to luminance T, and the excess
+ * E_j = L_j (1 - T / Y_j) omega_j (per channel) becomes a point lobe at the pixel's centre
+ * direction l_j. The residual is filtered as any map (its own pyramid, not the map's cached
+ * one) and the lobes are added analytically:
+ *   P(R) += sum_j E_j w(R.l_j) / N(alpha),  w(u) = u / q^2,  q = ((1 + u) / 2)(a^2 - 1) + 1,
+ * (D(h) R.l up to a constant, as the reference sums it), N(alpha) = integral of w over the
+ * sphere = 2 pi int_0^1 u / (A + B u)^2 du = (2 pi / B^2)(ln(a^2 / A) + A / a^2 - 1) with
+ * A = (1 + a^2) / 2, B = (a^2 - 1) / 2 (pi at a = 1). Lobes closer than SPLIT_CLUSTER alpha
+ * (same cell of a lat-long grid that fine) are merged at their energy-weighted centroid; where
+ * an output texel is wider than 2 alpha the lobe is averaged over the texel (supersampled).
+ * Both parts are energy-scaled separately (the residual like any level; the lobes to sum E). */
+#define SPLIT_K 50.0
+#define SPLIT_MAX 4096
+#define SPLIT_CLUSTER 0.1
+
+typedef struct lobe {
+    double d[3], e[3];
+    int32_t r, c;
+} lobe;
+
+typedef struct split {
+    int32_t n;                /* lobes; 0: nothing was split (use the map itself) */
+    lobe *lobes;              /* row-major order */
+    float *res;               /* the residual, W x H */
+    float *mip;               /* its pyramid, levels 1 .. levels - 1 */
+    int32_t levels, mw[40], mh[40];
+    size_t off[40];
+    double threshold;
+} split;
+
+static void split_free(split *s)
+{
+    free(s->lobes);
+    free(s->res);
+    free(s->mip);
+    memset(s, 0, sizeof *s);
+}
+
+static int cmp_desc(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return x > y ? -1 : x < y;
+}
+
+static envl_result make_split(const envl_envmap *m, split *s)
+{
+    memset(s, 0, sizeof *s);
+    int32_t w = m->width, h = m->height;
+    double e = 0;
+    for (int32_t r = 0; r < h; r++) {
+        const float *p = m->px + 3 * (size_t)r * w;
+        double row = 0;
+        for (int32_t c = 0; c < w; c++)
+            row += envl__lum(p[3 * c], p[3 * c + 1], p[3 * c + 2]);
+        e += row * m->row_omega[r];
+    }
+    double T = SPLIT_K * e / (4 * ENVL_PI);
+    if (!(T > 0) || !isfinite(T))
+        return ENVL_OK;
+    size_t npx = (size_t)w * h, count = 0;
+    for (size_t i = 0; i < npx; i++)
+        count += envl__lum(m->px[3 * i], m->px[3 * i + 1], m->px[3 * i + 2]) > T;
+    if (count == 0)
+        return ENVL_OK;
+    if (count > SPLIT_MAX) {
+        float *y = malloc(sizeof(float) * count);
+        if (!y)
+            return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
+        size_t k = 0;
+        for (size_t i = 0; i < npx; i++) {
+            double l = envl__lum(m->px[3 * i], m->px[3 * i + 1], m->px[3 * i + 2]);
+            if (l > T)
+                y[k++] = (float)l;
+        }
+        qsort(y, count, sizeof(float), cmp_desc);
+        T = y[SPLIT_MAX];
+        free(y);
+    }
+    s->threshold = T;
+    s->res = malloc(sizeof(float) * 3 * npx);
+    s->lobes = malloc(sizeof(lobe) * (count < SPLIT_MAX ? count : SPLIT_MAX));
+    if (!s->res || !s->lobes) {
+        split_free(s);
+        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
+    }
+    memcpy(s->res, m->px, sizeof(float) * 3 * npx);
+    for (int32_t r = 0; r < h && s->n < SPLIT_MAX; r++)
+        for (int32_t c = 0; c < w && s->n < SPLIT_MAX; c++) {
+            float *p = s->res + 3 * ((size_t)r * w + c);
+            double y = envl__lum(p[0], p[1], p[2]);
+            if (!(y > T))
+                continue;
+            lobe *l = s->lobes + s->n++;
+            double f = T / y;
+            for (int k = 0; k < 3; k++) {
+                double keep = p[k] * f;
+                l->e[k] = (p[k] - keep) * m->row_omega[r];
+                p[k] = (float)keep;
+            }
+            l->d[0] = m->row_cos[r] * m->col_cos[c];
+            l->d[1] = m->row_cos[r] * m->col_sin[c];
+            l->d[2] = m->row_sin[r];
+            l->r = r, l->c = c;
+        }
+    envl_result rc = build_pyramid(s->res, w, h, &s->mip, &s->levels, s->mw, s->mh, s->off);
+    if (rc)
+        split_free(s);
+    return rc;
+}
+
+/* N(alpha): the integral of w over the sphere (a2 = alpha^2). */
+static double lobe_norm(double a2)
+{
+    double A = 0.5 * (1 + a2), B = 0.5 * (a2 - 1), x = B / A;
+    if (fabs(x) < 1e-3) /* ln(1+x) + 1/(1+x) - 1 = x^2/2 - 2x^3/3 + 3x^4/4 - ... */
+        return 2 * ENVL_PI / (A * A) * (0.5 - 2 * x / 3 + 0.75 * x * x - 0.8 * x * x * x);
+    return 2 * ENVL_PI / (B * B) * (log(a2 / A) + A / a2 - 1);
+}
+
+double envl__test_lobe_norm(double a2); /* for the tests */
+double envl__test_lobe_norm(double a2) { return lobe_norm(a2); }
+
+typedef struct lobe_job {
+    const lobe *l;
+    int32_t n, w, h, ss;
+    double a2, inv_norm;
+    float *out;               /* w x h x 3, the lobes' part (overwritten) */
+} lobe_job;
+
+static void lobe_rows(void *ctx, int64_t begin, int64_t end)
+{
+    lobe_job *j = ctx;
+    int32_t ss = j->ss;
+    for (int64_t r = begin; r < end; r++)
+        for (int32_t c = 0; c < j->w; c++) {
+            double acc[3] = {0, 0, 0}, wt = 0;
+            for (int32_t sy = 0; sy < ss; sy++)
+                for (int32_t sx = 0; sx < ss; sx++) {
+                    double R[3];
+                    envl_latlong_direction(j->w, j->h, c + (sx + 0.5) / ss - 0.5,
+                                           r + (sy + 0.5) / ss - 0.5, R);
+                    double sw = ss > 1 ? sqrt(fmax(0.0, 1 - R[2] * R[2])) : 1.0;
+                    wt += sw;
+                    for (int32_t i = 0; i < j->n; i++) {
+                        const lobe *l = j->l + i;
+                        double u = R[0] * l->d[0] + R[1] * l->d[1] + R[2] * l->d[2];
+                        if (u <= 0)
+                            continue;
+                        double q = 0.5 * (1 + u) * (j->a2 - 1) + 1;
+                        double v = sw * u / (q * q);
+                        acc[0] += v * l->e[0], acc[1] += v * l->e[1], acc[2] += v * l->e[2];
+                    }
+                }
+            float *o = j->out + 3 * ((size_t)r * j->w + c);
+            double f = wt > 0 ? j->inv_norm / wt : 0;
+            for (int k = 0; k < 3; k++)
+                o[k] = (float)(acc[k] * f);
+        }
+}
+
+typedef struct cluster_key {
+    int64_t key;
+    int32_t i;
+} cluster_key;
+
+static int cmp_key(const void *a, const void *b)
+{
+    const cluster_key *x = a, *y = b;
+    return x->key != y->key ? (x->key < y->key ? -1 : 1) : (x->i > y->i) - (x->i < y->i);
+}
+
+/* The lobes' part of a level (w x h, alpha), energy-scaled per channel to sum E. */
+static envl_result add_lobes(const split *s, int32_t mh, double alpha, int32_t w, int32_t h,
+                             int32_t threads, float *px)
+{
+    /* merge lobes in cells of f x f map pixels, f = the largest power of 2 with
+     * f pi / H <= SPLIT_CLUSTER alpha */
+    int32_t f = 1;
+    while (f < (1 << 20) && 2.0 * f * ENVL_PI / mh <= SPLIT_CLUSTER * alpha)
+        f *= 2;
+    cluster_key *k = malloc(sizeof(cluster_key) * s->n);
+    lobe *cl = calloc((size_t)s->n, sizeof(lobe));
+    float *lp = malloc(sizeof(float) * 3 * (size_t)w * h);
+    if (!k || !cl || !lp) {
+        free(k), free(cl), free(lp);
+        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
+    }
+    for (int32_t i = 0; i < s->n; i++)
+        k[i].key = (int64_t)(s->lobes[i].r / f) * (1 << 30) + s->lobes[i].c / f, k[i].i = i;
+    qsort(k, (size_t)s->n, sizeof *k, cmp_key);
+    int32_t nc = 0;
+    double etot[3] = {0, 0, 0};
+    for (int32_t i = 0; i < s->n; i++) {
+        if (i == 0 || k[i].key != k[i - 1].key)
+            nc++;
+        lobe *c = cl + nc - 1;
+        const lobe *l = s->lobes + k[i].i;
+        double y = envl__lum(l->e[0], l->e[1], l->e[2]);
+        for (int q = 0; q < 3; q++)
+            c->e[q] += l->e[q], c->d[q] += y * l->d[q], etot[q] += l->e[q];
+    }
+    for (int32_t i = 0; i < nc; i++) {
+        double n = sqrt(cl[i].d[0] * cl[i].d[0] + cl[i].d[1] * cl[i].d[1] +
+                        cl[i].d[2] * cl[i].d[2]);
+        for (int q = 0; q < 3; q++)
+            cl[i].d[q] = n > 0 ? cl[i].d[q] / n : 0;
+    }
+    double texel = ENVL_PI / h;
+    int32_t ss = texel > 2 * alpha ? (int32_t)ceil(texel / alpha) : 1;
+    ss = ss > 32 ? 32 : ss;
+    lobe_job j = {cl, nc, w, h, ss, alpha * alpha, 1.0 / lobe_norm(alpha * alpha), lp};
+    envl__parallel_for(h, threads, lobe_rows, &j);
+    double eout[3];
+    image_energy(lp, w, h, eout);
+    for (int q = 0; q < 3; q++) {
+        double sc = eout[q] > 0 && etot[q] > 0 ? etot[q] / eout[q] : 1.0;
+        for (size_t i = 0; i < (size_t)w * h; i++)
+            px[3 * i + q] += (float)(lp[3 * i + q] * sc);
+    }
+    free(k), free(cl), free(lp);
+    return ENVL_OK;
+}
+
+/* sp: the map's split (NULL: made here when needed). */
 static envl_result specular_level(envl_envmap *m, const resolved *o, double roughness,
-                                  int32_t width, float **out, envl_level *st)
+                                  int32_t width, const split *sp, float **out, envl_level *st)
 {
     double t0 = now();
     *out = NULL;
@@ -463,13 +705,23 @@ static envl_result specular_level(envl_envmap *m, const resolved *o, double roug
         st->seconds = now() - t0;
         return rc;
     }
-    if (!o->unfiltered && (rc = envl_envmap_mips(m, NULL)))
+    split own = {0};
+    if (!o->unfiltered && !sp) {
+        if ((rc = make_split(m, &own)))
+            return rc;
+        sp = &own;
+    }
+    int use_split = !o->unfiltered && sp->n > 0;
+    if (!o->unfiltered && !use_split && (rc = envl_envmap_mips(m, NULL))) {
+        split_free(&own);
         return rc;
+    }
     ggx_sample *s = malloc(sizeof(ggx_sample) * (size_t)o->samples);
     float *px = malloc(sizeof(float) * 3 * (size_t)width * h);
     if (!s || !px) {
         free(s);
         free(px);
+        split_free(&own);
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for a %d x %d level",
                           (int)width, (int)h);
     }
@@ -481,25 +733,33 @@ static envl_result specular_level(envl_envmap *m, const resolved *o, double roug
         /* Cannot happen for n >= 1 (the first sample has the largest N.h), but be safe. */
         free(s);
         free(px);
+        split_free(&own);
         return envl__fail(ENVL_ERR_ARGUMENT, "prefilter: no usable GGX sample");
     }
-    int32_t nlev = o->unfiltered ? 1 : m->mip_levels;
+    int32_t nlev = o->unfiltered ? 1 : use_split ? sp->levels : m->mip_levels;
     mip_view *lv = calloc((size_t)nlev, sizeof(mip_view));
     size_t nz = 0;
     for (int32_t k = 0; k < nlev; k++)
-        nz += o->unfiltered ? m->height : m->mip_h[k];
+        nz += o->unfiltered ? m->height : use_split ? sp->mh[k] : m->mip_h[k];
     double *zm = malloc(sizeof(double) * nz);
     if (!lv || !zm) {
         free(lv);
         free(zm);
         free(s);
         free(px);
+        split_free(&own);
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
     }
     for (int32_t k = 0, off = 0; k < nlev; k++) {
-        lv[k].px = mip_level(m, k);
-        lv[k].w = o->unfiltered ? m->width : m->mip_w[k];
-        lv[k].h = o->unfiltered ? m->height : m->mip_h[k];
+        if (use_split) {
+            lv[k].px = k == 0 ? sp->res : sp->mip + sp->off[k];
+            lv[k].w = sp->mw[k];
+            lv[k].h = sp->mh[k];
+        } else {
+            lv[k].px = mip_level(m, k);
+            lv[k].w = o->unfiltered ? m->width : m->mip_w[k];
+            lv[k].h = o->unfiltered ? m->height : m->mip_h[k];
+        }
         lv[k].zm = zm + off;
         for (int32_t r = 0; r < lv[k].h; r++)
             lv[k].zm[r] = 0.5 * (sin(ENVL_PI * (0.5 - (double)r / lv[k].h)) +
@@ -513,7 +773,7 @@ static envl_result specular_level(envl_envmap *m, const resolved *o, double roug
     free(zm);
     free(s);
     double ein[3], eout[3];
-    image_energy(m->px, m->width, m->height, ein);
+    image_energy(use_split ? sp->res : m->px, m->width, m->height, ein);
     image_energy(px, width, h, eout);
     double yin = envl__lum(ein[0], ein[1], ein[2]), yout = envl__lum(eout[0], eout[1], eout[2]);
     if (yout > 0 && yin > 0)
@@ -524,6 +784,13 @@ static envl_result specular_level(envl_envmap *m, const resolved *o, double roug
         double f = ein[k] / eout[k];
         for (size_t i = 0; i < (size_t)width * h; i++)
             px[3 * i + k] = (float)(px[3 * i + k] * f);
+    }
+    if (use_split)
+        rc = add_lobes(sp, m->height, st->alpha, width, h, o->threads, px);
+    split_free(&own);
+    if (rc) {
+        free(px);
+        return rc;
     }
     st->samples = o->samples;
     st->filtered = !o->unfiltered;
@@ -543,7 +810,7 @@ envl_result envl_prefilter_specular(envl_envmap *m, double roughness, int32_t wi
     if (rc)
         return rc;
     envl_level st;
-    rc = specular_level(m, &o, roughness, width, rgb, &st);
+    rc = specular_level(m, &o, roughness, width, NULL, rgb, &st);
     if (rc == ENVL_OK && stats) {
         st.rgb = *rgb;
         *stats = st;
@@ -879,10 +1146,17 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
         s->pyramids_built += built;
         s->seconds_pyramid += now() - t;
     }
+    /* The bright pixels split off once for every filtered level (see make_split). */
+    split sp = {0};
+    if (need_mips && (rc = make_split(m, &sp))) {
+        free(want);
+        goto fail;
+    }
     for (int32_t i = 0; i < nw; i++) {
         t = now();
-        rc = specular_level(m, &p->opt, want[i], 0, &p->level_px[i], &p->levels[i]);
+        rc = specular_level(m, &p->opt, want[i], 0, &sp, &p->level_px[i], &p->levels[i]);
         if (rc) {
+            split_free(&sp);
             free(want);
             goto fail;
         }
@@ -891,6 +1165,7 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
         s->specular_levels++;
         s->seconds_specular += now() - t;
     }
+    split_free(&sp);
     free(want);
     if (q->brdf_lut) {
         t = now();
