@@ -19,6 +19,9 @@ import bpy
 import mathutils
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_scene import add_white_sphere_and_camera  # noqa: E402
+
 
 def spec_from_argv():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
@@ -175,28 +178,7 @@ def render_panorama(scene, path, w=256):
 def render_sphere(scene, path, spec):
     """A white diffuse sphere (radius 1 at the origin) seen by a camera on -Y, Cycles."""
     if "EnvLightCheckSphere" not in bpy.data.objects:
-        bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0)
-        sph = bpy.context.active_object
-        sph.name = "EnvLightCheckSphere"
-        bpy.ops.object.shade_smooth()
-        mat = bpy.data.materials.new("EnvLightCheckWhite")
-        mat.use_nodes = True
-        nt = mat.node_tree
-        for n in list(nt.nodes):
-            if n.bl_idname != "ShaderNodeOutputMaterial":
-                nt.nodes.remove(n)
-        diff = nt.nodes.new("ShaderNodeBsdfDiffuse")
-        diff.inputs["Color"].default_value = (1, 1, 1, 1)
-        nt.links.new(diff.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
-        sph.data.materials.append(mat)
-        cam = bpy.data.cameras.new("EnvLightCheckCam")
-        cam.type = "ORTHO"
-        cam.ortho_scale = 2.2
-        co = bpy.data.objects.new("EnvLightCheckCam", cam)
-        scene.collection.objects.link(co)
-        co.location = (0, -5, 0)
-        co.rotation_euler = (math.radians(90), 0, 0)
-        scene.camera = co
+        add_white_sphere_and_camera(scene, "EnvLightCheck")
     setup_render(scene, spec)
     scene.render.film_transparent = True  # the background is not part of the comparison
     scene.render.filepath = path

@@ -73,27 +73,9 @@ def setup_world(hdr):
 
 
 def setup_scene(scene, a):
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0)
-    sph = bpy.context.active_object
-    bpy.ops.object.shade_smooth()
-    mat = bpy.data.materials.new("BenchWhite")
-    mat.use_nodes = True
-    nt = mat.node_tree
-    for n in list(nt.nodes):
-        if n.bl_idname != "ShaderNodeOutputMaterial":
-            nt.nodes.remove(n)
-    diff = nt.nodes.new("ShaderNodeBsdfDiffuse")
-    diff.inputs["Color"].default_value = (1, 1, 1, 1)
-    nt.links.new(diff.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
-    sph.data.materials.append(mat)
-    cam = bpy.data.cameras.new("BenchCam")
-    cam.type = "ORTHO"
-    cam.ortho_scale = 2.2
-    co = bpy.data.objects.new("BenchCam", cam)
-    scene.collection.objects.link(co)
-    co.location = (0, -5, 0)
-    co.rotation_euler = (math.radians(90), 0, 0)
-    scene.camera = co
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from blender_scene import add_white_sphere_and_camera
+    add_white_sphere_and_camera(scene, "Bench")
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.use_denoising = False

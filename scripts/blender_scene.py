@@ -1,0 +1,34 @@
+"""Scene pieces shared by the scripts that run inside Blender (blender_addon_check.py,
+blender_bench.py): a white diffuse unit sphere at the origin seen by an orthographic camera
+on -Y."""
+import math
+
+import bpy
+
+
+def add_white_sphere_and_camera(scene, name):
+    """Adds the sphere (object `name`Sphere, material `name`White) and the camera (`name`Cam),
+    and makes it the scene's camera."""
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=1.0)
+    sph = bpy.context.active_object
+    sph.name = name + "Sphere"
+    bpy.ops.object.shade_smooth()
+    mat = bpy.data.materials.new(name + "White")
+    mat.use_nodes = True
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        if n.bl_idname != "ShaderNodeOutputMaterial":
+            nt.nodes.remove(n)
+    diff = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    diff.inputs["Color"].default_value = (1, 1, 1, 1)
+    nt.links.new(diff.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+    sph.data.materials.append(mat)
+    cam = bpy.data.cameras.new(name + "Cam")
+    cam.type = "ORTHO"
+    cam.ortho_scale = 2.2
+    co = bpy.data.objects.new(name + "Cam", cam)
+    scene.collection.objects.link(co)
+    co.location = (0, -5, 0)
+    co.rotation_euler = (math.radians(90), 0, 0)
+    scene.camera = co
+    return sph
