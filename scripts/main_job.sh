@@ -6,18 +6,20 @@
 #   bash scripts/main_job.sh [OUTDIR] [FILE]      (OUTDIR default: envlight-out; FILE default: -)
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
-out=${1:-envlight-out}
 file=${2:--}
 cli=${ENVLIGHT:-$here/build/envlight}
-mkdir -p "$out"
+mkdir -p "${1:-envlight-out}"
+# absolute: the include names its sky image by this path, and POV-Ray runs inside the folder
+out=$(cd "${1:-envlight-out}" && pwd)
 "$cli" lights "$file" --method fit -n 4 --json -o "$out/lights.json" --residual "$out/residual.exr"
 "$cli" lights "$file" --method fit -n 4 --csv -o "$out/lights.csv" --quiet
 "$cli" sh "$file" --order 2 --window auto --json -o "$out/sh.json" --quiet
 "$cli" pov "$file" -o "$out/env.inc" --shadows soft --sky --scene-radius 10 --quiet
 cp "$here/povray_include/envlight.inc" "$here/povray_include/examples/sphere_on_plane.pov" "$out/"
-if command -v povray >/dev/null; then
-  (cd "$out" && povray +Isphere_on_plane.pov +Orender.hdr +FH +W480 +H360 +A0.1 -D 2>/dev/null \
-     || echo "envlight: povray failed on $out/sphere_on_plane.pov" >&2)
+if ! (cd "$out" && povray +Isphere_on_plane.pov +Orender.hdr +FH +W480 +H360 +A0.1 -D \
+        2>povray.log); then
+  echo "envlight: povray failed on $out/sphere_on_plane.pov (see $out/povray.log)" >&2
+  exit 1
 fi
 "$cli" lights "$file" --method fit -n 4 --quiet
 echo "wrote: $(cd "$out" && ls | tr '\n' ' ')"
