@@ -169,9 +169,7 @@ envl_result envl_png_save_srgb(const char *path, const float *rgb, int32_t w, in
     return rc;
 }
 
-/* Test helper (not public): reads an 8-bit RGB / RGBA PNG. *px gets w * h * channels bytes. */
-envl_result envl__png_read(const char *path, int32_t *w, int32_t *h, int32_t *channels,
-                           uint8_t **px);
+/* Reads an 8-bit RGB / RGBA PNG (for the tests; declared in internal.h). */
 envl_result envl__png_read(const char *path, int32_t *w, int32_t *h, int32_t *channels,
                            uint8_t **px)
 {

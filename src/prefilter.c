@@ -566,7 +566,7 @@ static envl_result make_split(const envl_envmap *m, split *s)
 }
 
 /* N(alpha): the integral of w over the sphere (a2 = alpha^2). */
-static double lobe_norm(double a2)
+double envl__ggx_lobe_norm(double a2)
 {
     double A = 0.5 * (1 + a2), B = 0.5 * (a2 - 1), x = B / A;
     if (fabs(x) < 1e-3) /* ln(1+x) + 1/(1+x) - 1 = x^2/2 - 2x^3/3 + 3x^4/4 - ... */
@@ -574,8 +574,6 @@ static double lobe_norm(double a2)
     return 2 * ENVL_PI / (B * B) * (log(a2 / A) + A / a2 - 1);
 }
 
-double envl__test_lobe_norm(double a2); /* for the tests */
-double envl__test_lobe_norm(double a2) { return lobe_norm(a2); }
 
 typedef struct lobe_job {
     const lobe *l;
@@ -665,7 +663,7 @@ static envl_result add_lobes(const split *s, int32_t mh, double alpha, int32_t w
     double texel = ENVL_PI / h;
     int32_t ss = texel > 2 * alpha ? (int32_t)ceil(texel / alpha) : 1;
     ss = ss > 32 ? 32 : ss;
-    lobe_job j = {cl, nc, w, h, ss, alpha * alpha, 1.0 / lobe_norm(alpha * alpha), lp};
+    lobe_job j = {cl, nc, w, h, ss, alpha * alpha, 1.0 / envl__ggx_lobe_norm(alpha * alpha), lp};
     envl__parallel_for(h, threads, lobe_rows, &j);
     double eout[3];
     image_energy(lp, w, h, eout);

@@ -2,18 +2,13 @@
  * and 1, tiny inputs, the BRDF table's endpoints, the glossy error against the brute-force
  * reference, requests that compute only what they need, exports (RGBM atlas round trip, a
  * failed export leaving files as they were), determinism across thread counts. */
+#include "internal.h"
 #include "check.h"
-#include "envlight.h"
 
 #include <dirent.h>
 #include <time.h>
 #include <unistd.h>
 
-/* Internal (tests link the static library). */
-envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32_t out_w,
-                                   int32_t out_h, double rotate_degrees, float **out);
-envl_result envl__png_read(const char *path, int32_t *w, int32_t *h, int32_t *channels,
-                           uint8_t **px);
 
 static double now(void)
 {
@@ -537,8 +532,6 @@ static void test_rgbm(void)
     CHECK(e[0] == 0 && e[3] == 0);
 }
 
-/* The split of bright pixels into point lobes (prefilter.c make_split / add_lobes). */
-double envl__test_lobe_norm(double a2);
 
 /* N(alpha) in closed form against a midpoint sum of 2 pi int_0^1 u / (A + B u)^2 du, and its
  * limit pi at alpha = 1 (the series branch) from both sides. */
@@ -553,10 +546,10 @@ static void test_lobe_norm(void)
             s += u / (q * q);
         }
         s *= 2 * M_PI / n;
-        CHECK_REL(envl__test_lobe_norm(a2), s, 1e-6);
+        CHECK_REL(envl__ggx_lobe_norm(a2), s, 1e-6);
     }
-    CHECK_REL(envl__test_lobe_norm(1.0), M_PI, 1e-12);
-    CHECK_REL(envl__test_lobe_norm(0.99999), envl__test_lobe_norm(1.00001), 1e-4);
+    CHECK_REL(envl__ggx_lobe_norm(1.0), M_PI, 1e-12);
+    CHECK_REL(envl__ggx_lobe_norm(0.99999), envl__ggx_lobe_norm(1.00001), 1e-4);
 }
 
 /* One bright pixel (1e4 over 1) is split into a point lobe: every level matches the brute-force

@@ -18,7 +18,7 @@ static void test_basis(void)
         const double expect[9] = {0.282095, 0.488603 * yy, 0.488603 * z, 0.488603 * x,
                                   1.092548 * x * yy, 1.092548 * yy * z,
                                   0.315392 * (3 * z * z - 1), 1.092548 * x * z,
-                                  0.546274 * (x * x - yy * y[0] * 0 - yy * yy)};
+                                  0.546274 * (x * x - yy * yy)};
         for (int k = 0; k < 9; k++)
             CHECK_NEAR(y[k], expect[k], 1e-6); /* DESIGN.md's constants have 6 digits */
     }
