@@ -5,12 +5,18 @@
 
 #include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
+#include <spawn.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <time.h>
+#include <unistd.h>
+
+extern char **environ;
 
 static double now(void)
 {
@@ -342,16 +348,275 @@ static int bench_speed(int width, const bench_opts *o)
     return CLI_OK;
 }
 
+/* ---- load speed against OpenImageIO's oiiotool ---------------------------------------------- */
+
+/* Runs argv (looked up in PATH) with stdout and stderr to /dev/null. Returns its wall-clock
+ * seconds, or -1 when it cannot start (*missing set when it is not installed) or fails. */
+static double time_process(char *const argv[], int *missing)
+{
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
+    pid_t pid;
+    double t0 = now();
+    int err = posix_spawnp(&pid, argv[0], &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (err) {
+        *missing = err == ENOENT;
+        return -1;
+    }
+    int status;
+    while (waitpid(pid, &status, 0) < 0)
+        if (errno != EINTR)
+            return -1;
+    double t = now() - t0;
+    return WIFEXITED(status) && WEXITSTATUS(status) == 0 ? t : -1;
+}
+
+/* A scratch folder under $TMPDIR (default /tmp); its path in dir. */
+static int make_scratch(char *dir, size_t n)
+{
+    const char *tmp = getenv("TMPDIR");
+    snprintf(dir, n, "%s/envlight-bench-XXXXXX", tmp && *tmp ? tmp : "/tmp");
+    if (!mkdtemp(dir)) {
+        cli_error("%s: cannot create a scratch folder: %s", dir, strerror(errno));
+        return CLI_FAIL;
+    }
+    return CLI_OK;
+}
+
+/* Median wall seconds of `runs` oiiotool reads (after one untimed warm-up); -1 on failure. */
+static double time_oiiotool(const char *path, int runs, int *missing)
+{
+    /* -i:now=1 reads the whole image into memory as float at once (not lazily through the
+     * image cache); with no -o nothing is written. */
+    char *argv[] = {"oiiotool", "-i:now=1", (char *)path, NULL};
+    double t[16];
+    if (time_process(argv, missing) < 0)
+        return -1;
+    for (int r = 0; r < runs; r++)
+        if ((t[r] = time_process(argv, missing)) < 0)
+            return -1;
+    return median_of(t, runs);
+}
+
+/* The built-in sky, then `real` (a file, resampled) if given, each written as a width x width/2
+ * adaptive-RLE .hdr and read back by envl_envmap_load (in this process) and by oiiotool (a
+ * process). oiiotool's fixed cost (start-up, plugins) is timed on a 1 x 1 .hdr in the same run
+ * and subtracted for the decode-only ratio. Ratio = envlight / oiiotool: <= 1 meets the target. */
+static int bench_load(int width, const char *real, const bench_opts *o)
+{
+    char dir[1024], path[1100], tiny[1100];
+    if (make_scratch(dir, sizeof dir))
+        return CLI_FAIL;
+    snprintf(tiny, sizeof tiny, "%s/1x1.hdr", dir);
+    const float one[3] = {1, 1, 1};
+    int rc = envl_image_save(tiny, one, 1, 1, NULL) ? cli_fail() : CLI_OK;
+    int missing = 0;
+    double startup = rc ? -1 : time_oiiotool(tiny, o->runs, &missing);
+    printf("\n#### Loading a %d x %d .hdr (adaptive RLE): envlight against oiiotool, medians of "
+           "%d runs\n\n", width, width / 2, o->runs);
+    if (startup < 0 && rc == CLI_OK) {
+        printf("SKIP: %s\n", missing ? "oiiotool not installed (Debian: openimageio-tools)"
+                                     : "oiiotool failed on a 1 x 1 .hdr");
+    } else if (rc == CLI_OK) {
+        printf("oiiotool start-up (reading a 1 x 1 .hdr): %.4f s\n\n", startup);
+        printf("| map | file MB | envlight load s | oiiotool s | oiiotool - start-up s | "
+               "ratio | ratio, start-up subtracted | target |\n|---|---|---|---|---|---|---|---|\n");
+    }
+    for (int k = 0; k < 2 && rc == CLI_OK && startup >= 0; k++) {
+        if (k == 1 && !real)
+            break;
+        envl_envmap *m;
+        cli_common c = {.quiet = 1, .sky = {.width = width}, .load = {.width = width}};
+        if (cli_load(k ? real : NULL, &c, &m)) {
+            rc = CLI_FAIL;
+            break;
+        }
+        snprintf(path, sizeof path, "%s/map.hdr", dir);
+        rc = envl_envmap_save(m, path, NULL) ? cli_fail() : CLI_OK;
+        envl_envmap_free(m);
+        struct stat st;
+        if (rc || stat(path, &st))
+            break;
+        double t[16];
+        for (int r = -1; r < o->runs && rc == CLI_OK; r++) { /* r = -1: warm-up */
+            double t0 = now();
+            if (envl_envmap_load(path, NULL, &m)) {
+                rc = cli_fail();
+                break;
+            }
+            if (r >= 0)
+                t[r] = now() - t0;
+            envl_envmap_free(m);
+        }
+        if (rc)
+            break;
+        double mine = median_of(t, o->runs), theirs = time_oiiotool(path, o->runs, &missing);
+        if (theirs < 0) {
+            cli_error("oiiotool failed on %s", path);
+            rc = CLI_FAIL;
+            break;
+        }
+        const char *slash = real ? strrchr(real, '/') : NULL;
+        printf("| %s | %.1f | %.4f | %.4f | %.4f | %.2f | %.2f | <= 1 |\n",
+               k ? (slash ? slash + 1 : real) : "built-in sky", st.st_size / 1e6, mine, theirs,
+               theirs - startup, mine / theirs, mine / (theirs - startup));
+        fflush(stdout);
+        remove(path);
+    }
+    remove(tiny);
+    rmdir(dir);
+    return rc;
+}
+
+/* ---- peak memory of the whole pipeline ------------------------------------------------------ */
+
+/* A "VmRSS:" / "VmHWM:" line of /proc/self/status, in MiB (-1 if absent). */
+static double status_mib(const char *key)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    double v = -1;
+    size_t n = strlen(key);
+    while (f && fgets(line, sizeof line, f))
+        if (!strncmp(line, key, n))
+            v = atof(line + n) / 1024.0;
+    if (f)
+        fclose(f);
+    return v;
+}
+
+/* Starts a new peak: writing 5 to clear_refs resets VmHWM to the current RSS (Linux >= 4.0). */
+static int reset_peak(void)
+{
+    FILE *f = fopen("/proc/self/clear_refs", "w");
+    if (!f)
+        return 0;
+    int ok = fputs("5", f) >= 0;
+    return fclose(f) == 0 && ok;
+}
+
+typedef struct mem_stage {
+    double peak, after;
+} mem_stage;
+
+static void mem_row(const char *stage, const char *holds, double peak, double after,
+                    double map_mib, double *overall)
+{
+    printf("| %s | %s | %.0f | %.2f | %.0f |\n", stage, holds, peak, peak / map_mib, after);
+    fflush(stdout);
+    if (peak > *overall)
+        *overall = peak;
+}
+
+/* The child: the pipeline stage by stage; after each stage, the stage's own peak (VmHWM since
+ * the stage began) and what stays resident. Products are freed after their stage, as the CLI
+ * does; the map keeps the tables it caches. Whether the target is met is printed, not
+ * returned: CLI_FAIL means the pipeline failed. */
+static int memory_child(int width, const char *dir)
+{
+    double overall = 0, t0 = now();
+    int exact = reset_peak();
+    envl_envmap *m;
+    cli_common c = {.quiet = 1, .sky = {.width = width}, .load = {.width = width}};
+    if (cli_load(NULL, &c, &m))
+        return CLI_FAIL;
+    int w = envl_envmap_width(m), h = envl_envmap_height(m);
+    double map_mib = (double)w * h * 12 / (1 << 20);
+    printf("map: the built-in sky, %d x %d, its floats %.0f MiB; peak per stage %s\n\n", w, h,
+           map_mib,
+           exact ? "(VmHWM reset before each stage)" : "(VmHWM so far: clear_refs unavailable)");
+    printf("| stage | holds afterwards | peak MiB | peak / map floats | resident after MiB |\n"
+           "|---|---|---|---|---|\n");
+    mem_row("built-in sky", "the map", status_mib("VmHWM:"), status_mib("VmRSS:"),
+            map_mib, &overall);
+
+    envl_lights *ls;
+    reset_peak();
+    if (envl_lights_compute(m, &(envl_lights_options){.method = ENVL_METHOD_MEDIAN, .count = 256},
+                            &ls))
+        return cli_fail();
+    envl_lights_free(ls);
+    mem_row("lights: median cut, 256", "the map + its cached tables", status_mib("VmHWM:"),
+            status_mib("VmRSS:"), map_mib, &overall);
+
+    reset_peak();
+    if (envl_lights_compute(m, &(envl_lights_options){.method = ENVL_METHOD_FIT, .count = 4}, &ls))
+        return cli_fail();
+    char path[1100];
+    snprintf(path, sizeof path, "%s/residual.exr", dir);
+    envl_result rc = envl_image_save(path, envl_lights_residual(ls), w, h, NULL);
+    envl_lights_free(ls);
+    remove(path);
+    if (rc)
+        return cli_fail();
+    mem_row("lights: fit 4 + residual saved (.exr)", "same", status_mib("VmHWM:"),
+            status_mib("VmRSS:"), map_mib, &overall);
+
+    envl_sh *sh;
+    reset_peak();
+    if (envl_sh_compute(m, &(envl_sh_options){.bands = 3}, &sh))
+        return cli_fail();
+    envl_sh_free(sh);
+    mem_row("SH order 2", "same", status_mib("VmHWM:"), status_mib("VmRSS:"), map_mib, &overall);
+
+    envl_products *p;
+    reset_peak();
+    if (envl_compute(m, &(envl_request){.irradiance_map = 1, .specular_chain = 1}, &p))
+        return cli_fail();
+    envl_products_free(p);
+    mem_row("prefilter: irradiance map + specular chain", "same + the mip pyramid",
+            status_mib("VmHWM:"), status_mib("VmRSS:"), map_mib, &overall);
+    envl_envmap_free(m);
+
+    printf("\npeak resident memory of the pipeline: %.0f MiB = %.2f x the map's floats "
+           "(target <= 3: %s); %.1f s\n",
+           overall, overall / map_mib, overall <= 3 * map_mib ? "met" : "NOT met", now() - t0);
+    fflush(stdout);
+    return CLI_OK;
+}
+
+/* Runs memory_child in a forked child, so that its peak is the pipeline's alone. */
+static int bench_memory(int width)
+{
+    char dir[1024];
+    if (make_scratch(dir, sizeof dir))
+        return CLI_FAIL;
+    printf("\n#### Peak resident memory: the whole pipeline in a child process\n\n");
+    fflush(stdout);
+    pid_t pid = fork();
+    if (pid == 0)
+        _exit(memory_child(width, dir));
+    int status = 0;
+    if (pid > 0)
+        while (waitpid(pid, &status, 0) < 0 && errno == EINTR)
+            ;
+    rmdir(dir);
+    if (pid < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        cli_error("the memory benchmark's child failed (status %d)", status);
+        return CLI_FAIL;
+    }
+    return CLI_OK;
+}
+
 static const char bench_help[] =
     "Usage: envlight bench [FILES...] [--runs N] [--quick] [--csv FILE] [--plots DIR]\n"
-    "                      [--speed-width W]\n"
+    "                      [--speed-width W] [--load-width W] [--memory-width W] [--only STEP]\n"
     "Accuracy against time as Markdown tables: every lights method at 1..256 lights (fit to\n"
     "16), diffuse error and median seconds of N runs (default 3), each from scratch. Default\n"
     "maps: the built-in sky and every .hdr under $ENVL_SHARED_DATA/latlong_hdri (default\n"
     "../shared/data). Then the speed of the stages on a large map as ratios to one plain pass\n"
     "over its floats measured in the same run (--speed-width, default 8192; 0 skips).\n"
     "Also SH orders 1..8 with each window. --csv writes every point; --plots DIR writes one\n"
-    "PNG per map (gnuplot): error against seconds, log axes, the Pareto front marked.\n";
+    "PNG per map (gnuplot): error against seconds, log axes, the Pareto front marked.\n"
+    "Load: the built-in sky and the first real FILE, resampled to W x W/2 (--load-width,\n"
+    "default 4096; 0 skips) and written as RLE .hdr, read by envlight and by oiiotool\n"
+    "-i:now=1 (OpenImageIO), with oiiotool's start-up on a 1 x 1 file timed apart.\n"
+    "Memory: the whole pipeline on a W x W/2 built-in sky (--memory-width, default 8192;\n"
+    "0 skips) in a child process: its peak resident memory per stage against the map's floats.\n"
+    "--only tables|speed|load|memory runs that step alone (repeatable).\n";
 
 int cli_bench(int argc, char **argv)
 {
@@ -359,7 +624,9 @@ int cli_bench(int argc, char **argv)
     bench_opts o = {.runs = 3};
     const char *files[256], *csv_path = NULL, *plots = NULL;
     int nfiles = 0;
-    long long speed_width = 8192, n;
+    long long speed_width = 8192, load_width = 4096, memory_width = 8192, n;
+    enum { TABLES = 1, SPEED = 2, LOAD = 4, MEMORY = 8 };
+    int only = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v;
         int r = cli_common_option("bench", argc, argv, &i, &c);
@@ -386,6 +653,20 @@ int cli_bench(int argc, char **argv)
         } else if ((r = cli_value(argc, argv, &i, "--speed-width", &v)) != 0) {
             if (r < 0 || cli_parse_int(v, 0, 65536, &speed_width))
                 return cli_usage("bench", "--speed-width takes 0..65536");
+        } else if ((r = cli_value(argc, argv, &i, "--load-width", &v)) != 0) {
+            if (r < 0 || cli_parse_int(v, 0, 32767, &load_width))
+                return cli_usage("bench", "--load-width takes 0..32767");
+        } else if ((r = cli_value(argc, argv, &i, "--memory-width", &v)) != 0) {
+            if (r < 0 || cli_parse_int(v, 0, 65536, &memory_width))
+                return cli_usage("bench", "--memory-width takes 0..65536");
+        } else if ((r = cli_value(argc, argv, &i, "--only", &v)) != 0) {
+            static const char *steps[] = {"tables", "speed", "load", "memory"};
+            int k = 0;
+            while (r > 0 && k < 4 && strcmp(v, steps[k]))
+                k++;
+            if (r < 0 || k == 4)
+                return cli_usage("bench", "--only takes tables, speed, load or memory");
+            only |= 1 << k;
         } else if (!strcmp(a, "--quick")) {
             o.quick = 1;
         } else if (a[0] == '-' && a[1]) {
@@ -417,10 +698,12 @@ int cli_bench(int argc, char **argv)
             fprintf(stderr, "envlight bench: %s absent: the built-in sky only\n", dir);
         }
     }
+    if (!only)
+        only = TABLES | SPEED | LOAD | MEMORY;
     printf("### envlight bench\n\nmedian of %d runs; error: relative RMS irradiance error over "
            "1024 normals against the exact integrator\n", o.runs);
     int rc = CLI_OK;
-    for (int i = 0; i < nfiles && rc == CLI_OK; i++) {
+    for (int i = 0; i < nfiles && rc == CLI_OK && (only & TABLES); i++) {
         envl_envmap *m;
         c.quiet = 1;
         if (cli_load(files[i], &c, &m)) {
@@ -434,8 +717,17 @@ int cli_bench(int argc, char **argv)
             rc = bench_sh_table(name, m, &o);
         envl_envmap_free(m);
     }
-    if (rc == CLI_OK && speed_width > 0)
+    if (rc == CLI_OK && speed_width > 0 && (only & SPEED))
         rc = bench_speed((int)speed_width, &o);
+    if (rc == CLI_OK && load_width > 0 && (only & LOAD)) {
+        const char *real = NULL;
+        for (int i = 0; i < nfiles && !real; i++)
+            if (strcmp(files[i], "-"))
+                real = files[i];
+        rc = bench_load((int)load_width, real, &o);
+    }
+    if (rc == CLI_OK && memory_width > 0 && (only & MEMORY))
+        rc = bench_memory((int)memory_width);
     if (rc == CLI_OK && csv_path) {
         cli_output co;
         if (cli_output_open(&co, csv_path))
