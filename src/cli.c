@@ -258,6 +258,7 @@ static const char main_help[] =
     "  pov [FILE] -o OUT.inc       POV-Ray include: light_sources, ambient, sky\n"
     "  prefilter [FILE] -o DIR     irradiance map, GGX specular chain, RGBM atlas\n"
     "  brdf-lut -o FILE            split-sum GGX BRDF table\n"
+    "  preview [FILE] -o OUT.png   reference vs approximations on spheres, side by side\n"
     "  bench [FILES...]            accuracy against time, as Markdown tables\n"
     "  version                     library version\n"
     "\n"
@@ -295,6 +296,8 @@ int main(int argc, char **argv)
         return cli_brdf_lut(argc - 1, argv + 1);
     if (!strcmp(cmd, "bench"))
         return cli_bench(argc - 1, argv + 1);
+    if (!strcmp(cmd, "preview"))
+        return cli_preview(argc - 1, argv + 1);
     fprintf(stderr, "envlight: unknown command '%s'\n\n%s", cmd, main_help);
     return CLI_USAGE;
 }

@@ -62,5 +62,6 @@ int cli_sh(int argc, char **argv);
 int cli_pov(int argc, char **argv);
 int cli_prefilter(int argc, char **argv);
 int cli_brdf_lut(int argc, char **argv);
+int cli_preview(int argc, char **argv);
 
 #endif

@@ -1,0 +1,985 @@
+/* `envlight preview`: one picture with the lat-long map (median cut regions outlined, median cut
+ * and fitted lights marked) and a grid of spheres: rows = shading (diffuse, glossy at two
+ * roughness values, mirror), columns = lighting (exact reference, median cut N, fit K + SH
+ * remainder, SH order 2, prefiltered maps), each with its error and seconds under it.
+ *
+ * Shading (README "Preview"): the camera is orthographic, looking along -v, v = the horizontal
+ * direction of azimuth 45 degrees (between +X and +Y), +Z up on screen.
+ *  - diffuse: radiance = E(n) / pi (Lambert, albedo 1), or Oren-Nayar;
+ *  - glossy and mirror: the prefiltered radiance of DESIGN.md (split sum, N = V = R) at the
+ *    reflection direction R = 2 (n.v) n - v, P(R) = sum L w(R.l) dw / sum w(R.l) dw with the
+ *    GGX lobe w(u) = u / q^2, q = ((1 + u) / 2)(alpha^2 - 1) + 1, or Blinn-Phong's
+ *    w(u) = u ((1 + u) / 2)^(e / 2) (since (n.h)^2 = (1 + R.l) / 2 for h = normalize(R + l)).
+ * Only the public API is used. */
+#include "preview.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define PI 3.14159265358979323846
+#define ON_SIGMA 0.3 /* Oren-Nayar surface roughness (radians) */
+
+static double now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return t.tv_sec + 1e-9 * t.tv_nsec;
+}
+
+void preview_defaults(preview_options *o)
+{
+    if (o->median_count <= 0)
+        o->median_count = 16;
+    if (o->fit_count <= 0)
+        o->fit_count = 4;
+    if (!(o->roughness[0] > 0))
+        o->roughness[0] = 0.25;
+    if (!(o->roughness[1] > 0))
+        o->roughness[1] = 0.5;
+    if (o->sphere_size <= 0)
+        o->sphere_size = 96;
+    if (o->reference_width <= 0)
+        o->reference_width = 256;
+}
+
+/* ACES filmic, Narkowicz 2015 ("ACES Filmic Tone Mapping Curve"):
+ * f(x) = x (2.51 x + 0.03) / (x (2.43 x + 0.59) + 0.14), clamped to [0, 1]. */
+double preview_aces(double x)
+{
+    if (!(x > 0))
+        return 0;
+    double y = x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14);
+    return y < 1 ? y : 1;
+}
+
+/* Reinhard et al. 2002, the simple operator: x / (1 + x). */
+double preview_reinhard(double x) { return x > 0 ? (isinf(x) ? 1 : x / (1 + x)) : 0; }
+
+double preview_auto_exposure(const envl_envmap *map)
+{
+    int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
+    const float *px = envl_envmap_pixels(map);
+    double s = 0, ws = 0;
+    for (int32_t r = 0; r < h; r++) {
+        double om = envl_envmap_solid_angle(map, r), rs = 0;
+        for (int32_t c = 0; c < w; c++) {
+            const float *p = px + 3 * ((size_t)r * w + c);
+            rs += log(1e-4 + envl_luminance(p[0], p[1], p[2]));
+        }
+        s += om * rs;
+        ws += om * w;
+    }
+    return log2(0.18 / exp(s / ws));
+}
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* Screen axes of the camera: up = +Z made orthogonal to v, right = up x v. */
+static void camera_axes(const double v[3], double right[3], double up[3])
+{
+    double z[3] = {0, 0, 1}, d = dot3(z, v), len;
+    for (int k = 0; k < 3; k++)
+        up[k] = z[k] - d * v[k];
+    len = sqrt(dot3(up, up));
+    for (int k = 0; k < 3; k++)
+        up[k] /= len;
+    right[0] = up[1] * v[2] - up[2] * v[1];
+    right[1] = up[2] * v[0] - up[0] * v[2];
+    right[2] = up[0] * v[1] - up[1] * v[0];
+}
+
+int preview_sphere_normal(int32_t size, const double v[3], int32_t i, int32_t j, double n[3])
+{
+    double sx = 2.0 * (i + 0.5) / size - 1, sy = 1 - 2.0 * (j + 0.5) / size;
+    double s2 = sx * sx + sy * sy;
+    if (s2 >= 1)
+        return 0;
+    double right[3], up[3], sz = sqrt(1 - s2);
+    camera_axes(v, right, up);
+    for (int k = 0; k < 3; k++)
+        n[k] = sx * right[k] + sy * up[k] + sz * v[k];
+    return 1;
+}
+
+/* ---- layout ---------------------------------------------------------------------------- */
+#define MARGIN 8
+#define LABEL_W 80
+#define TITLE_H 18
+#define CELL_PAD 24  /* a cell is sphere + 24 wide */
+#define CELL_TEXT 28 /* and sphere + 28 high (two text lines) */
+
+typedef struct layout {
+    int32_t w, h, map_w, map_h, legend_y, header_y, cells_y, cell_w, cell_h;
+} layout;
+
+static layout get_layout(int32_t s)
+{
+    layout l;
+    l.cell_w = s + CELL_PAD;
+    l.cell_h = s + CELL_TEXT;
+    l.w = LABEL_W + PREVIEW_COLS * l.cell_w + MARGIN;
+    l.map_w = (l.w - 2 * MARGIN) & ~1;
+    l.map_h = l.map_w / 2;
+    l.legend_y = TITLE_H + l.map_h + 6;
+    l.header_y = l.legend_y + 14;
+    l.cells_y = l.header_y + 24;
+    l.h = l.cells_y + PREVIEW_ROWS * l.cell_h + 4;
+    return l;
+}
+
+void preview_layout(int32_t size, int32_t *width, int32_t *height)
+{
+    layout l = get_layout(size);
+    *width = l.w;
+    *height = l.h;
+}
+
+void preview_sphere_origin(int32_t size, int32_t row, int32_t col, int32_t *x, int32_t *y)
+{
+    layout l = get_layout(size);
+    *x = LABEL_W + col * l.cell_w + CELL_PAD / 2;
+    *y = l.cells_y + row * l.cell_h;
+}
+
+/* ---- shading models ---------------------------------------------------------------------- */
+
+/* Oren-Nayar 1994 (qualitative model), albedo 1, times the cosine:
+ *   f cos = max(0, n.l) (A + B max(0, cos(phi_i - phi_r)) sin(a) tan(b)) / pi,
+ *   A = 1 - 0.5 s^2 / (s^2 + 0.33), B = 0.45 s^2 / (s^2 + 0.09), a = max(t_i, t_r),
+ *   b = min(t_i, t_r). (sigma = 0: Lambert.) */
+static double oren_nayar(const double n[3], const double v[3], const double l[3])
+{
+    const double s2 = ON_SIGMA * ON_SIGMA, A = 1 - 0.5 * s2 / (s2 + 0.33),
+                 B = 0.45 * s2 / (s2 + 0.09);
+    double ci = dot3(n, l), cr = dot3(n, v);
+    if (ci <= 0)
+        return 0;
+    cr = cr > 1e-6 ? cr : 1e-6;
+    double si = sqrt(fmax(0, 1 - ci * ci)), sr = sqrt(fmax(0, 1 - cr * cr));
+    double cphi = 0;
+    if (si > 1e-9 && sr > 1e-9) /* cos(phi_i - phi_r) of l and v projected on the plane */
+        cphi = (dot3(l, v) - ci * cr) / (si * sr);
+    double sa_tb = ci < cr ? si * sr / cr : sr * si / ci; /* sin(max) tan(min) */
+    return ci * (A + B * fmax(0, cphi) * sa_tb) / PI;
+}
+
+typedef struct lobe {
+    int specular;
+    double a2, e; /* GGX alpha^2; Blinn-Phong exponent */
+    double norm;  /* integral of w over the sphere */
+} lobe;
+
+static double lobe_w(const lobe *b, double u)
+{
+    if (u <= 0)
+        return 0;
+    double c = 0.5 * (1 + u); /* (n.h)^2 */
+    if (b->specular == PREVIEW_SPECULAR_BLINN_PHONG)
+        return u * pow(c, 0.5 * b->e);
+    double q = c * (b->a2 - 1) + 1;
+    return u / (q * q);
+}
+
+/* Blinn-Phong exponent matching GGX alpha: e = 2 / alpha^2 - 2 (Walter et al. 2007). The norm
+ * 2 pi int_0^1 w(u) du by the midpoint rule in s, u = 1 - s^2 (du = 2 s ds), which resolves the
+ * peak at u = 1 (its width in s is ~alpha) for alpha >= 0.0025. */
+static lobe make_lobe(int specular, double roughness)
+{
+    lobe b = {specular, 0, 0, 0};
+    double alpha = roughness * roughness;
+    b.a2 = alpha * alpha;
+    b.e = 2 / b.a2 - 2;
+    const int n = 20000;
+    double s = 0;
+    for (int i = 0; i < n; i++) {
+        double t = (i + 0.5) / n;
+        s += lobe_w(&b, 1 - t * t) * 2 * t;
+    }
+    b.norm = 2 * PI * s / n;
+    return b;
+}
+
+/* ---- the grid ------------------------------------------------------------------------------- */
+
+typedef struct pixels {
+    int32_t count;
+    int32_t *index;   /* sphere pixel j * size + i of each */
+    double *n, *r;    /* normals, reflection directions */
+    double *r16;      /* mirror: 4 x 4 reflection directions inside each pixel */
+    int32_t *slot;    /* size x size: the pixel's place in the lists, -1 outside */
+} pixels;
+
+static envl_result make_pixels(int32_t size, const double v[3], pixels *p)
+{
+    memset(p, 0, sizeof *p);
+    size_t cap = (size_t)size * size;
+    p->index = malloc(sizeof(int32_t) * cap);
+    p->n = malloc(sizeof(double) * 3 * cap);
+    p->r = malloc(sizeof(double) * 3 * cap);
+    p->r16 = malloc(sizeof(double) * 48 * cap);
+    p->slot = malloc(sizeof(int32_t) * cap);
+    if (!p->index || !p->n || !p->r || !p->r16 || !p->slot)
+        return ENVL_ERR_MEMORY;
+    for (size_t i = 0; i < cap; i++)
+        p->slot[i] = -1;
+    for (int32_t j = 0; j < size; j++)
+        for (int32_t i = 0; i < size; i++) {
+            double *n = p->n + 3 * p->count, *r = p->r + 3 * p->count;
+            if (!preview_sphere_normal(size, v, i, j, n))
+                continue;
+            double nv = dot3(n, v);
+            for (int k = 0; k < 3; k++)
+                r[k] = 2 * nv * n[k] - v[k];
+            /* sub-pixel (a, b) of 4 x 4: the normal at its centre (clamped into the disc) */
+            for (int b = 0; b < 4; b++)
+                for (int a = 0; a < 4; a++) {
+                    double sx = 2.0 * (i + (a + 0.5) / 4) / size - 1;
+                    double sy = 1 - 2.0 * (j + (b + 0.5) / 4) / size;
+                    double s2 = sx * sx + sy * sy, f = s2 > 0.999 ? sqrt(0.999 / s2) : 1;
+                    double right[3], up[3], m[3], sz = sqrt(fmax(0, 1 - s2 * f * f));
+                    camera_axes(v, right, up);
+                    for (int k = 0; k < 3; k++)
+                        m[k] = f * (sx * right[k] + sy * up[k]) + sz * v[k];
+                    double *q = p->r16 + 48 * (size_t)p->count + 3 * (4 * b + a);
+                    double mv = dot3(m, v);
+                    for (int k = 0; k < 3; k++)
+                        q[k] = 2 * mv * m[k] - v[k];
+                }
+            p->slot[j * size + i] = p->count;
+            p->index[p->count++] = j * size + i;
+        }
+    return ENVL_OK;
+}
+
+static void free_pixels(pixels *p)
+{
+    free(p->index);
+    free(p->n);
+    free(p->r);
+    free(p->r16);
+    free(p->slot);
+}
+
+/* Mirror: a source of irradiance rgb in direction d smaller than a pixel adds rgb / dW to the
+ * pixel that reflects it, dW = 16 / size^2 the solid angle of R a pixel covers (orthographic
+ * mirror ball: R turns twice as fast as n, dW/dA = 4 on the unit disc, pixel side 2 / size). */
+static void deposit(const pixels *p, int32_t size, const double v[3], const double d[3],
+                    const double rgb[3], double *out)
+{
+    double n[3] = {d[0] + v[0], d[1] + v[1], d[2] + v[2]}, len = sqrt(dot3(n, n));
+    if (!(len > 1e-9))
+        return;
+    double right[3], up[3];
+    camera_axes(v, right, up);
+    double sx = dot3(n, right) / len, sy = dot3(n, up) / len;
+    int32_t i = (int32_t)floor((sx + 1) / 2 * size), j = (int32_t)floor((1 - sy) / 2 * size);
+    if (i < 0 || j < 0 || i >= size || j >= size || p->slot[j * size + i] < 0)
+        return;
+    double dw = 16.0 / ((double)size * size);
+    for (int k = 0; k < 3; k++)
+        out[3 * p->slot[j * size + i] + k] += rgb[k] / dw;
+}
+
+/* The mirror row: mean of the 16 sub-pixel values of each pixel, in place into out. */
+static void average16(int32_t np, const double *v16, double *out)
+{
+    for (int32_t i = 0; i < np; i++)
+        for (int k = 0; k < 3; k++) {
+            double s = 0;
+            for (int j = 0; j < 16; j++)
+                s += v16[48 * (size_t)i + 3 * j + k];
+            out[3 * i + k] = s / 16;
+        }
+}
+
+/* Brute force over the (resampled) map of sum L dw f(d) for one pixel: Oren-Nayar diffuse
+ * (f = on(n, v, d)) or a Blinn-Phong P(R) (f = w(R.d), normalised by the sum of w dw). */
+static void brute_force(const envl_envmap *m, const double *dirs, const double v[3],
+                        const double n[3], const lobe *b, double out[3])
+{
+    int32_t w = envl_envmap_width(m), h = envl_envmap_height(m);
+    const float *px = envl_envmap_pixels(m);
+    double s[3] = {0, 0, 0}, ws = 0;
+    for (int32_t r = 0; r < h; r++) {
+        double om = envl_envmap_solid_angle(m, r), rs[3] = {0, 0, 0}, rw = 0;
+        for (int32_t c = 0; c < w; c++) {
+            size_t i = (size_t)r * w + c;
+            const double *d = dirs + 3 * i;
+            double f = b ? lobe_w(b, dot3(n, d)) : oren_nayar(n, v, d);
+            if (f <= 0)
+                continue;
+            for (int k = 0; k < 3; k++)
+                rs[k] += f * px[3 * i + k];
+            rw += f;
+        }
+        for (int k = 0; k < 3; k++)
+            s[k] += om * rs[k];
+        ws += om * rw;
+    }
+    for (int k = 0; k < 3; k++)
+        out[k] = b ? (ws > 0 ? s[k] / ws : 0) : s[k];
+}
+
+/* The reference's split (as the prefilter's): pixels brighter than 50 x the mean luminance
+ * (the sun) stay exact point sources rgb = L dw at their centres; the rest of the map, with
+ * them set to 0, is area-resampled to reference_width (the integral of L dw is kept). */
+typedef struct split {
+    int32_t count;
+    double *dir, *rgb;
+    envl_envmap *rest;
+    float *full;      /* the map with the points set to 0, full size (mirror reference) */
+} split;
+
+static envl_result make_split(const envl_envmap *m, int32_t width, split *sp)
+{
+    int32_t w = envl_envmap_width(m), h = envl_envmap_height(m);
+    const float *px = envl_envmap_pixels(m);
+    memset(sp, 0, sizeof *sp);
+    envl_info info;
+    envl_envmap_info(m, &info);
+    double limit = 50 * envl_luminance(info.mean[0], info.mean[1], info.mean[2]);
+    size_t n = (size_t)w * h, count = 0;
+    for (size_t i = 0; i < n; i++)
+        count += envl_luminance(px[3 * i], px[3 * i + 1], px[3 * i + 2]) > limit;
+    float *rest = malloc(sizeof(float) * 3 * n);
+    sp->dir = malloc(sizeof(double) * 3 * (count + 1));
+    sp->rgb = malloc(sizeof(double) * 3 * (count + 1));
+    if (!rest || !sp->dir || !sp->rgb) {
+        free(rest);
+        return ENVL_ERR_MEMORY;
+    }
+    memcpy(rest, px, sizeof(float) * 3 * n);
+    for (int32_t r = 0; r < h; r++)
+        for (int32_t c = 0; c < w; c++) {
+            float *q = rest + 3 * ((size_t)r * w + c);
+            if (!(envl_luminance(q[0], q[1], q[2]) > limit))
+                continue;
+            envl_envmap_direction(m, c, r, sp->dir + 3 * sp->count);
+            for (int k = 0; k < 3; k++) {
+                sp->rgb[3 * sp->count + k] = q[k] * envl_envmap_solid_angle(m, r);
+                q[k] = 0;
+            }
+            sp->count++;
+        }
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .width = w > width ? width : w};
+    sp->full = rest;
+    return envl_envmap_from_pixels(rest, w, h, 3, &lo, &sp->rest);
+}
+
+static void free_split(split *sp)
+{
+    free(sp->dir);
+    free(sp->rgb);
+    free(sp->full);
+    envl_envmap_free(sp->rest);
+}
+
+/* Adds the point sources: f(d) = max(0, n.d) / pi (Lambert), on(n, v, d), or w(R.d) / norm. */
+static void add_points(const split *sp, int model, const lobe *b, const double v[3],
+                       const double x[3], double out[3])
+{
+    for (int32_t i = 0; i < sp->count; i++) {
+        const double *d = sp->dir + 3 * i;
+        double f = model == 0 ? fmax(0, dot3(x, d)) / PI
+                   : model == 1 ? oren_nayar(x, v, d) : lobe_w(b, dot3(x, d)) / b->norm;
+        for (int k = 0; k < 3; k++)
+            out[k] += f * sp->rgb[3 * i + k];
+    }
+}
+
+static double *map_dirs(const envl_envmap *m)
+{
+    int32_t w = envl_envmap_width(m), h = envl_envmap_height(m);
+    double *d = malloc(sizeof(double) * 3 * (size_t)w * h);
+    if (d)
+        for (int32_t r = 0; r < h; r++)
+            for (int32_t c = 0; c < w; c++)
+                envl_envmap_direction(m, c, r, d + 3 * ((size_t)r * w + c));
+    return d;
+}
+
+/* Radiance of the fit's SH remainder at d: irradiance coefficients / A_l (order <= 2 is far
+ * smoother than the glossy lobes, so no lobe convolution is applied). */
+static void remainder_radiance(const envl_lights *l, const double d[3], double out[3])
+{
+    int32_t order;
+    const double *irr = envl_lights_remainder(l, &order);
+    out[0] = out[1] = out[2] = 0;
+    if (!irr || order < 0)
+        return;
+    double y[(32 + 1) * (32 + 1)];
+    if (order > 32)
+        return;
+    envl_sh_basis(order, d, y);
+    for (int32_t li = 0, i = 0; li <= order; li++) {
+        double a = envl_sh_cosine_lobe(li);
+        for (int32_t m = -li; m <= li; m++, i++)
+            if (a != 0)
+                for (int k = 0; k < 3; k++)
+                    out[k] += irr[3 * i + k] / a * y[i];
+    }
+}
+
+/* Lights (+ remainder) for row `row`: Oren-Nayar per light, a glossy lobe per light, or each
+ * light as a disc of its solid angle for the mirror (lights smaller than min_solid_angle, a
+ * pixel's, are left to deposit()). */
+static void shade_lights(const envl_lights *l, int row, const preview_options *o, const lobe *b,
+                         const double v[3], const double n[3], const double r[3],
+                         double min_solid_angle, double out[3])
+{
+    out[0] = out[1] = out[2] = 0;
+    int32_t count = envl_lights_count(l);
+    for (int32_t i = 0; i < count; i++) {
+        envl_light li;
+        envl_lights_get(l, i, &li);
+        double f = 0;
+        if (row == 0)
+            f = oren_nayar(n, v, li.direction);
+        else if (row < 3)
+            f = lobe_w(b, dot3(r, li.direction)) / b->norm;
+        else if (li.solid_angle >= min_solid_angle && dot3(r, li.direction) >= cos(li.angle / 2))
+            f = 1 / li.solid_angle; /* a disc of the light's solid angle (angle = its diameter) */
+        for (int k = 0; k < 3; k++)
+            out[k] += f * li.rgb[k];
+    }
+    double rem[3];
+    if (row == 0) { /* the remainder is irradiance only: Lambert */
+        double e[3];
+        envl_lights_irradiance(l, 1, n, e);
+        for (int32_t i = 0; i < count; i++) {
+            envl_light li;
+            envl_lights_get(l, i, &li);
+            double c = fmax(0, dot3(n, li.direction));
+            for (int k = 0; k < 3; k++)
+                e[k] -= c * li.rgb[k];
+        }
+        for (int k = 0; k < 3; k++)
+            out[k] += e[k] / PI;
+    } else {
+        remainder_radiance(l, r, rem);
+        for (int k = 0; k < 3; k++)
+            out[k] += rem[k];
+    }
+}
+
+/* DESIGN.md's diffuse error of an irradiance lat-long map (sampled bilinearly). */
+static envl_result map_diffuse_error(envl_envmap *m, const float *rgb, int32_t w, int32_t h,
+                                     double *err)
+{
+    const double *ref;
+    envl_result rc = envl_envmap_reference_irradiance(m, &ref);
+    if (rc)
+        return rc;
+    double a[3 * ENVL_ERROR_NORMALS];
+    for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++) {
+        double d[3];
+        envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, d);
+        envl_latlong_sample(rgb, w, h, d, a + 3 * i);
+    }
+    *err = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, a, ref);
+    return ENVL_OK;
+}
+
+void preview_data_free(preview_data *d)
+{
+    for (int r = 0; r < PREVIEW_ROWS; r++)
+        for (int c = 0; c < PREVIEW_COLS; c++)
+            free(d->sphere[r][c]);
+    envl_lights_free(d->median);
+    envl_lights_free(d->fit);
+    memset(d, 0, sizeof *d);
+}
+
+static void note(FILE *f, const char *what, double err, double sec)
+{
+    if (f)
+        fprintf(f, "envlight preview: %-28s error %7.3f %%  %.4f s\n", what, 100 * err, sec);
+}
+
+envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *notes,
+                            preview_data *d)
+{
+    preview_options o = *opt;
+    preview_defaults(&o);
+    memset(d, 0, sizeof *d);
+    const int32_t S = o.sphere_size;
+    d->size = S;
+    d->view[0] = d->view[1] = sqrt(0.5);
+    d->exposure_ev = o.exposure_set ? o.exposure_ev : preview_auto_exposure(map);
+    for (int r = 0; r < PREVIEW_ROWS; r++)
+        for (int c = 0; c < PREVIEW_COLS; c++) {
+            d->error[r][c] = -1;
+            d->sphere[r][c] = calloc((size_t)S * S * 3, sizeof(double));
+            if (!d->sphere[r][c])
+                return ENVL_ERR_MEMORY;
+        }
+    pixels p;
+    split sp = {0};
+    envl_sh *sh = NULL;
+    envl_products *pre = NULL;
+    double *dirs = NULL, *buf = NULL, *refv = NULL, *buf16 = NULL;
+    envl_result rc = make_pixels(S, d->view, &p);
+    const int32_t np = p.count;
+    if (!rc && (!(buf = malloc(sizeof(double) * 3 * np)) ||
+                !(refv = malloc(sizeof(double) * 3 * np)) ||
+                !(buf16 = malloc(sizeof(double) * 48 * np))))
+        rc = ENVL_ERR_MEMORY;
+    lobe lobes[3];
+    lobes[1] = make_lobe(o.specular, o.roughness[0]);
+    lobes[2] = make_lobe(o.specular, o.roughness[1]);
+    /* the mirror: lights smaller than a pixel's solid angle of R are deposited */
+    const double min_solid_angle = 16.0 / ((double)S * S);
+#define STORE(row, col, src)                                                                   \
+    for (int32_t q = 0; q < np; q++)                                                           \
+        for (int ch = 0; ch < 3; ch++)                                                          \
+            d->sphere[row][col][3 * p.index[q] + ch] = (src)[3 * q + ch]
+#define ERR(row, col)                                                                          \
+    (d->error[row][col] = envl_relative_rms_luminance(np, buf, refv))
+
+    /* References. Diffuse and glossy: the split above; mirror: the full map's pixel that
+     * contains R, 16 per sphere pixel. */
+    if (!rc)
+        rc = make_split(map, o.reference_width, &sp);
+    const envl_envmap *rm = sp.rest;
+    if (!rc && !(dirs = map_dirs(rm)))
+        rc = ENVL_ERR_MEMORY;
+    for (int row = 0; row < PREVIEW_ROWS && !rc; row++) {
+        double t0 = now();
+        if (row == 0 && o.diffuse == PREVIEW_DIFFUSE_LAMBERT) {
+            rc = envl_irradiance_exact(rm, np, p.n, refv);
+            for (int32_t i = 0; i < np; i++) {
+                for (int k = 0; k < 3; k++)
+                    refv[3 * i + k] /= PI;
+                add_points(&sp, 0, NULL, d->view, p.n + 3 * i, refv + 3 * i);
+            }
+        } else if (row == 0) {
+            for (int32_t i = 0; i < np; i++) {
+                brute_force(rm, dirs, d->view, p.n + 3 * i, NULL, refv + 3 * i);
+                add_points(&sp, 1, NULL, d->view, p.n + 3 * i, refv + 3 * i);
+            }
+        } else if (row < 3) {
+            /* P = (sum over the rest of L w dw + sum over the points of rgb w) / norm; the
+             * rest's own normaliser sum w dw (zeroed pixels included) is norm to within its
+             * discretisation, as the lobe is several rest pixels wide */
+            if (o.specular == PREVIEW_SPECULAR_GGX)
+                rc = envl_prefilter_reference(rm, o.roughness[row - 1], np, p.r, refv);
+            else
+                for (int32_t i = 0; i < np; i++)
+                    brute_force(rm, dirs, d->view, p.r + 3 * i, &lobes[row], refv + 3 * i);
+            for (int32_t i = 0; i < np; i++)
+                add_points(&sp, 2, &lobes[row], d->view, p.r + 3 * i, refv + 3 * i);
+        } else {
+            int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
+            for (int32_t i = 0; i < 16 * np; i++) { /* the pixel that contains R */
+                double c, r;
+                envl_latlong_pixel(w, h, p.r16 + 3 * i, &c, &r);
+                int32_t ci = (int32_t)floor(c + 0.5) % w, ri = (int32_t)floor(r + 0.5);
+                ci = ci < 0 ? ci + w : ci;
+                ri = ri < 0 ? 0 : ri >= h ? h - 1 : ri;
+                for (int k = 0; k < 3; k++)
+                    buf16[3 * i + k] = sp.full[3 * ((size_t)ri * w + ci) + k];
+            }
+            average16(np, buf16, refv);
+            for (int32_t i = 0; i < sp.count; i++)
+                deposit(&p, S, d->view, sp.dir + 3 * i, sp.rgb + 3 * i, refv);
+        }
+        d->seconds[row][0] = now() - t0;
+        STORE(row, 0, refv);
+    }
+    /* How far the resampled copy's diffuse reference is from the full map's (DESIGN.md). */
+    if (!rc) {
+        const double *full;
+        double e[3 * ENVL_ERROR_NORMALS], fib[3 * ENVL_ERROR_NORMALS];
+        for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
+            envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, fib + 3 * i);
+        rc = envl_envmap_reference_irradiance(map, &full);
+        if (!rc)
+            rc = envl_irradiance_exact(rm, ENVL_ERROR_NORMALS, fib, e);
+        for (int32_t i = 0; i < ENVL_ERROR_NORMALS && !rc; i++) {
+            double x[3] = {0, 0, 0};
+            add_points(&sp, 0, NULL, d->view, fib + 3 * i, x);
+            for (int k = 0; k < 3; k++)
+                e[3 * i + k] += PI * x[k];
+        }
+        if (!rc)
+            d->reference_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, e, full);
+    }
+
+    /* Lights: median cut N, fit K + SH remainder. */
+    for (int col = 1; col <= 2 && !rc; col++) {
+        envl_lights_options lo = {.method = col == 1 ? ENVL_METHOD_MEDIAN : ENVL_METHOD_FIT,
+                                  .count = col == 1 ? o.median_count : o.fit_count};
+        envl_lights **l = col == 1 ? &d->median : &d->fit;
+        rc = envl_lights_compute(map, &lo, l);
+        if (rc)
+            break;
+        envl_lights_summary s;
+        envl_lights_get_summary(*l, &s);
+        for (int row = 0; row < PREVIEW_ROWS; row++) {
+            if (row == 0 && o.diffuse == PREVIEW_DIFFUSE_LAMBERT) {
+                envl_lights_irradiance(*l, np, p.n, buf);
+                for (int32_t i = 0; i < 3 * np; i++)
+                    buf[i] /= PI;
+            } else if (row < 3) {
+                for (int32_t i = 0; i < np; i++)
+                    shade_lights(*l, row, &o, &lobes[row], d->view, p.n + 3 * i, p.r + 3 * i,
+                                 min_solid_angle, buf + 3 * i);
+            } else {
+                for (int32_t i = 0; i < 16 * np; i++)
+                    shade_lights(*l, row, &o, NULL, d->view, NULL, p.r16 + 3 * i,
+                                 min_solid_angle, buf16 + 3 * i);
+                average16(np, buf16, buf);
+                for (int32_t i = 0; i < envl_lights_count(*l); i++) {
+                    envl_light li;
+                    envl_lights_get(*l, i, &li);
+                    if (li.solid_angle < min_solid_angle)
+                        deposit(&p, S, d->view, li.direction, li.rgb, buf);
+                }
+            }
+            STORE(row, col, buf);
+            d->seconds[row][col] = s.seconds;
+        }
+        if (o.diffuse == PREVIEW_DIFFUSE_LAMBERT)
+            d->error[0][col] = s.diffuse_error;
+        note(notes, col == 1 ? "median cut lights" : "fit lights + SH remainder",
+             s.diffuse_error, s.seconds);
+    }
+    /* SH order 2. */
+    if (!rc)
+        rc = envl_sh_compute(map, &(envl_sh_options){.bands = 3}, &sh);
+    if (!rc) {
+        envl_sh_summary s;
+        envl_sh_get_summary(sh, &s);
+        for (int row = 0; row < PREVIEW_ROWS; row++) {
+            if (row == 0) { /* irradiance only: Lambert whatever the diffuse model */
+                envl_sh_eval_irradiance(sh, np, p.n, buf);
+                for (int32_t i = 0; i < 3 * np; i++)
+                    buf[i] /= PI;
+            } else if (row < 3) {
+                envl_sh_eval_radiance(sh, np, p.r, buf);
+            } else {
+                envl_sh_eval_radiance(sh, 16 * np, p.r16, buf16);
+                average16(np, buf16, buf);
+            }
+            STORE(row, 3, buf);
+            d->seconds[row][3] = s.seconds;
+        }
+        if (o.diffuse == PREVIEW_DIFFUSE_LAMBERT)
+            d->error[0][3] = s.diffuse_error;
+        note(notes, "SH order 2", s.diffuse_error, s.seconds);
+    }
+    /* Prefiltered maps: irradiance map, the two glossy levels and the mirror level. */
+    if (!rc) {
+        envl_request q = {.irradiance_map = 1, .mirror = 1, .n_roughness = 2,
+                          .roughness = o.roughness};
+        rc = envl_compute(map, &q, &pre);
+    }
+    if (!rc) {
+        envl_irradiance_map im;
+        envl_products_irradiance(pre, &im);
+        for (int32_t i = 0; i < np; i++) {
+            envl_latlong_sample(im.rgb, im.width, im.height, p.n + 3 * i, buf + 3 * i);
+            for (int k = 0; k < 3; k++)
+                buf[3 * i + k] /= PI;
+        }
+        STORE(0, 4, buf);
+        d->seconds[0][4] = im.seconds;
+        if (o.diffuse == PREVIEW_DIFFUSE_LAMBERT)
+            rc = map_diffuse_error(map, im.rgb, im.width, im.height, &d->error[0][4]);
+        note(notes, "prefiltered irradiance map", d->error[0][4], im.seconds);
+        for (int row = 1; row < PREVIEW_ROWS && !rc; row++) {
+            envl_level lv;
+            int32_t k = envl_products_find_level(pre, row < 3 ? o.roughness[row - 1] : 0);
+            rc = envl_products_level(pre, k, &lv);
+            if (rc)
+                break;
+            if (row < 3)
+                for (int32_t i = 0; i < np; i++)
+                    envl_latlong_sample(lv.rgb, lv.width, lv.height, p.r + 3 * i, buf + 3 * i);
+            else {
+                for (int32_t i = 0; i < 16 * np; i++)
+                    envl_latlong_sample(lv.rgb, lv.width, lv.height, p.r16 + 3 * i,
+                                        buf16 + 3 * i);
+                average16(np, buf16, buf);
+            }
+            STORE(row, 4, buf);
+            d->seconds[row][4] = lv.seconds;
+        }
+    }
+    /* Errors of the other spheres: relative RMS of luminance over the sphere's pixels against
+     * the reference sphere of the row. */
+    for (int row = 0; row < PREVIEW_ROWS && !rc; row++) {
+        for (int32_t q = 0; q < np; q++)
+            for (int k = 0; k < 3; k++)
+                refv[3 * q + k] = d->sphere[row][0][3 * p.index[q] + k];
+        for (int col = 1; col < PREVIEW_COLS; col++) {
+            if (d->error[row][col] >= 0)
+                continue;
+            for (int32_t q = 0; q < np; q++)
+                for (int k = 0; k < 3; k++)
+                    buf[3 * q + k] = d->sphere[row][col][3 * p.index[q] + k];
+            ERR(row, col);
+        }
+    }
+#undef STORE
+#undef ERR
+    if (!rc && notes)
+        fprintf(notes, "envlight preview: references on a %d-wide copy + %d points (diffuse %.4f %% from the "
+                "full map, DESIGN.md's measure): %.3f, %.3f, %.3f s; mirror %.3f s\n",
+                envl_envmap_width(rm), (int)sp.count, 100 * d->reference_error, d->seconds[0][0],
+                d->seconds[1][0], d->seconds[2][0], d->seconds[3][0]);
+    free_pixels(&p);
+    free(dirs);
+    free(buf);
+    free(refv);
+    free(buf16);
+    free_split(&sp);
+    envl_sh_free(sh);
+    envl_products_free(pre);
+    return rc;
+}
+
+/* ---- the picture ------------------------------------------------------------------------ */
+
+typedef struct canvas {
+    float *px;
+    int32_t w, h;
+} canvas;
+
+static void put(canvas *cv, int32_t x, int32_t y, const float c[3])
+{
+    if (x < 0 || y < 0 || x >= cv->w || y >= cv->h)
+        return;
+    memcpy(cv->px + 3 * ((size_t)y * cv->w + x), c, 3 * sizeof(float));
+}
+
+static int32_t text_width(const char *s) { return 6 * (int32_t)strlen(s) - 1; }
+
+/* Draws s with its top-left corner at (x, y): 5 x 7 glyphs, 6 pixels apart. */
+static void text(canvas *cv, int32_t x, int32_t y, const char *s, const float c[3])
+{
+    for (; *s; s++, x += 6) {
+        const unsigned char *g = preview_glyph((unsigned char)*s);
+        for (int i = 0; i < 5; i++)
+            for (int j = 0; j < 7; j++)
+                if (g[i] >> j & 1)
+                    put(cv, x + i, y + j, c);
+    }
+}
+
+static void text_centred(canvas *cv, int32_t cx, int32_t y, const char *s, const float c[3])
+{
+    text(cv, cx - text_width(s) / 2, y, s, c);
+}
+
+static double tone(const preview_options *o, double x)
+{
+    return o->tonemap == PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
+}
+
+/* Marks on the map (x wraps around the seam): map pixel (x, y) at canvas (x0 + x, y0 + y). */
+typedef struct mapview {
+    canvas *cv;
+    int32_t x0, y0, w, h;
+} mapview;
+
+static void map_put(const mapview *m, int32_t x, int32_t y, const float c[3])
+{
+    if (y < 0 || y >= m->h)
+        return;
+    x %= m->w;
+    if (x < 0)
+        x += m->w;
+    put(m->cv, m->x0 + x, m->y0 + y, c);
+}
+
+static void marker(const mapview *m, const double dir[3], int32_t radius, int circle,
+                   const float c[3])
+{
+    double fx, fy;
+    envl_latlong_pixel(m->w, m->h, dir, &fx, &fy);
+    int32_t x = (int32_t)floor(fx + 0.5), y = (int32_t)floor(fy + 0.5);
+    if (!circle) {
+        for (int32_t t = -radius; t <= radius; t++) {
+            map_put(m, x + t, y, c);
+            map_put(m, x, y + t, c);
+        }
+        return;
+    }
+    int32_t steps = 8 * radius + 8;
+    for (int32_t i = 0; i < steps; i++) {
+        double a = 2 * PI * i / steps;
+        map_put(m, x + (int32_t)lround(radius * cos(a)), y + (int32_t)lround(radius * sin(a)),
+                c);
+    }
+}
+
+/* Markers scaled by strength: radius lo + span sqrt(Y / Ymax). */
+static void mark_lights(const mapview *m, const envl_lights *l, int circle, const float c[3])
+{
+    int32_t n = envl_lights_count(l);
+    double ymax = 0;
+    for (int32_t i = 0; i < n; i++) {
+        envl_light li;
+        envl_lights_get(l, i, &li);
+        ymax = fmax(ymax, envl_luminance(li.rgb[0], li.rgb[1], li.rgb[2]));
+    }
+    for (int32_t i = 0; i < n && ymax > 0; i++) {
+        envl_light li;
+        envl_lights_get(l, i, &li);
+        double y = envl_luminance(li.rgb[0], li.rgb[1], li.rgb[2]);
+        int32_t r = (circle ? 3 : 2) + (int32_t)lround((circle ? 6 : 5) * sqrt(y / ymax));
+        marker(m, li.direction, r, circle, c);
+    }
+}
+
+/* The median cut regions: pixel rectangles of the map scaled to the view. */
+static void outline_regions(const mapview *m, const envl_lights *l, int32_t mw, int32_t mh,
+                            const float c[3])
+{
+    int32_t n = envl_lights_count(l);
+    double sx = (double)m->w / mw, sy = (double)m->h / mh;
+    for (int32_t i = 0; i < n; i++) {
+        envl_light li;
+        envl_lights_get(l, i, &li);
+        int32_t x0 = (int32_t)floor(li.rect[0] * sx), x1 = (int32_t)ceil(li.rect[2] * sx) - 1;
+        int32_t y0 = (int32_t)floor(li.rect[1] * sy), y1 = (int32_t)ceil(li.rect[3] * sy) - 1;
+        for (int32_t x = x0; x <= x1; x++) {
+            map_put(m, x, y0, c);
+            map_put(m, x, y1, c);
+        }
+        for (int32_t y = y0; y <= y1; y++) {
+            map_put(m, x0, y, c);
+            map_put(m, x1, y, c);
+        }
+    }
+}
+
+static void format_error(char *s, size_t n, double e)
+{
+    if (!(e >= 0) || !isfinite(e))
+        snprintf(s, n, "err n/a");
+    else
+        snprintf(s, n, e < 0.1 ? "err %.2f%%" : "err %.1f%%", 100 * e);
+}
+
+envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
+                            const preview_data *d, float **rgb, int32_t *width, int32_t *height)
+{
+    preview_options o = *opt;
+    preview_defaults(&o);
+    const int32_t S = d->size;
+    layout L = get_layout(S);
+    canvas cv = {calloc((size_t)L.w * L.h * 3, sizeof(float)), L.w, L.h};
+    if (!cv.px)
+        return ENVL_ERR_MEMORY;
+    static const float bg[3] = {0.012f, 0.012f, 0.012f}, white[3] = {1, 1, 1},
+                       grey[3] = {0.45f, 0.45f, 0.45f}, cyan[3] = {0, 0.75f, 0.75f},
+                       yellow[3] = {1, 1, 0}, magenta[3] = {1, 0.2f, 1};
+    for (size_t i = 0; i < (size_t)L.w * L.h; i++)
+        memcpy(cv.px + 3 * i, bg, sizeof bg);
+    const double scale = exp2(d->exposure_ev);
+    char s[256];
+
+    snprintf(s, sizeof s, "%.40s   exposure %+.2f EV%s   %s", o.title ? o.title : "",
+             d->exposure_ev, o.exposure_set ? "" : " (auto)",
+             o.tonemap == PREVIEW_TONEMAP_REINHARD ? "Reinhard" : "ACES filmic");
+    text(&cv, MARGIN, 6, s, white);
+
+    /* The map, area-resampled to the view's width, tone-mapped. */
+    envl_envmap *small = NULL;
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .width = L.map_w};
+    envl_result rc = envl_envmap_from_pixels(envl_envmap_pixels(map), envl_envmap_width(map),
+                                             envl_envmap_height(map), 3, &lo, &small);
+    if (rc) {
+        free(cv.px);
+        return rc;
+    }
+    const float *sp = envl_envmap_pixels(small);
+    for (int32_t y = 0; y < L.map_h; y++)
+        for (int32_t x = 0; x < L.map_w; x++) {
+            float c[3];
+            for (int k = 0; k < 3; k++)
+                c[k] = (float)tone(&o, scale * sp[3 * ((size_t)y * L.map_w + x) + k]);
+            put(&cv, MARGIN + x, TITLE_H + y, c);
+        }
+    envl_envmap_free(small);
+    mapview mv = {&cv, MARGIN, TITLE_H, L.map_w, L.map_h};
+    if (d->median) {
+        outline_regions(&mv, d->median, envl_envmap_width(map), envl_envmap_height(map), cyan);
+        mark_lights(&mv, d->median, 0, yellow);
+    }
+    if (d->fit)
+        mark_lights(&mv, d->fit, 1, magenta);
+    int32_t x = MARGIN;
+    snprintf(s, sizeof s, "median cut %d: regions", (int)o.median_count);
+    text(&cv, x, L.legend_y, s, cyan);
+    x += text_width(s) + 12;
+    text(&cv, x, L.legend_y, "+ lights", yellow);
+    x += text_width("+ lights") + 12;
+    snprintf(s, sizeof s, "o fit %d lights", (int)o.fit_count);
+    text(&cv, x, L.legend_y, s, magenta);
+    x += text_width(s) + 12;
+    if (x + text_width("(marker size ~ strength)") < L.w - MARGIN)
+        text(&cv, x, L.legend_y, "(marker size ~ strength)", grey);
+
+    /* Column headers, row labels, spheres and their numbers. */
+    char h1[32], h2[32];
+    snprintf(h1, sizeof h1, "%d lights", (int)o.median_count);
+    snprintf(h2, sizeof h2, "fit %d lights", (int)o.fit_count);
+    const char *heads[PREVIEW_COLS][2] = {{"reference", "(exact)"}, {"median cut", h1},
+                                          {h2, "+ SH order 2"}, {"SH", "order 2"},
+                                          {"prefiltered", "maps"}};
+    for (int c = 0; c < PREVIEW_COLS; c++)
+        for (int k = 0; k < 2; k++)
+            text_centred(&cv, LABEL_W + c * L.cell_w + L.cell_w / 2, L.header_y + 10 * k,
+                         heads[c][k], white);
+    const char *spec = o.specular == PREVIEW_SPECULAR_GGX ? "GGX" : "Blinn-Phong";
+    for (int r = 0; r < PREVIEW_ROWS; r++) {
+        int32_t x0, y0;
+        preview_sphere_origin(S, r, 0, &x0, &y0);
+        const char *l1 = r == 0 ? "diffuse" : r < 3 ? "glossy" : "mirror", *l2 = "";
+        char l3[32] = "";
+        if (r == 0)
+            l2 = o.diffuse == PREVIEW_DIFFUSE_LAMBERT ? "Lambert" : "Oren-Nayar";
+        else if (r < 3) {
+            l2 = spec;
+            snprintf(l3, sizeof l3, "rough %.2f", o.roughness[r - 1]);
+        }
+        text(&cv, MARGIN, y0 + S / 2 - 14, l1, white);
+        text(&cv, MARGIN, y0 + S / 2 - 3, l2, grey);
+        text(&cv, MARGIN, y0 + S / 2 + 8, l3, grey);
+        for (int c = 0; c < PREVIEW_COLS; c++) {
+            preview_sphere_origin(S, r, c, &x0, &y0);
+            const double *sph = d->sphere[r][c];
+            for (int32_t j = 0; j < S; j++)
+                for (int32_t i = 0; i < S; i++) {
+                    double n[3];
+                    if (!preview_sphere_normal(S, d->view, i, j, n))
+                        continue;
+                    float col[3];
+                    for (int k = 0; k < 3; k++)
+                        col[k] = (float)tone(&o, scale * sph[3 * ((size_t)j * S + i) + k]);
+                    put(&cv, x0 + i, y0 + j, col);
+                }
+            int32_t cx = x0 + S / 2;
+            if (c == 0)
+                snprintf(s, sizeof s, "%s", r == 0 && o.diffuse == PREVIEW_DIFFUSE_LAMBERT
+                                                ? "exact E/pi" : "brute force");
+            else
+                format_error(s, sizeof s, d->error[r][c]);
+            text_centred(&cv, cx, y0 + S + 4, s, c == 0 ? grey : white);
+            snprintf(s, sizeof s, "%.3g s", d->seconds[r][c]);
+            text_centred(&cv, cx, y0 + S + 14, s, grey);
+        }
+    }
+    *rgb = cv.px;
+    *width = L.w;
+    *height = L.h;
+    return ENVL_OK;
+}

@@ -1,0 +1,77 @@
+/* `envlight preview`: the map with its lights, and spheres shaded by the exact reference and by
+ * each approximation (preview.c, font5x7.c). Built on the public API only, linked into the
+ * command line and the tests. */
+#ifndef ENVL_PREVIEW_H
+#define ENVL_PREVIEW_H
+
+#include "envlight.h"
+
+#include <stdio.h>
+
+#define PREVIEW_TONEMAP_ACES 0      /* Narkowicz 2015 fit of the ACES filmic curve (default) */
+#define PREVIEW_TONEMAP_REINHARD 1  /* x / (1 + x) */
+#define PREVIEW_DIFFUSE_LAMBERT 0
+#define PREVIEW_DIFFUSE_OREN_NAYAR 1 /* Oren & Nayar 1994 qualitative model, sigma 0.3 rad */
+#define PREVIEW_SPECULAR_GGX 0
+#define PREVIEW_SPECULAR_BLINN_PHONG 1 /* exponent 2 / alpha^2 - 2 (Walter et al. 2007) */
+
+/* Rows (shading) and columns (lighting) of the sphere grid. */
+#define PREVIEW_ROWS 4    /* diffuse, glossy roughness[0], glossy roughness[1], mirror */
+#define PREVIEW_COLS 5    /* reference, median cut, fit + SH remainder, SH order 2, prefiltered */
+
+typedef struct preview_options {
+    int32_t median_count;     /* median cut lights; default 16 */
+    int32_t fit_count;        /* fitted lights; default 4 */
+    int32_t tonemap;          /* PREVIEW_TONEMAP_*; default ACES */
+    int32_t exposure_set;     /* nonzero: exposure_ev is used, else automatic */
+    double exposure_ev;       /* display = tonemap(2^EV x radiance) */
+    int32_t diffuse;          /* PREVIEW_DIFFUSE_*; default Lambert */
+    int32_t specular;         /* PREVIEW_SPECULAR_*; default GGX */
+    double roughness[2];      /* the glossy rows; default 0.25, 0.5 (0 means default) */
+    int32_t sphere_size;      /* pixels; default 96 */
+    int32_t reference_width;  /* lat-long width of the copy the diffuse / glossy references
+                                 sum over; default 256 */
+    const char *title;        /* printed at the top (the file name) */
+} preview_options;
+
+/* Linear radiance of every sphere (size x size x 3, row 0 = top; 0 outside the disc), and the
+ * error and seconds printed under it (error < 0: none). */
+typedef struct preview_data {
+    int32_t size;
+    double view[3];           /* unit vector towards the camera */
+    double *sphere[PREVIEW_ROWS][PREVIEW_COLS];
+    double error[PREVIEW_ROWS][PREVIEW_COLS];
+    double seconds[PREVIEW_ROWS][PREVIEW_COLS];
+    double exposure_ev;       /* the exposure used */
+    double reference_error;   /* diffuse reference on the resampled copy against the full map,
+                                 DESIGN.md's measure */
+    envl_lights *median, *fit;
+} preview_data;
+
+void preview_defaults(preview_options *o);
+/* Tone curves on exposed linear values (result in [0, 1], before the sRGB OETF). */
+double preview_aces(double x);
+double preview_reinhard(double x);
+/* Reinhard 2002's key: EV = log2(0.18 / Lavg), Lavg = exp(mean over the sphere (solid-angle
+ * weighted) of log(1e-4 + Y)). */
+double preview_auto_exposure(const envl_envmap *map);
+/* Normal at sphere pixel (i, j) of a size x size sphere seen along -view (orthographic, +Z up
+ * on screen); 0 outside the disc. */
+int preview_sphere_normal(int32_t size, const double view[3], int32_t i, int32_t j, double n[3]);
+/* Picture size and the top-left corner of sphere (row, col). */
+void preview_layout(int32_t size, int32_t *width, int32_t *height);
+void preview_sphere_origin(int32_t size, int32_t row, int32_t col, int32_t *x, int32_t *y);
+
+/* Computes the lights, SH, prefiltered maps, references and every sphere. `notes` (may be
+ * NULL) gets a line per step. */
+envl_result preview_compute(envl_envmap *map, const preview_options *o, FILE *notes,
+                            preview_data *d);
+void preview_data_free(preview_data *d);
+/* Tone-mapped picture (display-linear RGB in [0, 1], width x height x 3; free()). */
+envl_result preview_compose(const envl_envmap *map, const preview_options *o,
+                            const preview_data *d, float **rgb, int32_t *width, int32_t *height);
+
+/* 5 x 7 glyph of an ASCII character (columns, bit 0 = top row); '?' for others. */
+const unsigned char *preview_glyph(int c);
+
+#endif
