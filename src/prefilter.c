@@ -151,8 +151,8 @@ static envl_result build_pyramid(const float *px, int32_t w, int32_t h, float **
         total += (size_t)w * h * 3;
         n++;
     }
-    float *buf = malloc(sizeof(float) * (total ? total : 1));
-    if (!buf)
+    float *buf = n > 1 ? NULL : malloc(sizeof(float));
+    if (n == 1 && !buf)
         return envl__fail(ENVL_ERR_MEMORY, "mip pyramid: out of memory");
     const float *prev = px;
     for (int32_t k = 1; k < n; k++) {
@@ -165,8 +165,18 @@ static envl_result build_pyramid(const float *px, int32_t w, int32_t h, float **
             free(buf);
             return rc;
         }
-        memcpy(buf + off[k], lev, sizeof(float) * (size_t)mw[k] * mh[k] * 3);
-        free(lev);
+        if (k == 1) {
+            /* Level 1 sits at offset 0: its buffer grows to hold every level (for a large
+             * block realloc remaps the pages: no second copy of level 1 at the peak). */
+            buf = realloc(lev, sizeof(float) * total);
+            if (!buf) {
+                free(lev);
+                return envl__fail(ENVL_ERR_MEMORY, "mip pyramid: out of memory");
+            }
+        } else {
+            memcpy(buf + off[k], lev, sizeof(float) * (size_t)mw[k] * mh[k] * 3);
+            free(lev);
+        }
         prev = buf + off[k];
     }
     *buf_out = buf;

@@ -50,35 +50,36 @@ envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32
      * u - a/360: the output at u samples the input at u + a/360. */
     double turns = fmod(rotate_degrees / 360.0, 1.0);
     double shift = turns * w;
-    size_t n_mid = (size_t)h * out_w * 3, n_out = (size_t)out_h * out_w * 3;
-    float *mid = malloc(n_mid * sizeof(float));
+    int plain = out_w == w && shift == 0.0; /* rows need no column pass */
+    size_t n_row = (size_t)out_w * 3, n_out = (size_t)out_h * n_row;
     float *dst = malloc(n_out * sizeof(float));
-    if (!mid || !dst) {
-        free(mid);
+    /* Rows are streamed: an input row is column-resampled when an output row needs it, into
+     * one of two row slots (output rows walk the input rows in order and share at most their
+     * boundary rows, so each input row is resampled once), never into a whole column-resampled
+     * copy of the input (2x the output's memory when halving: the largest transient of the
+     * prefilter's pyramid). Same arithmetic as a full column pass, so the same floats. */
+    float *row = out_h == h ? NULL : malloc(2 * n_row * sizeof(float));
+    double *acc = out_h == h ? NULL : malloc(n_row * sizeof(double));
+    if (!dst || (out_h != h && (!row || !acc))) {
         free(dst);
+        free(row);
+        free(acc);
         return envl__fail(ENVL_ERR_MEMORY, "resample: cannot allocate %d x %d", (int)out_w,
                           (int)out_h);
     }
-    if (out_w == w && shift == 0.0)
-        memcpy(mid, src, n_mid * sizeof(float));
-    else
-        for (int32_t r = 0; r < h; r++)
-            resample_row(src + (size_t)r * w * 3, w, mid + (size_t)r * out_w * 3, out_w, shift);
-
     if (out_h == h) {
-        memcpy(dst, mid, n_out * sizeof(float));
+        if (plain)
+            memcpy(dst, src, n_out * sizeof(float));
+        else
+            for (int32_t r = 0; r < h; r++)
+                resample_row(src + (size_t)r * w * 3, w, dst + (size_t)r * n_row, out_w, shift);
     } else {
         /* Rows: weights are overlaps in z. Both row lists run from z = 1 down to z = -1. */
-        int32_t r = 0;
+        int32_t r = 0, slot_row[2] = {-1, -1};
         for (int32_t R = 0; R < out_h; R++) {
             double top = row_top_z(out_h, R), bot = row_top_z(out_h, R + 1);
             double span = top - bot;
-            double *acc = calloc((size_t)out_w * 3, sizeof(double));
-            if (!acc) {
-                free(mid);
-                free(dst);
-                return envl__fail(ENVL_ERR_MEMORY, "resample: out of memory");
-            }
+            memset(acc, 0, n_row * sizeof(double));
             while (r < h && row_top_z(h, r + 1) >= top)
                 r++; /* input rows wholly above this output row */
             for (int32_t k = r; k < h; k++) {
@@ -88,17 +89,26 @@ envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32
                 double wgt = fmin(top, itop) - fmax(bot, ibot);
                 if (wgt <= 0)
                     continue;
-                const float *p = mid + (size_t)k * out_w * 3;
-                for (size_t i = 0; i < (size_t)out_w * 3; i++)
+                const float *p = src + (size_t)k * w * 3;
+                if (!plain) {
+                    int j = slot_row[0] == k ? 0 : slot_row[1] == k ? 1 : -1;
+                    if (j < 0) { /* replace the slot of the older (smaller) row */
+                        j = slot_row[0] < slot_row[1] ? 0 : 1;
+                        resample_row(p, w, row + j * n_row, out_w, shift);
+                        slot_row[j] = k;
+                    }
+                    p = row + j * n_row;
+                }
+                for (size_t i = 0; i < n_row; i++)
                     acc[i] += wgt * p[i];
             }
-            float *q = dst + (size_t)R * out_w * 3;
-            for (size_t i = 0; i < (size_t)out_w * 3; i++)
+            float *q = dst + (size_t)R * n_row;
+            for (size_t i = 0; i < n_row; i++)
                 q[i] = span > 0 ? (float)(acc[i] / span) : 0.0f;
-            free(acc);
         }
     }
-    free(mid);
+    free(row);
+    free(acc);
     *out = dst;
     return ENVL_OK;
 }
