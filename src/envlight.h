@@ -192,7 +192,7 @@ ENVL_API double envl_luminance(double r, double g, double b);
 
 /* Tables a map caches for the products that share them (computed on first use). Dropping
  * them lets a benchmark time a product from scratch. */
-#define ENVL_CACHE_SAT 1        /* summed-area table (lights) */
+#define ENVL_CACHE_SAT 1        /* region table of summed energies (lights) */
 #define ENVL_CACHE_REFERENCE 2  /* exact irradiance at the error measure's normals */
 ENVL_API void envl_envmap_drop_caches(envl_envmap *map, int32_t which);
 

@@ -318,7 +318,7 @@ void envl_envmap_free(envl_envmap *m)
     free(m->col_cos);
     free(m->col_sin);
     free(m->reference);
-    free(m->energy_sat);
+    free(m->region_table);
     free(m->mip_px);
     free(m);
 }
@@ -328,8 +328,8 @@ void envl_envmap_drop_caches(envl_envmap *m, int32_t which)
     if (!m)
         return;
     if (which & ENVL_CACHE_SAT) {
-        free(m->energy_sat);
-        m->energy_sat = NULL;
+        free(m->region_table);
+        m->region_table = NULL;
     }
     if (which & ENVL_CACHE_REFERENCE) {
         free(m->reference);

@@ -15,7 +15,7 @@ struct envl_envmap {
     envl_info info;
     int32_t threads;
     double *reference;    /* cached exact irradiance at the ENVL_ERROR_NORMALS Fibonacci normals */
-    double *energy_sat;   /* cached summed-area table of luminance x solid angle, (W+1)(H+1) */
+    double *region_table; /* cached region table of the lights (region_table.c) */
     /* prefilter.c: the cached area-averaged mip pyramid. Level 0 is px itself; levels 1 ..
      * mip_levels - 1 live in mip_px at mip_offset[level] (floats). mip_levels 0: not built. */
     float *mip_px;
@@ -24,9 +24,26 @@ struct envl_envmap {
     size_t mip_offset[40];
 };
 
-/* The map's summed-area table of luminance x solid angle (double), built once and cached:
- * sat[r (W+1) + c] = sum over rows < r and columns < c. */
-envl_result envl__energy_sat(envl_envmap *m, const double **out);
+/* ---- the lights' region table (region_table.c): sums over pixel rectangles ---- */
+#define ENVL_TABLE_BLOCK 32 /* columns per block of the table */
+/* Builds the table once and caches it in the map. */
+envl_result envl__region_table(envl_envmap *m);
+/* With the table built: over columns [x0, x1) (0 <= x0 < W, x1 <= x0 + W: past W wraps across
+ * the seam) and rows [y0, y1), out = sum of L dw (R, G, B) and sum of Y d dw (x, y, z), Y the
+ * luminance, d the pixel's direction. */
+void envl__rect_sums(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0, int32_t y1,
+                     double out[6]);
+/* The energy (sum of Y dw) of such a rectangle. */
+double envl__rect_energy(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0, int32_t y1);
+/* Energy of each column [x0, x1) (wrapping) over rows [y0, y1), directly from the pixels. */
+void envl__column_energies(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0, int32_t y1,
+                           double *out);
+/* The energy median along x of a region of x1 - x0 >= 2 columns: the smallest s in
+ * [x0 + 1, x1 - 1] with energy([x0, s)) >= half (else x1 - 1), or s - 1 when that is as close
+ * to half; *left = energy([x0, s)). Binary search over the table's block boundaries, then
+ * column by column inside one block. */
+int32_t envl__median_column(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0, int32_t y1,
+                            double half, double *left);
 
 /* Number of worker threads for `requested` (0 = all cores). */
 int32_t envl__threads(int32_t requested);

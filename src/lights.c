@@ -12,7 +12,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <time.h>
 
 struct envl_lights {
@@ -46,102 +45,16 @@ static double now_seconds(void)
     return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
-/* ---- the energy summed-area table (double; cached in the map) ---- */
-
-/* sat[r (W+1) + c] = sum of energy over rows < r, columns < c. A float table would lose a dim
- * sky's pixels against a sun's 1e6 (24-bit mantissa); double keeps 53 bits. */
-typedef struct sat_job {
-    const envl_envmap *m;
-    double *sat;
-} sat_job;
-
-/* Phase 1, rows in parallel: row r + 1 of the table gets the prefix sums of row r's energy. */
-static void sat_rows(void *arg, int64_t begin, int64_t end)
-{
-    const sat_job *j = arg;
-    int32_t w = j->m->width;
-    for (int64_t r = begin; r < end; r++) {
-        const float *p = j->m->px + (size_t)r * w * 3;
-        double *cur = j->sat + (size_t)(r + 1) * (w + 1);
-        double om = j->m->row_omega[r];
-        double wr = 0.2126 * om, wg = 0.7152 * om, wb = 0.0722 * om, row = 0.0;
-        cur[0] = 0.0;
-        /* two columns per dependent add: the prefix chain is the bottleneck */
-        int32_t c = 0;
-        for (; c + 1 < w; c += 2, p += 6) {
-            double ea = wr * p[0] + wg * p[1] + wb * p[2];
-            double eb = wr * p[3] + wg * p[4] + wb * p[5];
-            cur[c + 1] = row + ea;
-            row += ea + eb;
-            cur[c + 2] = row;
-        }
-        if (c < w)
-            cur[c + 1] = row + (wr * p[0] + wg * p[1] + wb * p[2]);
-    }
-}
-
-/* Phase 2, columns in parallel: accumulate down the rows. */
-static void sat_columns(void *arg, int64_t begin, int64_t end)
-{
-    const sat_job *j = arg;
-    int32_t w = j->m->width, h = j->m->height;
-    for (int32_t r = 1; r < h; r++) {
-        const double *prev = j->sat + (size_t)r * (w + 1);
-        double *cur = j->sat + (size_t)(r + 1) * (w + 1);
-        for (int64_t c = begin; c < end; c++)
-            cur[c] += prev[c];
-    }
-}
-
-/* sat[r (W+1) + c] = sum of energy over rows < r, columns < c. A float table would lose a dim
- * sky's pixels against a sun's 1e6 (24-bit mantissa); double keeps 53 bits. Every entry is
- * summed in the same order whatever the thread count. */
-envl_result envl__energy_sat(envl_envmap *m, const double **out)
-{
-    if (!m->energy_sat) {
-        int32_t w = m->width, h = m->height;
-        /* Huge pages where the kernel offers them: a fresh 268 MB table (8192 x 4096) costs
-         * 65536 page faults in 4 kB pages. */
-        size_t bytes = sizeof(double) * (size_t)(w + 1) * (h + 1), align = (size_t)2 << 20;
-        double *sat = aligned_alloc(align, (bytes + align - 1) / align * align);
-        if (!sat)
-            return envl__fail(ENVL_ERR_MEMORY, "summed-area table: cannot allocate %d x %d",
-                              (int)w + 1, (int)h + 1);
-#ifdef MADV_HUGEPAGE
-        if (bytes >= align)
-            madvise(sat, (bytes + align - 1) / align * align, MADV_HUGEPAGE);
-#endif
-        memset(sat, 0, sizeof(double) * (w + 1));
-        sat_job job = {m, sat};
-        envl__parallel_for(h, m->threads, sat_rows, &job);
-        envl__parallel_for(w + 1, m->threads, sat_columns, &job);
-        m->energy_sat = sat;
-    }
-    *out = m->energy_sat;
-    return ENVL_OK;
-}
-
 typedef struct region {
     int32_t x0, x1, y0, y1;
     double energy;
     double priority;        /* which region to split next */
 } region;
 
-static double sat_rect(const double *sat, int32_t w, int32_t x0, int32_t x1, int32_t y0,
-                       int32_t y1)
-{
-    const double *a = sat + (size_t)y0 * (w + 1), *b = sat + (size_t)y1 * (w + 1);
-    return b[x1] - b[x0] - a[x1] + a[x0];
-}
-
 /* Energy of columns [x0, x1) (wrapping) and rows [y0, y1). */
-static double rect_energy(const envl_envmap *m, const double *sat, int32_t x0, int32_t x1,
-                          int32_t y0, int32_t y1)
+static double rect_energy(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0, int32_t y1)
 {
-    int32_t w = m->width;
-    if (x1 <= w)
-        return sat_rect(sat, w, x0, x1, y0, y1);
-    return sat_rect(sat, w, x0, w, y0, y1) + sat_rect(sat, w, 0, x1 - w, y0, y1);
+    return envl__rect_energy(m, x0, x1, y0, y1);
 }
 
 /* Keeps 0 <= x0 < W after a split of a region that wraps. */
@@ -169,33 +82,36 @@ static int split_along_x(const envl_envmap *m, const region *r)
     return ang_w >= ang_h;
 }
 
-/* Splits at the energy median by binary search on the SAT (the split closest to half). */
-static int split_median(const envl_envmap *m, const double *sat, const region *r, region *a,
-                        region *b)
+/* Splits at the energy median: the split closest to half the region's energy. Along x by
+ * binary search over the region table's blocks, then column by column within one block; along
+ * y from the rows' energies (each from the table plus its ragged ends). */
+static int split_median(const envl_envmap *m, const region *r, region *a, region *b)
 {
     int32_t w = r->x1 - r->x0, h = r->y1 - r->y0;
     if (w <= 1 && h <= 1)
         return 0;
     int along_x = split_along_x(m, r);
-    int32_t lo = (along_x ? r->x0 : r->y0) + 1, hi = (along_x ? r->x1 : r->y1) - 1;
-    double half = 0.5 * r->energy;
-#define PART(s) (along_x ? rect_energy(m, sat, r->x0, (s), r->y0, r->y1)                       \
-                         : rect_energy(m, sat, r->x0, r->x1, r->y0, (s)))
+    double half = 0.5 * r->energy, left = 0;
     int32_t s;
     if (!(r->energy > 0)) {
-        s = (lo + hi + 1) / 2; /* no light: the geometric middle */
+        /* no light: the geometric middle */
+        s = along_x ? (2 * r->x0 + w + 1) / 2 : (2 * r->y0 + h + 1) / 2;
+    } else if (along_x) {
+        s = envl__median_column(m, r->x0, r->x1, r->y0, r->y1, half, &left);
     } else {
-        int32_t l = lo, u = hi; /* smallest s in [lo, hi] with PART(s) >= half, else hi */
-        while (l < u) {
-            int32_t mid = l + (u - l) / 2;
-            if (PART(mid) >= half)
-                u = mid;
-            else
-                l = mid + 1;
+        /* the smallest s in [y0 + 1, y1 - 1] with energy(rows [y0, s)) >= half, else y1 - 1;
+         * then s - 1 if that is as close to half */
+        int32_t lo = r->y0 + 1, hi = r->y1 - 1;
+        double e = 0, e_prev = 0;
+        for (s = r->y0; s < hi && (s < lo || e < half); s++) {
+            e_prev = e;
+            e += rect_energy(m, r->x0, r->x1, s, s + 1);
         }
-        s = l;
-        if (s > lo && fabs(PART(s - 1) - half) <= fabs(PART(s) - half))
-            s = s - 1;
+        if (s > lo && fabs(e_prev - half) <= fabs(e - half)) {
+            s--;
+            e = e_prev;
+        }
+        left = e;
     }
     *a = *r;
     *b = *r;
@@ -206,14 +122,13 @@ static int split_median(const envl_envmap *m, const double *sat, const region *r
         a->y1 = s;
         b->y0 = s;
     }
-    a->energy = PART(s);
-    b->energy = r->energy - a->energy;
+    a->energy = left;
+    b->energy = r->energy - left;
     if (b->energy < 0)
         b->energy = 0;
     a->priority = a->energy;
     b->priority = b->energy;
     normalise_columns(m, b);
-#undef PART
     return 1;
 }
 
@@ -348,14 +263,27 @@ static double region_variance(const envl_envmap *m, const region *r)
     return variance_of(e, s);
 }
 
+typedef struct level_job {
+    const envl_envmap *m;
+    const region *rs;
+    region *halves;     /* 2 per region; x1 = -1: not split */
+} level_job;
+
+static void split_level(void *arg, int64_t begin, int64_t end)
+{
+    const level_job *j = arg;
+    for (int64_t i = begin; i < end; i++)
+        if (!split_median(j->m, &j->rs[i], &j->halves[2 * i], &j->halves[2 * i + 1]))
+            j->halves[2 * i].x1 = -1;
+}
+
 /* Cuts the map into at most n regions. Median: level by level while the count can double
  * (2^k lights exactly as Debevec's paper), then the region with the most energy next.
  * Variance: always the region of largest variance next. */
 static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region **out,
                                int32_t *count)
 {
-    const double *sat = NULL;
-    envl_result rc = envl__energy_sat(m, &sat);
+    envl_result rc = envl__region_table(m);
     if (rc)
         return rc;
     /* A region holds at least one pixel: never more regions than pixels. */
@@ -364,34 +292,47 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
     region *rs = malloc(sizeof(region) * (size_t)n);
     if (!rs)
         return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
-    /* Start at the darkest column: the seam of the first region lies where there is least
-     * light. */
-    int32_t x0 = 0;
-    double dark = INFINITY;
-    for (int32_t c = 0; c < m->width; c++) {
-        double e = sat_rect(sat, m->width, c, c + 1, 0, m->height);
+    /* Start at the darkest column of the darkest block of the table: the seam of the first
+     * region lies where there is least light. */
+    int32_t x0 = 0, b0 = 0;
+    double dark = INFINITY, cols[ENVL_TABLE_BLOCK];
+    for (int32_t c = 0; c < m->width; c += ENVL_TABLE_BLOCK) {
+        int32_t c1 = c + ENVL_TABLE_BLOCK < m->width ? c + ENVL_TABLE_BLOCK : m->width;
+        double e = rect_energy(m, c, c1, 0, m->height);
         if (e < dark) {
             dark = e;
-            x0 = c;
+            b0 = c;
         }
     }
+    int32_t b1 = b0 + ENVL_TABLE_BLOCK < m->width ? b0 + ENVL_TABLE_BLOCK : m->width;
+    envl__column_energies(m, b0, b1, 0, m->height, cols);
+    for (int32_t c = b0; c < b1; c++)
+        if (c == b0 || cols[c - b0] < cols[x0 - b0])
+            x0 = c;
     rs[0] = (region){x0, x0 + m->width, 0, m->height, 0, 0};
-    rs[0].energy = rect_energy(m, sat, rs[0].x0, rs[0].x1, 0, m->height);
+    rs[0].energy = rect_energy(m, rs[0].x0, rs[0].x1, 0, m->height);
     int32_t k = 1;
     if (method == ENVL_METHOD_MEDIAN) {
         rs[0].priority = rs[0].energy;
+        /* a level's splits are independent: computed in parallel, collected in order */
+        region *halves = malloc(sizeof(region) * 2 * (size_t)(n / 2 > 0 ? n / 2 : 1));
+        if (!halves) {
+            free(rs);
+            return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+        }
         while (2 * k <= n) {
             int32_t before = k;
-            for (int32_t i = 0; i < before; i++) {
-                region a, b;
-                if (split_median(m, sat, &rs[i], &a, &b)) {
-                    rs[i] = a;
-                    rs[k++] = b;
+            level_job job = {m, rs, halves};
+            envl__parallel_for(before, m->threads, split_level, &job);
+            for (int32_t i = 0; i < before; i++)
+                if (halves[2 * i].x1 >= 0) {
+                    rs[i] = halves[2 * i];
+                    rs[k++] = halves[2 * i + 1];
                 }
-            }
             if (k == before)
                 break;
         }
+        free(halves);
     } else {
         rs[0].priority = region_variance(m, &rs[0]);
     }
@@ -406,7 +347,7 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
             break;
         region a, b;
         if (method == ENVL_METHOD_MEDIAN) {
-            split_median(m, sat, &rs[best], &a, &b);
+            split_median(m, &rs[best], &a, &b);
         } else {
             int s = split_variance(m, &rs[best], &a, &b, &a.priority, &b.priority);
             if (s < 0) {
@@ -415,8 +356,8 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
             }
             if (s == 0)
                 break;
-            a.energy = rect_energy(m, sat, a.x0, a.x1, a.y0, a.y1);
-            b.energy = rect_energy(m, sat, b.x0, b.x1, b.y0, b.y1);
+            a.energy = rect_energy(m, a.x0, a.x1, a.y0, a.y1);
+            b.energy = rect_energy(m, b.x0, b.x1, b.y0, b.y1);
         }
         rs[best] = a;
         rs[k++] = b;
@@ -435,76 +376,22 @@ static void set_angle(envl_light *l)
 }
 
 /* A region's light: rgb = sum of L dw, at the energy-weighted centroid of its pixels' 3D
- * directions (the region's centre when it holds no light). */
-/* Sums over n pixels of one row: R, G, B, Y cos(phi), Y sin(phi). Two interleaved sets of
- * accumulators halve the add-latency chains; the order is fixed, so results do not depend on
- * the thread count. */
-static void row_sums(const float *p, const double *cosphi, const double *sinphi, int32_t n,
-                     double out[5])
-{
-    double a[5] = {0, 0, 0, 0, 0}, b[5] = {0, 0, 0, 0, 0};
-    int32_t i = 0;
-    for (; i + 1 < n; i += 2, p += 6) {
-        double ya = envl__lum(p[0], p[1], p[2]), yb = envl__lum(p[3], p[4], p[5]);
-        a[0] += p[0];
-        a[1] += p[1];
-        a[2] += p[2];
-        a[3] += ya * cosphi[i];
-        a[4] += ya * sinphi[i];
-        b[0] += p[3];
-        b[1] += p[4];
-        b[2] += p[5];
-        b[3] += yb * cosphi[i + 1];
-        b[4] += yb * sinphi[i + 1];
-    }
-    if (i < n) {
-        double y = envl__lum(p[0], p[1], p[2]);
-        a[0] += p[0];
-        a[1] += p[1];
-        a[2] += p[2];
-        a[3] += y * cosphi[i];
-        a[4] += y * sinphi[i];
-    }
-    for (int k = 0; k < 5; k++)
-        out[k] = a[k] + b[k];
-}
-
-/* A region's light: rgb = sum of L dw, at the energy-weighted centroid of its pixels' 3D
- * directions (the region's centre when it holds no light). Luminance is linear, so a row's
- * energy is the luminance of its RGB sums. */
+ * directions (the region's centre when it holds no light); both from the region table. */
 static void region_light(const envl_envmap *m, const region *r, envl_light *l)
 {
-    int32_t W = m->width;
-    double rgb[3] = {0, 0, 0}, s[3] = {0, 0, 0}, omega = 0, e = 0;
-    /* columns [x0, x1) as at most two runs without the seam */
-    int32_t run0 = (r->x1 <= W ? r->x1 : W) - r->x0, run1 = r->x1 > W ? r->x1 - W : 0;
-    for (int32_t y = r->y0; y < r->y1; y++) {
-        double om = m->row_omega[y], ct = m->row_cos[y], st = m->row_sin[y];
-        const float *row = m->px + (size_t)y * W * 3;
-        double t[5], u[5] = {0, 0, 0, 0, 0};
-        row_sums(row + 3 * (size_t)r->x0, m->col_cos + r->x0, m->col_sin + r->x0, run0, t);
-        if (run1)
-            row_sums(row, m->col_cos, m->col_sin, run1, u);
-        for (int k = 0; k < 5; k++)
-            t[k] += u[k];
-        for (int k = 0; k < 3; k++)
-            rgb[k] += t[k] * om;
-        double ey = envl__lum(t[0], t[1], t[2]) * om;
-        e += ey;
-        s[0] += om * ct * t[3];
-        s[1] += om * ct * t[4];
-        s[2] += ey * st;
-        omega += om * (r->x1 - r->x0);
-    }
-    double len = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    double t[6], omega = 0;
+    envl__rect_sums(m, r->x0, r->x1, r->y0, r->y1, t);
+    for (int32_t y = r->y0; y < r->y1; y++)
+        omega += m->row_omega[y] * (r->x1 - r->x0);
+    double e = envl__lum(t[0], t[1], t[2]), len = sqrt(t[3] * t[3] + t[4] * t[4] + t[5] * t[5]);
     if (len > 1e-12 * e && len > 0) {
         for (int k = 0; k < 3; k++)
-            l->direction[k] = s[k] / len;
+            l->direction[k] = t[3 + k] / len;
     } else {
         double cx = 0.5 * (r->x0 + r->x1) - 0.5, cy = 0.5 * (r->y0 + r->y1) - 0.5;
-        envl_latlong_direction(W, m->height, cx, cy, l->direction);
+        envl_latlong_direction(m->width, m->height, cx, cy, l->direction);
     }
-    memcpy(l->rgb, rgb, sizeof rgb);
+    memcpy(l->rgb, t, sizeof l->rgb);
     l->solid_angle = omega;
     set_angle(l);
     l->rect[0] = r->x0;
@@ -526,7 +413,7 @@ static void region_range(void *arg, int64_t begin, int64_t end)
         region_light(j->m, &j->rs[i], &j->lights[i]);
 }
 
-/* All regions' lights, regions shared out between the threads (one pass over the map). */
+/* All regions' lights, regions shared out between the threads. */
 static void region_lights(const envl_envmap *m, const region *rs, int32_t k, envl_light *out)
 {
     region_job job = {m, rs, out};

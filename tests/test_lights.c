@@ -301,23 +301,23 @@ static void test_sat_precision(void)
            envl_lights_count(ls), worst);
     /* Measured: 0.015 with the double table, 0.029 with a float one. */
     CHECK(worst < 0.02);
-    /* The table itself, where it is hardest: a few pixels at the far corner, whose entries are
-     * ~ 4 pi while the rectangle holds ~3e-6. Each entry is a double sum of 8192 row sums:
-     * rounding at most 8192 x 2^-53 x 4 pi = 1.1e-11, i.e. 3.4e-6 of the rectangle (worst
-     * case); a float table (2^-24 x 4 pi = 7.5e-7 per entry) is off by ~100 %. */
-    const double *sat;
-    CHECK_OK(envl__energy_sat(m, &sat));
+    /* The region table, where it is hardest: small rectangles at the far corner, whose
+     * table entries are ~ 4 pi while the rectangle holds ~3e-6 (one within a block: direct
+     * sums; one across three blocks: four table entries and two ragged ends). Each entry is a
+     * double sum of 8192 rows: rounding at most 8192 x 2^-53 x 4 pi = 1.1e-11, i.e. 3.4e-6 of
+     * such a rectangle in the worst case; a float table (2^-24 x 4 pi = 7.5e-7 per entry)
+     * would be off by ~100 %. Within a block the sums are float: 2^-24 relative. */
     const float *px2 = envl_envmap_pixels(m);
-    for (int t = 0; t < 4; t++) {
-        int x0 = w - 7 - 3 * t, x1 = w - 3 * t, y0 = h - 5 - t, y1 = h - t;
+    for (int t = 0; t < 6; t++) {
+        int x0 = t < 4 ? w - 7 - 3 * t : w - 70 - 5 * t, x1 = t < 4 ? w - 3 * t : w - 3 - t;
+        int y0 = h - 5 - t, y1 = h - t;
         double direct = 0;
         for (int y = y0; y < y1; y++)
             for (int x = x0; x < x1; x++) {
                 const float *p = px2 + 3 * ((size_t)y * w + x);
                 direct += envl_luminance(p[0], p[1], p[2]) * envl_envmap_solid_angle(m, y);
             }
-        const double *a = sat + (size_t)y0 * (w + 1), *b = sat + (size_t)y1 * (w + 1);
-        CHECK_REL(b[x1] - b[x0] - a[x1] + a[x0], direct, 1e-5);
+        CHECK_REL(envl__rect_energy(m, x0, x1, y0, y1), direct, 1e-5);
     }
     envl_lights_free(ls);
     envl_envmap_free(m);
