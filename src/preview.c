@@ -410,11 +410,9 @@ static void remainder_radiance(const envl_lights *l, const double d[3], double o
     int32_t order;
     const double *irr = envl_lights_remainder(l, &order);
     out[0] = out[1] = out[2] = 0;
-    if (!irr || order < 0)
+    if (!irr || order < 0 || order > 32)
         return;
     double y[(32 + 1) * (32 + 1)];
-    if (order > 32)
-        return;
     envl_sh_basis(order, d, y);
     for (int32_t li = 0, i = 0; li <= order; li++) {
         double a = envl_sh_cosine_lobe(li);
@@ -428,7 +426,7 @@ static void remainder_radiance(const envl_lights *l, const double d[3], double o
 /* Lights (+ remainder) for row `row`: Oren-Nayar per light, a glossy lobe per light, or each
  * light as a disc of its solid angle for the mirror (lights smaller than min_solid_angle, a
  * pixel's, are left to deposit()). */
-static void shade_lights(const envl_lights *l, int row, const preview_options *o, const lobe *b,
+static void shade_lights(const envl_lights *l, int row, const lobe *b,
                          const double v[3], const double n[3], const double r[3],
                          double min_solid_angle, double out[3])
 {
@@ -532,11 +530,12 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
     lobe lobes[3];
     lobes[1] = make_lobe(o.specular, o.roughness[0]);
     lobes[2] = make_lobe(o.specular, o.roughness[1]);
+    lobes[0] = lobes[1]; /* the diffuse row has no lobe; keeps the table defined */
     /* the mirror: lights smaller than a pixel's solid angle of R are deposited */
     const double min_solid_angle = 16.0 / ((double)S * S);
 #define STORE(row, col, src)                                                                   \
     for (int32_t q = 0; q < np; q++)                                                           \
-        for (int ch = 0; ch < 3; ch++)                                                          \
+        for (int ch = 0; ch < 3; ch++)                                                         \
             d->sphere[row][col][3 * p.index[q] + ch] = (src)[3 * q + ch]
 #define ERR(row, col)                                                                          \
     (d->error[row][col] = envl_relative_rms_luminance(np, buf, refv))
@@ -627,11 +626,11 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
                     buf[i] /= PI;
             } else if (row < 3) {
                 for (int32_t i = 0; i < np; i++)
-                    shade_lights(*l, row, &o, &lobes[row], d->view, p.n + 3 * i, p.r + 3 * i,
+                    shade_lights(*l, row, &lobes[row], d->view, p.n + 3 * i, p.r + 3 * i,
                                  min_solid_angle, buf + 3 * i);
             } else {
                 for (int32_t i = 0; i < 16 * np; i++)
-                    shade_lights(*l, row, &o, NULL, d->view, NULL, p.r16 + 3 * i,
+                    shade_lights(*l, row, NULL, d->view, NULL, p.r16 + 3 * i,
                                  min_solid_angle, buf16 + 3 * i);
                 average16(np, buf16, buf);
                 for (int32_t i = 0; i < envl_lights_count(*l); i++) {
