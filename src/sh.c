@@ -44,12 +44,16 @@ int32_t envl_window_from_name(const char *name)
 void envl_sh_basis(int32_t order, const double d[3], double *y) { envl_sh_eval(order, d, y); }
 double envl_sh_cosine_lobe(int32_t l) { return envl_sh_cosine_factor(l); }
 
-typedef struct project_job {
-    const envl_envmap *m;
-    int32_t order, n;
-    const double *phi_tab;   /* W x (2 order + 1): column integrals, index c (2L+1) + L + m */
-    double *row_coef;        /* H x n x 3: each row's contribution */
-} project_job;
+/* The azimuth sums of a row, S_m = sum over its pixels of L Phi_m, Phi_m the exact integral of
+ * cos(m phi) (m > 0), sin(|m| phi) (m < 0) or 1 over the pixel's azimuth span D = 2 pi / W:
+ * Phi_m = k_m cos(m phi_c) or k_m sin(|m| phi_c) with k_m = (2 / m) sin(m D / 2), k_0 = D.
+ * Blocks of SH_BLOCK pixels are summed in single-precision vectors against the weights
+ * cos(m c D), sin(m c D) of the pixel's step c from the block's first pixel (the same for every
+ * block, so they stay in L1), then turned to the block's azimuth phi_0 in double:
+ * sum L cos(m phi) = cos(m phi_0) P_m + sin(m phi_0) Q_m and
+ * sum L sin(m phi) = sin(m phi_0) P_m - cos(m phi_0) Q_m (phi = phi_0 - c D), with
+ * P_m, Q_m = sum L cos(m c D), sum L sin(m c D). Across blocks and rows, double. */
+#define SH_BLOCK 32
 
 /* 4-point Gauss-Legendre on [-1, 1] */
 static const double gauss_x[GAUSS] = {-0.8611363115940526, -0.3399810435848563,
@@ -57,33 +61,110 @@ static const double gauss_x[GAUSS] = {-0.8611363115940526, -0.3399810435848563,
 static const double gauss_w[GAUSS] = {0.3478548451374538, 0.6521451548625461,
                                       0.6521451548625461, 0.3478548451374538};
 
-/* phi_tab is laid out column-major: phi_tab[c * nm + k] = Phi_(k - L)(c). */
-static void row_sums_any(const float *p, const double *phi, int32_t w, int32_t nm, double *s)
+/* four floats; unaligned loads go through memcpy */
+typedef float v4f __attribute__((vector_size(16)));
+
+static inline v4f load4(const float *p)
 {
-    memset(s, 0, sizeof(double) * nm * 3);
-    for (int32_t c = 0; c < w; c++, p += 3, phi += nm)
-        for (int32_t k = 0; k < nm; k++) {
-            s[3 * k] += phi[k] * p[0];
-            s[3 * k + 1] += phi[k] * p[1];
-            s[3 * k + 2] += phi[k] * p[2];
+    v4f v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+typedef struct project_job {
+    const envl_envmap *m;
+    int32_t order, n;
+    int32_t block;           /* pixels per block, at most SH_BLOCK */
+    const float *wt;         /* 2 L x 3 SH_BLOCK: per order m = 1..L, cos then sin (m c D) per
+                                float of a block (repeated over the 3 channels) */
+    const double *turn;      /* blocks x L x 2: cos, sin (m phi_0) of each block's first pixel */
+    double *row_coef;        /* H x n x 3: each row's contribution */
+} project_job;
+
+/* The lanes of three vectors summed over a block hold channels R G B R | G B R G | B R G B. */
+static inline void lanes_to_rgb(v4f a0, v4f a1, v4f a2, double *out)
+{
+    out[0] = (double)a0[0] + a0[3] + a1[2] + a2[1];
+    out[1] = (double)a0[1] + a1[0] + a1[3] + a2[2];
+    out[2] = (double)a0[2] + a1[1] + a2[0] + a2[3];
+}
+
+/* One frequency m of a block of count pixels: P_m and Q_m per channel into pq[0..2], pq[3..5]
+ * (weights wc, ws: cos, sin (m c D) per float); with sum, also sum L into sum[0..2]. Nine
+ * accumulators, so they stay in registers; the block (384 bytes) is read again from L1 for
+ * each further frequency. */
+static void block_frequency(const float *p, int32_t count, const float *wc, const float *ws,
+                            double *pq, double *sum)
+{
+    v4f c0 = {0}, c1 = {0}, c2 = {0}, s0 = {0}, s1 = {0}, s2 = {0}, a0 = {0}, a1 = {0}, a2 = {0};
+    int32_t c = 0;
+    for (; c + 4 <= count; c += 4, p += 12, wc += 12, ws += 12) {
+        v4f v0 = load4(p), v1 = load4(p + 4), v2 = load4(p + 8);
+        c0 += v0 * load4(wc);
+        c1 += v1 * load4(wc + 4);
+        c2 += v2 * load4(wc + 8);
+        s0 += v0 * load4(ws);
+        s1 += v1 * load4(ws + 4);
+        s2 += v2 * load4(ws + 8);
+        if (sum) {
+            a0 += v0;
+            a1 += v1;
+            a2 += v2;
+        }
+    }
+    lanes_to_rgb(c0, c1, c2, pq);
+    lanes_to_rgb(s0, s1, s2, pq + 3);
+    if (sum)
+        lanes_to_rgb(a0, a1, a2, sum);
+    for (; c < count; c++, p += 3, wc += 3, ws += 3)
+        for (int ch = 0; ch < 3; ch++) {
+            pq[ch] += (double)p[ch] * wc[ch];
+            pq[3 + ch] += (double)p[ch] * ws[ch];
+            if (sum)
+                sum[ch] += p[ch];
         }
 }
 
-/* The same for order 2 (5 frequencies), the 15 sums spelled out so they stay in registers. */
-static void row_sums_order2(const float *p, const double *phi, int32_t w, double *s)
+/* The plain sum of a block (order 0 only). */
+static void block_sum(const float *p, int32_t count, double *sum)
 {
-    double r0 = 0, g0 = 0, b0 = 0, r1 = 0, g1 = 0, b1 = 0, r2 = 0, g2 = 0, b2 = 0;
-    double r3 = 0, g3 = 0, b3 = 0, r4 = 0, g4 = 0, b4 = 0;
-    for (int32_t c = 0; c < w; c++, p += 3, phi += 5) {
-        double r = p[0], g = p[1], b = p[2];
-        r0 += phi[0] * r, g0 += phi[0] * g, b0 += phi[0] * b;
-        r1 += phi[1] * r, g1 += phi[1] * g, b1 += phi[1] * b;
-        r2 += phi[2] * r, g2 += phi[2] * g, b2 += phi[2] * b;
-        r3 += phi[3] * r, g3 += phi[3] * g, b3 += phi[3] * b;
-        r4 += phi[4] * r, g4 += phi[4] * g, b4 += phi[4] * b;
+    v4f a0 = {0}, a1 = {0}, a2 = {0};
+    int32_t c = 0;
+    for (; c + 4 <= count; c += 4, p += 12) {
+        a0 += load4(p);
+        a1 += load4(p + 4);
+        a2 += load4(p + 8);
     }
-    const double a[15] = {r0, g0, b0, r1, g1, b1, r2, g2, b2, r3, g3, b3, r4, g4, b4};
-    memcpy(s, a, sizeof a);
+    lanes_to_rgb(a0, a1, a2, sum);
+    for (; c < count; c++, p += 3)
+        for (int ch = 0; ch < 3; ch++)
+            sum[ch] += p[ch];
+}
+
+/* A row's S_m (without the factors k_m): s[3 (L + m) + ch], m = -L..L. */
+static void row_sums(const float *row, int32_t w, int32_t block, const float *wt,
+                     const double *turn, int32_t L, double *s)
+{
+    memset(s, 0, sizeof(double) * 3 * (2 * L + 1));
+    for (int32_t c0 = 0, k = 0; c0 < w; c0 += block, k++) {
+        int32_t count = w - c0 < block ? w - c0 : block;
+        const float *p = row + 3 * (size_t)c0;
+        double sum[3];
+        if (L == 0)
+            block_sum(p, count, sum);
+        for (int32_t m = 1; m <= L; m++) {
+            double pq[6];
+            const float *wc = wt + (size_t)(2 * m - 2) * 3 * SH_BLOCK;
+            block_frequency(p, count, wc, wc + 3 * SH_BLOCK, pq, m == 1 ? sum : NULL);
+            double cm = turn[((size_t)k * L + m - 1) * 2], sm = turn[((size_t)k * L + m - 1) * 2 + 1];
+            for (int ch = 0; ch < 3; ch++) {
+                s[3 * (L + m) + ch] += cm * pq[ch] + sm * pq[3 + ch];
+                s[3 * (L - m) + ch] += sm * pq[ch] - cm * pq[3 + ch];
+            }
+        }
+        for (int ch = 0; ch < 3; ch++)
+            s[3 * L + ch] += sum[ch];
+    }
 }
 
 static void project_rows(void *arg, int64_t begin, int64_t end)
@@ -95,6 +176,13 @@ static void project_rows(void *arg, int64_t begin, int64_t end)
     double *s = malloc(sizeof(double) * nm * 3);
     if (!theta || !y || !s)
         goto out; /* row_coef stays zero; the caller checks the allocation up front */
+    double *k = malloc(sizeof(double) * nm);
+    if (!k)
+        goto out;
+    /* k_m = (2 / |m|) sin(|m| D / 2), k_0 = D */
+    for (int32_t mm = -L; mm <= L; mm++)
+        k[L + mm] = mm == 0 ? 2.0 * ENVL_PI / w
+                            : 2.0 / abs(mm) * sin(abs(mm) * ENVL_PI / w);
     for (int64_t r = begin; r < end; r++) {
         /* Theta_lm(r) = integral over the row of (Y_lm at phi = 0, i.e. without the azimuth
          * factor) cos t dt, by Gauss-Legendre in t on pieces no taller than pi / 64 (a map only
@@ -118,19 +206,17 @@ static void project_rows(void *arg, int64_t begin, int64_t end)
         /* S_m = sum over the row of L(c) Phi_m(c), for m = -L..L, per channel: every column
          * feeds 3 (2L+1) independent accumulators (no add waits for another). */
         const float *p = m->px + (size_t)r * w * 3;
-        if (L == 2)
-            row_sums_order2(p, j->phi_tab, w, s);
-        else
-            row_sums_any(p, j->phi_tab, w, nm, s);
+        row_sums(p, w, j->block, j->wt, j->turn, L, s);
         double *out = j->row_coef + (size_t)r * n * 3;
         for (int32_t l = 0; l <= L; l++)
             for (int32_t mm = -l; mm <= l; mm++) {
                 int32_t i = l * (l + 1) + mm;
                 double th = theta[l * (l + 1) + (mm < 0 ? -mm : mm)];
                 for (int ch = 0; ch < 3; ch++)
-                    out[3 * i + ch] = th * s[3 * (L + mm) + ch];
+                    out[3 * i + ch] = th * k[L + mm] * s[3 * (L + mm) + ch];
             }
     }
+    free(k);
 out:
     free(theta);
     free(y);
@@ -140,35 +226,52 @@ out:
 /* Radiance coefficients, unwindowed: (order+1)^2 x 3. */
 static envl_result project(const envl_envmap *m, int32_t L, double *coef)
 {
-    int32_t w = m->width, h = m->height, n = envl_sh_count(L), nm = 2 * L + 1;
-    double *phi_tab = malloc(sizeof(double) * (size_t)nm * w);
+    /* Blocks of at most 32 pixels that divide the row evenly, more than 2 L + 1 of them: then
+     * the float rounding of the weights, the same in every block, cancels over the row (the
+     * sum over evenly spaced phi_0 of cos, sin(m phi_0) is 0 for 0 < m < blocks) and a constant
+     * map's coefficients stay at double rounding (1e-16 of L00) instead of ~1e-8. A width with
+     * no such divisor of at least 4 gets blocks of the largest size and a shorter last one. */
+    int32_t w = m->width, h = m->height, n = envl_sh_count(L);
+    int32_t limit = w / (2 * L + 2), block = 0;
+    limit = limit < 4 ? 4 : limit > SH_BLOCK ? SH_BLOCK : limit;
+    for (int32_t d = limit; d >= 4 && !block; d--)
+        if (w % d == 0)
+            block = d;
+    if (!block)
+        block = limit;
+    int32_t nb = (w + block - 1) / block;
+    float *wt = malloc(sizeof(float) * (2 * (size_t)L * 3 * SH_BLOCK + 1));
+    double *turn = malloc(sizeof(double) * (2 * (size_t)L * nb + 1));
     double *row_coef = calloc((size_t)h * n * 3, sizeof(double));
-    if (!phi_tab || !row_coef) {
-        free(phi_tab);
+    if (!wt || !turn || !row_coef) {
+        free(wt);
+        free(turn);
         free(row_coef);
         return envl__fail(ENVL_ERR_MEMORY, "sh: out of memory");
     }
-    for (int32_t c = 0; c < w; c++) {
-        double p0 = ENVL_PI * (1.0 - 2.0 * (c + 1.0) / w), p1 = ENVL_PI * (1.0 - 2.0 * c / w);
-        for (int32_t mm = -L; mm <= L; mm++) {
-            double v;
-            if (mm == 0)
-                v = p1 - p0;
-            else if (mm > 0)
-                v = (sin(mm * p1) - sin(mm * p0)) / mm;
-            else
-                v = (cos(-mm * p0) - cos(-mm * p1)) / -mm;
-            phi_tab[(size_t)c * nm + (L + mm)] = v;
+    for (int32_t mm = 1; mm <= L; mm++)
+        for (int32_t c = 0; c < block; c++)
+            for (int ch = 0; ch < 3; ch++) {
+                double a = mm * 2.0 * ENVL_PI * c / w;
+                wt[(size_t)(2 * mm - 2) * 3 * SH_BLOCK + 3 * c + ch] = (float)cos(a);
+                wt[(size_t)(2 * mm - 1) * 3 * SH_BLOCK + 3 * c + ch] = (float)sin(a);
+            }
+    for (int32_t k = 0; k < nb; k++) {
+        double phi0 = ENVL_PI * (1.0 - 2.0 * ((double)k * block + 0.5) / w);
+        for (int32_t mm = 1; mm <= L; mm++) {
+            turn[((size_t)k * L + mm - 1) * 2] = cos(mm * phi0);
+            turn[((size_t)k * L + mm - 1) * 2 + 1] = sin(mm * phi0);
         }
     }
-    project_job job = {m, L, n, phi_tab, row_coef};
+    project_job job = {m, L, n, block, wt, turn, row_coef};
     envl__parallel_for(h, m->threads, project_rows, &job);
     /* Rows summed in order: the same result at any thread count. */
     memset(coef, 0, sizeof(double) * n * 3);
     for (int32_t r = 0; r < h; r++)
         for (int32_t i = 0; i < n * 3; i++)
             coef[i] += row_coef[(size_t)r * n * 3 + i];
-    free(phi_tab);
+    free(wt);
+    free(turn);
     free(row_coef);
     return ENVL_OK;
 }
