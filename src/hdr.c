@@ -23,8 +23,10 @@
  */
 #include "internal.h"
 #include "color.h"
+#include "envmap_impl.h" /* envl__threads */
 
 #include <errno.h>
+#include <stdatomic.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -204,10 +206,11 @@ static const char *parse_axis(const char *s, char *sign, char *axis, int64_t *co
     return s;
 }
 
-/* Decodes one scanline of `len` pixels starting at *pos into the planes r, g, b, e.
- * `scan` is the scanline's index in file order (for messages). */
+/* Decodes one scanline of `len` pixels starting at *pos into the planes r, g, b, e; with
+ * planes NULL it only checks the scanline and finds where it ends. `scan` is the scanline's
+ * index in file order (for messages). */
 static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len, int32_t scan,
-                                 uint8_t *planes[4])
+                                 uint8_t *const *planes)
 {
     const uint8_t *d = rd->data;
     size_t p = *pos, size = rd->size;
@@ -222,7 +225,7 @@ static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len,
                               rd->name, (int)scan, p, (int)claimed, (int)len);
         p += 4;
         for (int c = 0; c < 4; c++) {
-            uint8_t *q = planes[c];
+            uint8_t *q = planes ? planes[c] : NULL;
             int32_t j = 0;
             while (j < len) {
                 if (p >= size)
@@ -244,7 +247,8 @@ static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len,
                                           "%s: truncated in scanline %d at byte %zu: expected "
                                           "the value of a run",
                                           rd->name, (int)scan, p + 1);
-                    memset(q + j, d[p + 1], (size_t)n);
+                    if (q)
+                        memset(q + j, d[p + 1], (size_t)n);
                     j += n;
                     p += 2;
                 } else {
@@ -266,7 +270,8 @@ static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len,
                                           "%s: truncated in scanline %d at byte %zu: expected "
                                           "%d more bytes, %zu left",
                                           rd->name, (int)scan, p, (int)n, size - p);
-                    memcpy(q + j, d + p, (size_t)n);
+                    if (q)
+                        memcpy(q + j, d + p, (size_t)n);
                     j += n;
                     p += (size_t)n;
                 }
@@ -276,7 +281,8 @@ static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len,
         return ENVL_OK;
     }
     /* old RLE / flat */
-    uint8_t *r = planes[0], *g = planes[1], *b = planes[2], *e = planes[3];
+    uint8_t *r = planes ? planes[0] : NULL, *g = planes ? planes[1] : NULL,
+            *b = planes ? planes[2] : NULL, *e = planes ? planes[3] : NULL;
     int32_t j = 0;
     unsigned shift = 0;
     while (j < len) {
@@ -300,20 +306,22 @@ static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len,
                                   "scanline %d (%d pixels left)",
                                   rd->name, (unsigned long long)n, p, (int)len, (int)scan,
                                   (int)(len - j));
-            if (n) {
+            if (n && r) {
                 memset(r + j, r[j - 1], (size_t)n);
                 memset(g + j, g[j - 1], (size_t)n);
                 memset(b + j, b[j - 1], (size_t)n);
                 memset(e + j, e[j - 1], (size_t)n);
-                j += (int32_t)n;
             }
+            j += (int32_t)n;
             if (shift < 40)
                 shift += 8;
         } else {
-            r[j] = s[0];
-            g[j] = s[1];
-            b[j] = s[2];
-            e[j] = s[3];
+            if (r) {
+                r[j] = s[0];
+                g[j] = s[1];
+                b[j] = s[2];
+                e[j] = s[3];
+            }
             j++;
             shift = 0;
         }
@@ -477,6 +485,67 @@ static envl_result read_header(const hdr_reader *rd, size_t *pos, hdr_header *hd
     return ENVL_OK;
 }
 
+typedef struct decode_job {
+    const hdr_reader *rd;
+    const size_t *starts;     /* first byte of each scanline (pass 1) */
+    int32_t len, w, h, ymajor, xdecr, ydecr;
+    float *px;
+    float scale[256];         /* 2^(e-136) for e > 0, 0 for e = 0 (see envl__read_hdr) */
+    atomic_int failed;        /* a worker could not allocate its scanline planes */
+} decode_job;
+
+/* Pass 2 of the reader: scanlines [begin, end) decoded, converted and put in place (see the
+ * orientation notes below). */
+static void decode_scanlines(void *ctx, int64_t begin, int64_t end)
+{
+    decode_job *j = ctx;
+    int32_t len = j->len, w = j->w, h = j->h;
+    uint8_t *mem = malloc((size_t)len * 4);
+    if (!mem) {
+        atomic_store(&j->failed, 1);
+        return;
+    }
+    uint8_t *planes[4] = {mem, mem + len, mem + 2 * (size_t)len, mem + 3 * (size_t)len};
+    const uint8_t *pr = planes[0], *pg = planes[1], *pb = planes[2], *pe = planes[3];
+    const float *scale = j->scale;
+    for (int64_t s = begin; s < end; s++) {
+        size_t pos = j->starts[s];
+        if (read_scanline(j->rd, &pos, len, (int32_t)s, planes)) { /* pass 1 checked it */
+            atomic_store(&j->failed, 1);
+            break;
+        }
+        /* where pixel i = 0 of this scanline goes, and the step between pixels */
+        ptrdiff_t base, step;
+        if (j->ymajor) {
+            int32_t row = j->ydecr ? (int32_t)s : h - 1 - (int32_t)s;
+            base = (ptrdiff_t)row * w + (j->xdecr ? w - 1 : 0);
+            step = j->xdecr ? -1 : 1;
+        } else {
+            int32_t col = j->xdecr ? w - 1 - (int32_t)s : (int32_t)s;
+            base = (ptrdiff_t)(j->ydecr ? 0 : h - 1) * w + col;
+            step = j->ydecr ? (ptrdiff_t)w : -(ptrdiff_t)w;
+        }
+        if (step == 1) {
+            float *q = j->px + 3 * base;
+            for (int32_t i = 0; i < len; i++, q += 3) {
+                float f = scale[pe[i]];
+                q[0] = ((float)pr[i] + 0.5f) * f;
+                q[1] = ((float)pg[i] + 0.5f) * f;
+                q[2] = ((float)pb[i] + 0.5f) * f;
+            }
+        } else {
+            ptrdiff_t k = base;
+            for (int32_t i = 0; i < len; i++, k += step) {
+                float f = scale[pe[i]], *q = j->px + 3 * k;
+                q[0] = ((float)pr[i] + 0.5f) * f;
+                q[1] = ((float)pg[i] + 0.5f) * f;
+                q[2] = ((float)pb[i] + 0.5f) * f;
+            }
+        }
+    }
+    free(mem);
+}
+
 /* Orientation. Radiance (src/common/resolu.h, resolu.c pix2loc): the picture's true frame
  * has its origin at the lower left, x to the right, y up; xr and yr are the counts after "X"
  * and "Y" whatever their order, so the displayed image is always xr wide and yr high. The
@@ -535,62 +604,36 @@ envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
                           "%s: truncated: %d scanlines need at least %llu bytes, %zu left after "
                           "the resolution line at byte %zu",
                           name, (int)nscans, (unsigned long long)nscans * 4u, size - pos, pos);
-    rc = envl__image_alloc(out, w, h, lim, name);
-    if (rc)
+    /* Pass 1: where each scanline starts. Every scanline is checked here exactly as pass 2
+     * reads it, so errors are found and named in file order, before the image is allocated. */
+    size_t *starts = malloc(sizeof(size_t) * (size_t)nscans);
+    if (!starts)
+        return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate %d scanline offsets", name,
+                          (int)nscans);
+    for (int32_t s = 0; s < nscans && !rc; s++) {
+        starts[s] = pos;
+        rc = read_scanline(&rd, &pos, len, s, NULL);
+    }
+    if (!rc)
+        rc = envl__image_alloc(out, w, h, lim, name);
+    if (rc) {
+        free(starts);
         return rc;
-    uint8_t *planes_mem = malloc((size_t)len * 4);
-    if (!planes_mem) {
+    }
+    /* Pass 2: scanlines decoded in parallel, each into its own place (the result does not
+     * depend on the thread count). Small images stay on this thread. */
+    decode_job job = {&rd, starts, len, w, h, hd.ymajor, hd.xdecr, hd.ydecr, out->px, {0}, 0};
+    /* 2^(e-136) for e > 0, 0 for e = 0: exact in float for every e (the smallest, 2^-135,
+     * is a subnormal, and (m + 0.5) * 2^-135 = (2m + 1) 2^-136 still fits). */
+    for (int e = 1; e < 256; e++)
+        job.scale[e] = ldexpf(1.0f, e - 136);
+    envl__parallel_for(nscans, (int64_t)w * h >= 65536 ? envl__threads(0) : 1,
+                       decode_scanlines, &job);
+    free(starts);
+    if (atomic_load(&job.failed)) {
         envl__image_free(out);
         return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate a scanline of %d pixels", name,
                           (int)len);
-    }
-    uint8_t *planes[4] = {planes_mem, planes_mem + len, planes_mem + 2 * (size_t)len,
-                          planes_mem + 3 * (size_t)len};
-    /* 2^(e-136) for e > 0, 0 for e = 0: exact in float for every e (the smallest, 2^-135,
-     * is a subnormal, and (m + 0.5) * 2^-135 = (2m + 1) 2^-136 still fits). */
-    float scale[256];
-    scale[0] = 0.0f;
-    for (int e = 1; e < 256; e++)
-        scale[e] = ldexpf(1.0f, e - 136);
-
-    for (int32_t s = 0; s < nscans; s++) {
-        rc = read_scanline(&rd, &pos, len, s, planes);
-        if (rc)
-            break;
-        /* where pixel i = 0 of this scanline goes, and the step between pixels */
-        ptrdiff_t base, step;
-        if (hd.ymajor) {
-            int32_t row = hd.ydecr ? s : h - 1 - s;
-            base = (ptrdiff_t)row * w + (hd.xdecr ? w - 1 : 0);
-            step = hd.xdecr ? -1 : 1;
-        } else {
-            int32_t col = hd.xdecr ? w - 1 - s : s;
-            base = (ptrdiff_t)(hd.ydecr ? 0 : h - 1) * w + col;
-            step = hd.ydecr ? (ptrdiff_t)w : -(ptrdiff_t)w;
-        }
-        const uint8_t *pr = planes[0], *pg = planes[1], *pb = planes[2], *pe = planes[3];
-        if (step == 1) {
-            float *q = out->px + 3 * base;
-            for (int32_t i = 0; i < len; i++, q += 3) {
-                float f = scale[pe[i]];
-                q[0] = ((float)pr[i] + 0.5f) * f;
-                q[1] = ((float)pg[i] + 0.5f) * f;
-                q[2] = ((float)pb[i] + 0.5f) * f;
-            }
-        } else {
-            ptrdiff_t k = base;
-            for (int32_t i = 0; i < len; i++, k += step) {
-                float f = scale[pe[i]], *q = out->px + 3 * k;
-                q[0] = ((float)pr[i] + 0.5f) * f;
-                q[1] = ((float)pg[i] + 0.5f) * f;
-                q[2] = ((float)pb[i] + 0.5f) * f;
-            }
-        }
-    }
-    free(planes_mem);
-    if (rc) {
-        envl__image_free(out);
-        return rc;
     }
     if (hd.xyze)
         xyz_image_to_rgb(out->px, (size_t)w * (size_t)h, xyz2rgb);
