@@ -861,7 +861,8 @@ static envl_result take_cones(const envl_envmap *m, envl_lights *ls)
                 l->rgb[k] = avail[k]; /* the whole sphere holds less: take all there is */
             keep[k] = avail[k] > 0 ? 1.0 - l->rgb[k] / avail[k] : 1.0;
         }
-        double omega = 0;
+        /* what it takes and how far from its direction: sum e and sum e (1 - cos t) */
+        double taken = 0, spread = 0;
         int32_t x0 = W, x1 = -1, y0 = H, y1 = -1;
         for (int32_t r = 0; r < H; r++) {
             double om = m->row_omega[r];
@@ -870,16 +871,25 @@ static envl_result take_cones(const envl_envmap *m, envl_lights *ls)
                 if (b > last)
                     continue;
                 float *p = ls->residual + 3 * ((size_t)r * W + c);
+                double e = om * envl__lum(p[0] * (1 - keep[0]), p[1] * (1 - keep[1]),
+                                          p[2] * (1 - keep[2])), d[3];
+                envl_envmap_direction(m, c, r, d);
+                taken += e;
+                spread += e * (1.0 - dot_n(d, l->direction, 3));
                 for (int k = 0; k < 3; k++)
                     p[k] = (float)(p[k] * keep[k]);
-                omega += om;
                 x0 = c < x0 ? c : x0;
                 x1 = c + 1 > x1 ? c + 1 : x1;
                 y0 = r < y0 ? r : y0;
                 y1 = r + 1 > y1 ? r + 1 : y1;
             }
         }
-        l->solid_angle = omega;
+        /* Its size: the uniform disc with the same spread. A disc of solid angle w has
+         * mean (1 - cos t) = w / 4 pi (uniform in cos t), so w = 4 pi sum e (1 - cos t) / sum e.
+         * The cone that holds the light's rgb is far wider than a sun in it (15 degrees
+         * around a 0.5-degree sun with its glow): as a disc it would soften the terminator of
+         * a lit sphere the sun leaves sharp. */
+        l->solid_angle = taken > 0 ? fmin(4.0 * ENVL_PI, 4.0 * ENVL_PI * spread / taken) : 0.0;
         set_angle(l);
         l->rect[0] = x0 < W ? x0 : 0;
         l->rect[1] = y0 < H ? y0 : 0;

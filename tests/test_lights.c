@@ -323,6 +323,41 @@ static void test_sat_precision(void)
     envl_envmap_free(m);
 }
 
+/* A fitted light's size is the uniform disc with its spread: a uniform disc of angular radius
+ * rho (1000 over a sky of 1e-4) gives a light of solid angle 2 pi (1 - cos rho). Tolerance: the
+ * disc is drawn with pixels of 0.176 degrees, its edge is off by at most half a diagonal,
+ * 0.124 degrees, i.e. 2 x 0.124 / 3 = 8.3 % of the solid angle. */
+static void test_fit_light_size(void)
+{
+    const int w = 2048, h = 1024;
+    const double rho = 3.0 * PI / 180.0, axis[3] = {0.6, 0.0, 0.8};
+    float *px = filled(w, h, 1e-4f);
+    envl_envmap *m0 = map_of(px, w, h, 0);
+    for (int r = 0; r < h; r++)
+        for (int c = 0; c < w; c++) {
+            double d[3];
+            envl_envmap_direction(m0, c, r, d);
+            if (d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2] >= cos(rho))
+                for (int k = 0; k < 3; k++)
+                    px[3 * ((size_t)r * w + c) + k] = 1000.0f;
+        }
+    envl_envmap_free(m0);
+    envl_envmap *m = map_of(px, w, h, 0);
+    envl_lights *ls;
+    envl_lights_options o = {.method = ENVL_METHOD_FIT, .count = 1};
+    CHECK_OK(envl_lights_compute(m, &o, &ls));
+    envl_light l;
+    CHECK_OK(envl_lights_get(ls, 0, &l));
+    double disc = 2.0 * PI * (1.0 - cos(rho));
+    printf("fit light of a 3-degree disc: solid angle %.6g (disc %.6g), angle %.3f degrees\n",
+           l.solid_angle, disc, l.angle * 180.0 / PI);
+    CHECK_REL(l.solid_angle, disc, 0.083);
+    CHECK_REL(l.angle, 2.0 * rho, 0.042); /* the square root of the solid angle's bound */
+    envl_lights_free(ls);
+    envl_envmap_free(m);
+    free(px);
+}
+
 int main(void)
 {
     test_constant();
@@ -333,5 +368,6 @@ int main(void)
     test_tiny();
     test_deterministic();
     test_sat_precision();
+    test_fit_light_size();
     return check_report("test_lights");
 }
