@@ -57,6 +57,7 @@ def main():
     maps = sys.argv[1:] or ["-", P.ROOITOU]
     os.makedirs(TMP, exist_ok=True)
     P.TMP = TMP
+    P.ENVLIGHT = os.path.abspath(P.ENVLIGHT)  # envlight runs inside the work folders
     plain = "pigment { rgb 1 } finish { diffuse 1 ambient 0 emission 0 }"
     amb = "EnvLight_Diffuse_Texture(<1, 1, 1>)"
     print("| map | method | N | ambient | reported error % | sphere error % | envlight s | POV-Ray s |")
