@@ -24,7 +24,7 @@ static const char prefilter_help[] =
     "                     (instead of the chain)\n"
     "  --size S           lat-long width of the roughness-0 level (default 512), or the cube\n"
     "                     face size for --layout cube|cross (default 256); level k is S >> k\n"
-    "  --min-size S       no level narrower than S (lat-long width; default 32)\n"
+    "  --min-size S       no level narrower than S (lat-long width; default 64)\n"
     "  --samples M        GGX samples per texel (default 128; filtered importance sampling)\n"
     "  --unfiltered       plain GGX importance sampling of the full map (the baseline)\n"
     "  --irradiance-method resampled|sh|exact   (default resampled: exact sum over the map\n"

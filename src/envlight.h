@@ -325,7 +325,7 @@ ENVL_API int32_t envl_irradiance_method_from_name(const char *name); /* -1 if un
 typedef struct envl_prefilter_options {
     int32_t levels;           /* K levels of the chain; default 6 */
     int32_t width;            /* lat-long width of the roughness-0 level; default 512 */
-    int32_t min_width;        /* no specular level narrower than this; default 32 */
+    int32_t min_width;        /* no specular level narrower than this; default 64 */
     int32_t samples;          /* GGX samples per texel; default 128 */
     int32_t unfiltered;       /* nonzero: plain GGX importance sampling of the full-resolution
                                  map (no mip filtering): the benchmark's baseline */
