@@ -310,7 +310,7 @@ ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l */
  * (split sum, N = V = R, Karis 2013) is
  *   P(R) = sum L(l) D(h) max(R.l, 0) dw / sum D(h) max(R.l, 0) dw,  h = normalize(R + l).
  * The specular chain has K levels (default 6); level k has roughness r_k = k / (K - 1) (K = 1:
- * r = 0) and, by default, width max(32, w_0 >> k) (w_0 = 512: 512, 256, 128, 64, 32, 32). A level
+ * r = 0) and, by default, width max(64, w_0 >> k) (w_0 = 512: 512, 256, 128, 64, 64, 64). A level
  * of any other roughness r gets the size of chain level floor(r (K - 1)) (never coarser). */
 #define ENVL_DEFAULT_LEVELS 6
 
