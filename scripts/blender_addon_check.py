@@ -2,10 +2,15 @@
 
     blender -b --factory-startup --python scripts/blender_addon_check.py -- SPEC.json
 
+With a window (no -b; e.g. under `xvfb-run -a`), the same script runs from a timer once the
+window is up, inside a context override of that window, and ends Blender with its exit status:
+this is how "undo" is checked (bpy.ops.ed.undo needs a window).
+
 SPEC (JSON): {"zip": add-on zip to install (optional: else the add-on must be importable),
   "hdr": image for the world's Environment Texture, "group": put the texture in a node group,
   "mapping": {"type": "POINT", "rotation": [x, y, z] degrees} (optional), "strength": 1.0,
-  "settings": {count, method, shadows, world_mode, ...}, "runs": 2, "undo": true,
+  "settings": {count, method, shadows, world_mode, ...}, "runs": 2,
+  "undo": true (Create Lights as one undo step, then undo and redo: needs a window),
   "user_lamp": true, "panorama": PATH.exr (render the world through an equirectangular camera),
   "render": {...} (see render_sphere), "out": RESULT.json}
 Writes RESULT.json with what the tests check (lamps, powers, panel values, node counts)."""
@@ -194,6 +199,26 @@ def render_sphere(scene, path, spec):
     return seconds
 
 
+def undo_redo():
+    """The state before Create Lights (an undo step, as after any edit in the UI), after it
+    (called with undo=True, as a button press: one undo step), after Edit > Undo, after Redo."""
+    def state():
+        world = bpy.context.scene.world
+        return {"lamps": lamps(), "world": world_state(world), "world_name": world.name,
+                "has_result": world.envlight.has_result}
+    out = {}
+    bpy.ops.ed.undo_push(message="before envlight")
+    out["before"] = state()
+    out["rc"] = list(bpy.ops.envlight.create_lights("EXEC_DEFAULT", True))
+    out["created"] = state()
+    out["undo_poll"] = bpy.ops.ed.undo.poll()  # False in blender -b
+    bpy.ops.ed.undo()
+    out["after_undo"] = state()
+    bpy.ops.ed.redo()
+    out["after_redo"] = state()
+    return out
+
+
 def main():
     spec = spec_from_argv()
     result = {"blender": bpy.app.version_string}
@@ -225,9 +250,12 @@ def main():
         render_sphere(scene, spec["reference_render_2"], spec2)
     if spec.get("panorama_before"):
         render_panorama(scene, spec["panorama_before"])
-    runs = []
     if spec.get("undo"):
-        bpy.ops.ed.undo_push(message="before envlight")
+        result["undo"] = undo_redo()
+        scene = bpy.context.scene  # undo rebuilt the data: fresh references
+        world = scene.world
+        s = world.envlight
+    runs = []
     for i in range(spec.get("runs", 1)):
         t = time.perf_counter()
         rc = bpy.ops.envlight.create_lights()
@@ -242,14 +270,6 @@ def main():
         result["approx_seconds"] = render_sphere(scene, spec["render_after"], spec)
     if spec.get("panorama"):
         render_panorama(scene, spec["panorama"])
-    if spec.get("undo"):
-        try:
-            bpy.ops.ed.undo()
-            scene = bpy.context.scene
-            world = scene.world
-            result["after_undo"] = {"lamps": lamps(), "world": world_state(world) if world else None}
-        except Exception as e:
-            result["after_undo"] = {"error": "%s: %s" % (type(e).__name__, e)}
     if spec.get("bad_file"):
         s.source = "FILE"
         s.filepath = spec["bad_file"]
@@ -269,10 +289,30 @@ def main():
     print("ENVLIGHT_CHECK_DONE", spec["out"])
 
 
-try:
-    main()
-except Exception:
-    import traceback
-    traceback.print_exc()
-    sys.exit(1)
-sys.exit(0)
+def main_in_window():
+    """Timer callback: main() inside the first window's context, then Blender ends with main's
+    status (os._exit: sys.exit from a timer would only be reported)."""
+    status = 1
+    try:
+        win = bpy.context.window_manager.windows[0]
+        with bpy.context.temp_override(window=win, screen=win.screen):
+            main()
+        status = 0
+    except Exception:
+        import traceback
+        traceback.print_exc()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)
+
+
+if bpy.app.background:
+    try:
+        main()
+    except Exception:
+        import traceback
+        traceback.print_exc()
+        sys.exit(1)
+    sys.exit(0)
+else:
+    bpy.app.timers.register(main_in_window, first_interval=0.5)
