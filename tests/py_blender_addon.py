@@ -362,20 +362,28 @@ def test_cycles_render_matches_the_hdr_world(addon_zip, mode):
     hdr = render_source()
     folder = os.path.join(TMP, "render_" + mode.lower())
     os.makedirs(folder, exist_ok=True)
-    ref, ref2, approx = (os.path.join(folder, n + ".exr") for n in ("ref", "ref2", "approx"))
-    spec = {"hdr": hdr, "reference_render": ref, "reference_render_2": ref2,
-            "render_after": approx, "user_lamp": False,
+    ref, ref2, approx, approx2 = (os.path.join(folder, n + ".exr")
+                                  for n in ("ref", "ref2", "approx", "approx2"))
+    # packed: the HDR world renders the pixels the add-on reads (from the file, Cycles reads
+    # the .hdr through OpenImageIO, 0.4 % darker on rooitou: RGBE without the +0.5)
+    spec = {"hdr": hdr, "reference_render": ref, "reference_render_2": ref2, "pack": True,
+            "render_after": approx, "render_after_2": approx2, "user_lamp": False,
             "render": {"samples": 128, "size": 64, "bounces": 1},
             "settings": {"count": 4, "method": "fit", "world_mode": mode, "shadows": "SOFT"}}
     res, _ = run_blender("render_" + mode.lower(), spec, addon_zip)
     run = res["runs"][0]
     diffuse_error = run["panel"]["error_percent"] / 100
-    noise = sphere_error(ref2, ref)[0] / math.sqrt(2)  # one render's relative noise
+    # each render's own relative noise, from two seeds (the lamps make the approximation's
+    # render less noisy than the HDR world's)
+    noise = sphere_error(ref2, ref)[0] / math.sqrt(2)
+    noise_approx = sphere_error(approx2, approx)[0] / math.sqrt(2)
     err, n = sphere_error(approx, ref)
-    print("%s: render error %.4f, method's diffuse error %.4f, render noise %.4f (%d blocks of 4 x 4 px)"
-          % (mode, err, diffuse_error, noise, n))
+    print("%s: render error %.4f, method's diffuse error %.4f, render noise %.4f (HDR world) "
+          "%.4f (lamps + world) (%d blocks of 4 x 4 px)"
+          % (mode, err, diffuse_error, noise, noise_approx, n))
     assert n > 100
     # the measured difference holds the approximation's error and both renders' noise; the
-    # method's error is an RMS over all normals, the sphere shows one half: allow twice it
-    bound = math.sqrt((2 * diffuse_error) ** 2 + 2 * noise ** 2) * 1.25
-    assert err < bound, (err, bound, diffuse_error, noise)
+    # method's error is an RMS over all normals, the sphere shows one half: allow twice it;
+    # 1.25: the RMS over n blocks has a relative spread of about 1 / sqrt(2 n) = 6 %
+    bound = math.sqrt((2 * diffuse_error) ** 2 + noise ** 2 + noise_approx ** 2) * 1.25
+    assert err < bound, (err, bound, diffuse_error, noise, noise_approx)
