@@ -50,6 +50,7 @@ SUN_FACTOR = 50.0              # sun = pixels above 50 x mean luminance
 SUN_LIGHTS = 16
 SKY_LIGHTS = 1024
 VALIDATION_SIZE = 128
+VALIDATION_TOLERANCE = 0.01    # the reference must match the exact E(n) / pi to 1 % RMS
 MAPS = [("rooitou_park (strong sun)", "rooitou_park_1k.hdr"),
         ("potsdamer_platz (overcast)", "potsdamer_platz_1k.hdr")]
 TMP = os.environ.get("ENVL_TEST_TMP", "/tmp/envl_pov_bench")
@@ -162,6 +163,7 @@ def run_map(label, path, quick, rows, images):
     # id mask
     ids, _, _ = bench_pov(d, "#declare Bench_Pass = 2;\n")
     masks = {"matte": ids[..., 0] > 0.5, "plane": ids[..., 2] > 0.5, "glossy": ids[..., 1] > 0.5}
+    assert all(m.sum() > 1000 for m in masks.values()), "id mask: an object is missing"
     # start-up: an empty scene of the same size (parse of envlight.inc included)
     empty = '#version 3.7;\n#include "envlight.inc"\ncamera { location -z look_at 0 }\n'
     _, t_start, _ = pov(empty, d, IMAGE)
@@ -186,6 +188,9 @@ def run_map(label, path, quick, rows, images):
     print("  validation (white sphere alone vs exact E/pi, %dx%d): %.3f %% RMS, %.2f s"
           % (VALIDATION_SIZE, VALIDATION_SIZE, 100 * v_err, v_time))
     sys.stdout.flush()
+    if v_err > VALIDATION_TOLERANCE:
+        sys.exit("%s: the reference is off by %.2f %% on the white sphere (tolerance %.0f %%)"
+                 % (path, 100 * v_err, 100 * VALIDATION_TOLERANCE))
     images[(label, "reference")] = ref_glossy * 1  # full scene as seen (+ sky highlights)
     rows.append((label, "reference", 0, "-", "-", t_ref, 0.0, 0.0, 0.0, v_err, c_ref))
     for method, n, ambient, shadows in cases(quick):
