@@ -474,31 +474,28 @@ typedef struct fit_problem {
     double *target_y;       /* m luminance */
     int32_t nsh;            /* SH columns */
     double *sh;             /* nsh x m: Y_j(n_i) */
+    double *scratch;        /* m */
 } fit_problem;
 
-/* Luminance power (sum of Y dw) of the fit map within FIT_CONE_DEGREES of d. */
-static double cone_power(const envl_envmap *fm, const double d[3])
+/* Power (sum of L dw) of the fit map within FIT_CONE_DEGREES of d: rgb (if asked) and the
+ * luminance, returned. */
+static double cone_power(const envl_envmap *fm, const double d[3], double *rgb)
 {
     const double cmin = cos(FIT_CONE_DEGREES * ENVL_PI / 180.0);
-    double acc = 0;
+    double acc[3] = {0, 0, 0};
     for (int32_t r = 0; r < fm->height; r++) {
-        double ct = fm->row_cos[r], z = d[2] * fm->row_sin[r], row = 0;
+        double ct = fm->row_cos[r], z = d[2] * fm->row_sin[r], row[3] = {0, 0, 0};
         const float *p = fm->px + (size_t)r * fm->width * 3;
         for (int32_t c = 0; c < fm->width; c++, p += 3)
             if (ct * (d[0] * fm->col_cos[c] + d[1] * fm->col_sin[c]) + z >= cmin)
-                row += envl__lum(p[0], p[1], p[2]);
-        acc += row * fm->row_omega[r];
+                for (int k = 0; k < 3; k++)
+                    row[k] += p[k];
+        for (int k = 0; k < 3; k++)
+            acc[k] += row[k] * fm->row_omega[r];
     }
-    return acc;
-}
-
-/* The lights' luminance weights x[0..k) are each within their cone's power. */
-static int feasible(const double *x, const double *avail, int32_t k)
-{
-    for (int32_t i = 0; i < k; i++)
-        if (x[i] > avail[i] * (1 + 1e-9))
-            return 0;
-    return 1;
+    if (rgb)
+        memcpy(rgb, acc, sizeof acc);
+    return envl__lum(acc[0], acc[1], acc[2]);
 }
 
 static void light_column(const fit_problem *p, const double d[3], double *col)
@@ -521,6 +518,8 @@ static double solve_fit(const fit_problem *p, int32_t k, double *const *cols,
                         const double *target, double *x)
 {
     int32_t n = k + p->nsh;
+    if (n == 0)
+        return dot_n(target, target, p->m); /* nothing to fit: all of it is left */
     double G[ENVL_NNLS_MAX * ENVL_NNLS_MAX], h[ENVL_NNLS_MAX];
     for (int32_t a = 0; a < n; a++) {
         const double *ca = a < k ? cols[a] : p->sh + (size_t)(a - k) * p->m;
@@ -537,6 +536,45 @@ static double solve_fit(const fit_problem *p, int32_t k, double *const *cols,
     for (int32_t a = 0; a < n; a++)
         r += x[a] * dot_n(G + a * n, x, n);
     return r;
+}
+
+/* solve_fit with each light's weight also at most avail (the power of its cone: no light
+ * carries more than there is around it): lights whose weight comes out above that are held
+ * there, their share taken off the target, and the others solved again, until none is. */
+static double solve_bounded(const fit_problem *p, int32_t k, double *const *cols,
+                            const double *target, const double *avail, double *x)
+{
+    int held[ENVL_NNLS_MAX] = {0};
+    for (;;) {
+        double *free_cols[ENVL_NNLS_MAX] = {NULL}, y[ENVL_NNLS_MAX];
+        int32_t map[ENVL_NNLS_MAX], nf = 0;
+        memcpy(p->scratch, target, sizeof(double) * p->m);
+        for (int32_t i = 0; i < k; i++) {
+            if (held[i]) {
+                for (int32_t j = 0; j < p->m; j++)
+                    p->scratch[j] -= avail[i] * cols[i][j];
+            } else {
+                free_cols[nf] = cols[i];
+                map[nf++] = i;
+            }
+        }
+        double r = solve_fit(p, nf, free_cols, p->scratch, y);
+        int over = 0;
+        for (int32_t j = 0; j < nf; j++)
+            if (y[j] > avail[map[j]] * (1 + 1e-9)) {
+                held[map[j]] = 1;
+                over = 1;
+            }
+        if (over && isfinite(r))
+            continue;
+        for (int32_t i = 0; i < k; i++)
+            x[i] = held[i] ? avail[i] : 0.0;
+        for (int32_t j = 0; j < nf; j++)
+            x[map[j]] = y[j];
+        for (int32_t j = 0; j < p->nsh; j++)
+            x[k + j] = y[nf + j];
+        return r;
+    }
 }
 
 /* Tangent frame of a unit vector. */
@@ -638,7 +676,8 @@ static envl_result fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lig
     p.target_y = malloc(sizeof(double) * p.m);
     p.sh = malloc(sizeof(double) * (p.nsh ? p.nsh : 1) * p.m);
     double *colmem = malloc(sizeof(double) * p.m * (K + 1));
-    if (!cand || !p.normals || !p.target || !p.target_y || !p.sh || !colmem) {
+    p.scratch = malloc(sizeof(double) * p.m);
+    if (!cand || !p.normals || !p.target || !p.target_y || !p.sh || !colmem || !p.scratch) {
         rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
         goto done;
     }
@@ -672,7 +711,7 @@ static envl_result fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lig
         goto done;
     }
     for (int32_t c = 0; c < nc; c++)
-        cand_avail[c] = cone_power(fm, cand + 3 * c);
+        cand_avail[c] = cone_power(fm, cand + 3 * c, NULL);
     double avail[ENVL_NNLS_MAX];
     double ymean = 0;
     for (int32_t i = 0; i < p.m; i++)
@@ -701,8 +740,8 @@ static envl_result fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lig
                 continue;
             light_column(&p, cand + 3 * c, cols[k]);
             avail[k] = cand_avail[c];
-            double r = solve_fit(&p, k + 1, cols, p.target_y, x);
-            if (r < best && feasible(x, avail, k + 1)) {
+            double r = solve_bounded(&p, k + 1, cols, p.target_y, avail, x);
+            if (r < best) {
                 best = r;
                 best_c = c;
             }
@@ -722,7 +761,7 @@ static envl_result fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lig
 
     /* Refine each direction by a pattern search in its tangent plane, steps 2 down to 1/32
      * degree. */
-    double cur = K ? solve_fit(&p, K, cols, p.target_y, x) : INFINITY;
+    double cur = K ? solve_bounded(&p, K, cols, p.target_y, avail, x) : INFINITY;
     for (double step = 2.0; step >= 1.0 / 32 && K; step *= 0.5) {
         int improved = 1;
         for (int pass = 0; improved && pass < 8; pass++) {
@@ -743,10 +782,10 @@ static envl_result fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lig
                     light_column(&p, d, cols[K]);
                     double *saved = cols[i], saved_avail = avail[i];
                     cols[i] = cols[K];
-                    avail[i] = cone_power(fm, d);
-                    double r = solve_fit(&p, K, cols, p.target_y, x);
+                    avail[i] = cone_power(fm, d, NULL);
+                    double r = solve_bounded(&p, K, cols, p.target_y, avail, x);
                     cols[i] = saved;
-                    if (r < cur * (1 - 1e-12) && feasible(x, avail, K)) {
+                    if (r < cur * (1 - 1e-12)) {
                         cur = r;
                         memcpy(dirs[i], d, sizeof d);
                         memcpy(cols[i], cols[K], sizeof(double) * p.m);
@@ -768,11 +807,16 @@ static envl_result fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lig
         rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
         goto done;
     }
+    double cap[ENVL_NNLS_MAX][3], cap_c[ENVL_NNLS_MAX];
+    for (int32_t i = 0; i < K; i++)
+        cone_power(fm, dirs[i], cap[i]);
     for (int c = 0; c < 3; c++) {
         for (int32_t i = 0; i < p.m; i++)
             chan[i] = p.target[3 * i + c];
+        for (int32_t i = 0; i < K; i++)
+            cap_c[i] = cap[i][c];
         if (K + p.nsh > 0)
-            solve_fit(&p, K, cols, chan, x);
+            solve_bounded(&p, K, cols, chan, cap_c, x);
         for (int32_t i = 0; i < K; i++)
             ls->lights[i].rgb[c] = x[i];
         for (int32_t j = 0; j < p.nsh; j++)
@@ -790,6 +834,7 @@ done:
     free(p.target_y);
     free(p.sh);
     free(colmem);
+    free(p.scratch);
     envl_envmap_free(owned);
     return rc;
 }

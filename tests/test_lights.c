@@ -358,6 +358,36 @@ static void test_fit_light_size(void)
     free(px);
 }
 
+/* Lights alone (no remainder) on a constant map: the unconstrained fit would want lights far
+ * brighter than the sky around them; each is held at its 45-degree cone's power instead (it
+ * used to return no light at all). The cone of a constant map holds 2 pi (1 - cos 45) L,
+ * drawn with pixels of 1.4 degrees: edge off by half a diagonal, 1 degree of 45, about
+ * 2 x 1/45 = 4.4 % of the cap's power at most. */
+static void test_fit_lights_alone(void)
+{
+    const int w = 256, h = 128;
+    float *px = filled(w, h, 2.0f);
+    envl_envmap *m = map_of(px, w, h, 0);
+    envl_lights *ls;
+    envl_lights_options o = {.method = ENVL_METHOD_FIT, .count = 4, .remainder_bands = -1};
+    CHECK_OK(envl_lights_compute(m, &o, &ls));
+    envl_lights_summary s;
+    envl_lights_get_summary(ls, &s);
+    printf("fit, lights alone, constant map: %d lights, error %.4f\n", (int)s.count,
+           s.diffuse_error);
+    CHECK(s.count >= 1);
+    CHECK(s.diffuse_error < 1.0); /* no light at all is 100 % off */
+    double cap = 2.0 * PI * (1.0 - cos(PI / 4)) * 2.0;
+    for (int i = 0; i < s.count; i++) {
+        envl_light l;
+        envl_lights_get(ls, i, &l);
+        CHECK(l.rgb[1] > 0 && l.rgb[1] <= cap * 1.044);
+    }
+    envl_lights_free(ls);
+    envl_envmap_free(m);
+    free(px);
+}
+
 int main(void)
 {
     test_constant();
@@ -369,5 +399,6 @@ int main(void)
     test_deterministic();
     test_sat_precision();
     test_fit_light_size();
+    test_fit_lights_alone();
     return check_report("test_lights");
 }
