@@ -1,0 +1,128 @@
+#!/usr/bin/env bash
+# The test suite under Valgrind's memcheck: every C test executable, and the command-line tests
+# with `envlight` itself run under memcheck. Any invalid read or write, use of an uninitialised
+# value, bad free, or definite / indirect leak fails the run.
+#   bash scripts/valgrind.sh [BUILD_DIR] [--all | --quick] [-j N]
+# BUILD_DIR (default build) is built first (scripts/build.sh). Without --all the tests that take
+# more than ~10 s natively are left out (memcheck runs code 20-50x slower): test_layout,
+# test_lights and test_prefilter (their large maps; the same code runs on small maps in the
+# others and in the CLI tests). The POV-Ray, main-job and Python/Blender tests are always left
+# out: they spend their time in external programs, not in envlight. Memcheck runs all threads
+# of a program on one core, so N tests run at once (default: the number of cores). --quick (what
+# CI runs) keeps, of the CLI tests, cli_basics and cli_malformed: the bad-input paths.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+root=$PWD
+build=build
+all=0
+quick=0
+jobs=$(nproc)
+while (($#)); do
+  case $1 in
+    --all) all=1 ;;
+    --quick) quick=1 ;;
+    -j) jobs=${2:?-j needs a number}; shift ;;
+    -*) echo "usage: bash scripts/valgrind.sh [BUILD_DIR] [--all | --quick] [-j N]" >&2; exit 2 ;;
+    *) build=$1 ;;
+  esac
+  shift
+done
+command -v valgrind >/dev/null || { echo "envlight: valgrind is not installed (Debian: valgrind)" >&2; exit 1; }
+bash scripts/build.sh "$build" >/dev/null || exit 1
+build=$(cd "$build" && pwd)
+logs=$build/valgrind
+# world-writable (sticky) because cli_malformed runs some commands as the user nobody
+rm -rf "$logs" && mkdir -p "$logs" && chmod 1777 "$logs"
+
+# --errors-for-leak-kinds: "still reachable" (e.g. a thread-local error message, libc's own
+# buffers) is not a leak; "possible" is reported by glibc's thread stacks, so it is shown only.
+vg=(valgrind --tool=memcheck --leak-check=full --errors-for-leak-kinds=definite,indirect
+    --show-leak-kinds=definite,indirect --track-origins=yes --error-exitcode=99 --quiet)
+shared=${ENVL_SHARED_DATA:-$root/../shared/data}
+slow='^(test_layout|test_lights|test_prefilter)$'
+start=$(date +%s)
+
+# The CLI tests call $ENVLIGHT: a wrapper that runs the real binary under memcheck, one log per
+# process (a test that expects exit 1 sees 99 if memcheck finds an error).
+wrap=$logs/envlight
+cat >"$wrap" <<EOF
+#!/bin/sh
+exec ${vg[*]} --log-file="$logs/envlight.%p.log" "$build/envlight" "\$@"
+EOF
+chmod 755 "$wrap"
+
+# run_one NAME: one test; writes $logs/NAME.result ("ok ..." or "FAIL ...").
+run_one() {
+  local name=$1 t rc
+  t=$(date +%s)
+  if [[ $name == test_* ]]; then
+    (cd "$build/tests" && "${vg[@]}" --log-file="$logs/$name.log" "./$name" >"$logs/$name.out" 2>&1)
+    rc=$?
+    # exit 77 = the test skipped itself (data absent)
+    if { [ $rc != 0 ] && [ $rc != 77 ]; } || [ -s "$logs/$name.log" ]; then
+      echo "FAIL: $name (exit $rc; memcheck log $logs/$name.log, output $logs/$name.out)" >"$logs/$name.result"
+      return
+    fi
+  else
+    mkdir -p "$logs/tmp" && chmod 1777 "$logs/tmp"
+    ENVLIGHT=$wrap ENVL_SHARED_DATA=$shared ENVL_TEST_TMP=$logs/tmp/$name \
+      bash "tests/$name.sh" >"$logs/$name.out" 2>&1
+    rc=$?
+    if [ $rc != 0 ] && [ $rc != 77 ]; then
+      echo "FAIL: $name (exit $rc; output $logs/$name.out)" >"$logs/$name.result"
+      return
+    fi
+  fi
+  echo "ok: $name ($(( $(date +%s) - t )) s)" >"$logs/$name.result"
+}
+
+names=()
+for exe in "$build"/tests/test_*; do
+  [ -x "$exe" ] && [ -f "$exe" ] || continue
+  name=$(basename "$exe")
+  if [ $all = 0 ] && [[ $name =~ $slow ]]; then
+    echo "SKIP: $name (slow under memcheck; --all runs it)"
+  else
+    names+=("$name")
+  fi
+done
+for src in tests/cli_*.sh; do
+  name=$(basename "$src" .sh)
+  case $name in
+    cli_pov | cli_main_job) echo "SKIP: $name (POV-Ray)" ;;
+    cli_basics | cli_malformed) names+=("$name") ;;
+    *) if [ $quick = 1 ]; then echo "SKIP: $name (--quick)"; else names+=("$name"); fi ;;
+  esac
+done
+# the longest first, so that the two cores finish together
+order=$(for n in "${names[@]}"; do
+  case $n in cli_* | test_sh) echo "0 $n" ;; *) echo "1 $n" ;; esac
+done | sort | cut -d' ' -f2)
+running=0
+for name in $order; do
+  if ((running >= jobs)); then
+    wait -n
+    running=$((running - 1))
+  fi
+  run_one "$name" &
+  running=$((running + 1))
+done
+wait
+
+fails=0
+for name in $order; do
+  cat "$logs/$name.result"
+  if grep -q '^FAIL' "$logs/$name.result"; then
+    fails=$((fails + 1))
+    [ -s "$logs/$name.log" ] && cat "$logs/$name.log"
+    tail -20 "$logs/$name.out"
+  fi
+done
+for log in "$logs"/envlight.*.log; do
+  [ -s "$log" ] || continue
+  fails=$((fails + 1))
+  echo "FAIL: memcheck found errors in an envlight run: $log"
+  cat "$log"
+done
+echo "valgrind: ${#names[@]} tests, $fails failed, $(( $(date +%s) - start )) s"
+[ $fails = 0 ]
