@@ -72,6 +72,7 @@ typedef struct bench_opts {
 /* Every measured point, for the CSV and the plots. */
 typedef struct bench_point {
     char map[128];
+    char kind[16];    /* "diffuse" or "glossy": the error measure, one plot each */
     char series[32];  /* "median", "variance", "fit", "sh-none", ... : one curve each */
     int param;        /* lights asked, or SH order */
     int count;        /* lights used (SH: coefficients) */
@@ -81,8 +82,8 @@ typedef struct bench_point {
 static bench_point *points;
 static int npoints, cap_points;
 
-static void record(const char *map, const char *series, int param, int count, double error,
-                   double seconds)
+static void record(const char *map, const char *kind, const char *series, int param, int count,
+                   double error, double seconds)
 {
     if (npoints == cap_points) {
         int cap = cap_points ? 2 * cap_points : 256;
@@ -94,6 +95,7 @@ static void record(const char *map, const char *series, int param, int count, do
     }
     bench_point *b = &points[npoints++];
     snprintf(b->map, sizeof b->map, "%s", map);
+    snprintf(b->kind, sizeof b->kind, "%s", kind);
     snprintf(b->series, sizeof b->series, "%s", series);
     b->param = param;
     b->count = count;
@@ -154,7 +156,7 @@ static int bench_lights_table(const char *name, envl_envmap *m, const bench_opts
             else
                 printf(" %.3f (%.3f s) |", 100 * err, sec);
             fflush(stdout);
-            record(name, envl_method_name(method), n, count, err, sec);
+            record(name, "diffuse", envl_method_name(method), n, count, err, sec);
         }
         printf("\n");
     }
@@ -191,10 +193,128 @@ static int bench_sh_table(const char *name, envl_envmap *m, const bench_opts *o)
             fflush(stdout);
             char series[32];
             snprintf(series, sizeof series, "sh-%s", envl_window_name(w));
-            record(name, series, l, (l + 1) * (l + 1), err, sec);
+            record(name, "diffuse", series, l, (l + 1) * (l + 1), err, sec);
         }
         printf("\n");
     }
+    return CLI_OK;
+}
+
+/* One request's products, timed: median seconds over runs (the map's mip pyramid dropped
+ * before each, so every run builds what it needs), the error measured once. */
+static int bench_products(envl_envmap *m, const envl_request *q, const bench_opts *o,
+                          double *seconds, envl_level *level, envl_irradiance_map *irr)
+{
+    double t[16];
+    for (int r = 0; r < o->runs; r++) {
+        envl_request qr = *q;
+        qr.measure = r == 0;
+        envl_envmap_drop_mips(m);
+        envl_products *p;
+        if (envl_compute(m, &qr, &p))
+            return cli_fail();
+        envl_products_summary s;
+        envl_products_get_summary(p, &s);
+        t[r] = s.seconds;
+        if (r == 0 && level && envl_products_level(p, 0, level))
+            return cli_fail();
+        if (r == 0 && irr && envl_products_irradiance(p, irr))
+            return cli_fail();
+        if (r == 0 && level) /* the level's pixels belong to the products */
+            level->rgb = NULL;
+        if (r == 0 && irr)
+            irr->rgb = NULL;
+        envl_products_free(p);
+    }
+    *seconds = median_of(t, o->runs);
+    return CLI_OK;
+}
+
+/* Prefiltered maps: the GGX level's glossy error against samples per texel and against the
+ * level's size; the irradiance map's diffuse error by method (SH of each order, resampled,
+ * exact). */
+static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_opts *o)
+{
+    static const int samples[] = {16, 64, 256, 1024}, widths[] = {128, 256, 512, 1024};
+    static const double rough[] = {0.25, 0.5};
+    int nr = o->quick ? 1 : 2, ns = o->quick ? 2 : 4, nw = o->quick ? 2 : 4;
+    printf("\n#### Specular (GGX, filtered importance sampling): %s\n\nglossy error %% "
+           "(seconds); base level 512 wide, level width for the roughness as the chain's\n\n"
+           "| roughness | level |", name);
+    for (int i = 0; i < ns; i++)
+        printf(" %d samples |", samples[o->quick ? 1 + 2 * i : i]);
+    printf("\n|---|---|");
+    for (int i = 0; i < ns; i++)
+        printf("---|");
+    printf("\n");
+    for (int k = 0; k < nr; k++) {
+        double r = rough[o->quick ? 1 : k];
+        envl_request q = {.n_roughness = 1, .roughness = &r};
+        q.prefilter.width = 512;
+        printf("| %.2f | %d x %d |", r, envl_prefilter_level_width(&q.prefilter, r),
+               envl_prefilter_level_width(&q.prefilter, r) / 2);
+        for (int i = 0; i < ns; i++) {
+            q.prefilter.samples = samples[o->quick ? 1 + 2 * i : i];
+            double sec;
+            envl_level l;
+            if (bench_products(m, &q, o, &sec, &l, NULL))
+                return CLI_FAIL;
+            printf(" %.3f (%.3f s) |", 100 * l.glossy_error, sec);
+            fflush(stdout);
+            char series[32];
+            snprintf(series, sizeof series, "ggx-r%.2f-samples", r);
+            record(name, "glossy", series, q.prefilter.samples, l.width, l.glossy_error, sec);
+        }
+        printf("\n");
+    }
+    printf("\nglossy error %% (seconds) against the base level's width, 128 samples\n\n"
+           "| roughness |");
+    for (int i = 0; i < nw; i++)
+        printf(" base %d |", widths[o->quick ? 1 + i : i]);
+    printf("\n|---|");
+    for (int i = 0; i < nw; i++)
+        printf("---|");
+    printf("\n");
+    for (int k = 0; k < nr; k++) {
+        double r = rough[o->quick ? 1 : k];
+        printf("| %.2f |", r);
+        for (int i = 0; i < nw; i++) {
+            envl_request q = {.n_roughness = 1, .roughness = &r};
+            q.prefilter.width = widths[o->quick ? 1 + i : i];
+            double sec;
+            envl_level l;
+            if (bench_products(m, &q, o, &sec, &l, NULL))
+                return CLI_FAIL;
+            printf(" %.3f (%.3f s, %d wide) |", 100 * l.glossy_error, sec, l.width);
+            fflush(stdout);
+            char series[32];
+            snprintf(series, sizeof series, "ggx-r%.2f-size", r);
+            record(name, "glossy", series, q.prefilter.width, l.width, l.glossy_error, sec);
+        }
+        printf("\n");
+    }
+    /* irradiance maps, 64 x 32: SH of orders 1, 2, 4, 8, the resampled sum, the exact sum */
+    static const int orders[] = {1, 2, 4, 8};
+    printf("\n#### Irradiance map (64 x 32): %s\n\ndiffuse error %% (seconds)\n\n"
+           "| SH 1 | SH 2 | SH 4 | SH 8 | resampled | exact |\n|---|---|---|---|---|---|\n|",
+           name);
+    for (int i = 0; i < 6; i++) {
+        envl_request q = {.irradiance_map = 1};
+        q.prefilter.irradiance_method = i < 4 ? ENVL_IRRADIANCE_SH
+                                        : i == 4 ? ENVL_IRRADIANCE_RESAMPLED
+                                                 : ENVL_IRRADIANCE_EXACT;
+        q.prefilter.irradiance_order = i < 4 ? orders[i] : 0;
+        double sec;
+        envl_irradiance_map irr;
+        if (bench_products(m, &q, o, &sec, NULL, &irr))
+            return CLI_FAIL;
+        printf(" %.3f (%.4f s) |", 100 * irr.diffuse_error, sec);
+        fflush(stdout);
+        record(name, "diffuse", i < 4 ? "irradiance-sh" : i == 4 ? "irradiance-resampled"
+                                                                 : "irradiance-exact",
+               i < 4 ? orders[i] : 0, 64, irr.diffuse_error, sec);
+    }
+    printf("\n");
     return CLI_OK;
 }
 
@@ -209,8 +329,8 @@ static void plot_name(const char *map, char *out, size_t n)
     out[k] = '\0';
 }
 
-/* One PNG per map (gnuplot): error against seconds, log axes, a curve per series, the Pareto
- * front (no other point both faster and more accurate) drawn over them. */
+/* One PNG per map and error measure (gnuplot): error against seconds, log axes, a curve per
+ * series, the Pareto front (no other point both faster and more accurate) drawn over them. */
 static int write_plots(const char *dir)
 {
     char path[4096];
@@ -218,13 +338,14 @@ static int write_plots(const char *dir)
     for (int i = 0; i < npoints; i++) {
         int first = 1;
         for (int j = 0; j < i; j++)
-            if (!strcmp(points[j].map, points[i].map))
+            if (!strcmp(points[j].map, points[i].map) && !strcmp(points[j].kind, points[i].kind))
                 first = 0;
         if (!first)
             continue;
-        const char *map = points[i].map;
-        char base[160];
-        plot_name(map, base, sizeof base);
+        const char *map = points[i].map, *kind = points[i].kind;
+        char base[160], named[180];
+        snprintf(named, sizeof named, "%s-%s", map, kind);
+        plot_name(named, base, sizeof base);
         snprintf(path, sizeof path, "%s/%s.dat", dir, base);
         FILE *f = fopen(path, "w");
         if (!f) {
@@ -235,7 +356,7 @@ static int write_plots(const char *dir)
         char series[64][32];
         int ns = 0;
         for (int j = 0; j < npoints; j++) {
-            if (strcmp(points[j].map, map))
+            if (strcmp(points[j].map, map) || strcmp(points[j].kind, kind))
                 continue;
             int known = 0;
             for (int k = 0; k < ns; k++)
@@ -246,7 +367,8 @@ static int write_plots(const char *dir)
         for (int k = 0; k < ns; k++) {
             fprintf(f, "# %s\n", series[k]);
             for (int j = 0; j < npoints; j++)
-                if (!strcmp(points[j].map, map) && !strcmp(points[j].series, series[k]) &&
+                if (!strcmp(points[j].map, map) && !strcmp(points[j].kind, kind) &&
+                    !strcmp(points[j].series, series[k]) &&
                     points[j].error > 0 && points[j].seconds > 0)
                     fprintf(f, "%.9g %.9g %d\n", points[j].seconds, 100 * points[j].error,
                             points[j].param);
@@ -258,7 +380,8 @@ static int write_plots(const char *dir)
             int best = -1;
             for (int j = 0; j < npoints; j++) {
                 bench_point *p = &points[j];
-                if (strcmp(p->map, map) || !(p->error > 0 && p->seconds > 0) ||
+                if (strcmp(p->map, map) || strcmp(p->kind, kind) ||
+                    !(p->error > 0 && p->seconds > 0) ||
                     !(p->error < last_err))
                     continue;
                 if (best < 0 || p->seconds < points[best].seconds ||
@@ -280,10 +403,10 @@ static int write_plots(const char *dir)
         }
         fprintf(f, "set terminal pngcairo size 900,600 noenhanced\n"
                    "set output '%s/%s.png'\n"
-                   "set title 'envlight: %s: diffuse error against time'\n"
-                   "set logscale xy\nset xlabel 'seconds'\nset ylabel 'diffuse error (%%)'\n"
+                   "set title 'envlight: %s: %s error against time'\n"
+                   "set logscale xy\nset xlabel 'seconds'\nset ylabel '%s error (%%)'\n"
                    "set key outside right\nset grid\n"
-                   "plot ", dir, base, map);
+                   "plot ", dir, base, map, kind, kind);
         for (int k = 0; k < ns; k++)
             fprintf(f, "'%s/%s.dat' index %d using 1:2 with linespoints title '%s', ", dir,
                     base, k, series[k]);
@@ -609,8 +732,12 @@ static const char bench_help[] =
     "maps: the built-in sky and every .hdr under $ENVL_SHARED_DATA/latlong_hdri (default\n"
     "../shared/data). Then the speed of the stages on a large map as ratios to one plain pass\n"
     "over its floats measured in the same run (--speed-width, default 8192; 0 skips).\n"
-    "Also SH orders 1..8 with each window. --csv writes every point; --plots DIR writes one\n"
-    "PNG per map (gnuplot): error against seconds, log axes, the Pareto front marked.\n"
+    "Also SH orders 1..8 with each window; the GGX level of roughness 0.25 and 0.5 against\n"
+    "samples per texel (16..1024) and the base level's width (128..1024), glossy error; the\n"
+    "irradiance map by SH (orders 1, 2, 4, 8), resampled and exact sums, diffuse error.\n"
+    "--csv writes every point (map, measure, series, param, count, error, seconds); --plots\n"
+    "DIR writes one PNG per map and error measure (gnuplot): error against seconds, log axes,\n"
+    "the Pareto front marked.\n"
     "Load: the built-in sky and the first real FILE, resampled to W x W/2 (--load-width,\n"
     "default 4096; 0 skips) and written as RLE .hdr, read by envlight and by oiiotool\n"
     "-i:now=1 (OpenImageIO), with oiiotool's start-up on a 1 x 1 file timed apart.\n"
@@ -715,6 +842,8 @@ int cli_bench(int argc, char **argv)
         rc = bench_lights_table(name, m, &o);
         if (rc == CLI_OK)
             rc = bench_sh_table(name, m, &o);
+        if (rc == CLI_OK)
+            rc = bench_prefilter_table(name, m, &o);
         envl_envmap_free(m);
     }
     if (rc == CLI_OK && speed_width > 0 && (only & SPEED))
@@ -732,10 +861,11 @@ int cli_bench(int argc, char **argv)
         cli_output co;
         if (cli_output_open(&co, csv_path))
             return CLI_FAIL;
-        fprintf(co.f, "map,series,param,count,diffuse_error,seconds\n");
+        fprintf(co.f, "map,measure,series,param,count,error,seconds\n");
         for (int i = 0; i < npoints; i++)
-            fprintf(co.f, "%s,%s,%d,%d,%.9g,%.9g\n", points[i].map, points[i].series,
-                    points[i].param, points[i].count, points[i].error, points[i].seconds);
+            fprintf(co.f, "%s,%s,%s,%d,%d,%.9g,%.9g\n", points[i].map, points[i].kind,
+                    points[i].series, points[i].param, points[i].count, points[i].error,
+                    points[i].seconds);
         rc = cli_output_close(&co);
     }
     if (rc == CLI_OK && plots) {
