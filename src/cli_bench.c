@@ -583,9 +583,12 @@ static int bench_load(int width, const char *real, const bench_opts *o)
             break;
         }
         const char *slash = real ? strrchr(real, '/') : NULL;
-        printf("| %s | %.1f | %.4f | %.4f | %.4f | %.2f | %.2f | <= 1 |\n",
+        char sub[32] = "- (below start-up noise)";
+        if (theirs - startup > 0)
+            snprintf(sub, sizeof sub, "%.2f", mine / (theirs - startup));
+        printf("| %s | %.1f | %.4f | %.4f | %.4f | %.2f | %s | <= 1 |\n",
                k ? (slash ? slash + 1 : real) : "built-in sky", st.st_size / 1e6, mine, theirs,
-               theirs - startup, mine / theirs, mine / (theirs - startup));
+               theirs - startup, mine / theirs, sub);
         fflush(stdout);
         remove(path);
     }
