@@ -278,7 +278,7 @@ def report(paths):
                 pts.append((min(ref["seconds"], ref["seconds_2"]), target))
             t, how = crossing(pts, target)
             cross_pts[k] = pts
-            cross[k] = (t, how, min(x["err"] for x in rows))
+            cross[k] = (t, how, min(x["err"] for x in rows), rows[-1]["samples"])
             cells = []
             for S in samples:
                 x = by.get(S)
@@ -290,7 +290,7 @@ def report(paths):
                                                                  sun_label(rows[0]))
             de = "—" if k[0] == "HDR" else "%.2f %%" % (100 * rows[0]["diffuse_error"])
             tc = ("%s%.2f s" % (how, t)) if t is not None else \
-                "not reached (floor %.2f %%)" % (100 * cross[k][2])
+                "not reached by %d spp (lowest %.2f %%)" % (cross[k][3], 100 * cross[k][2])
             if k[0] == "HDR":
                 tc += " (= the %d-spp render)" % r["ref_samples"] if how == "" else ""
             out.append("| %s | %s | %s | %s | %s |" % (lab, lights, de, " | ".join(cells), tc))
@@ -306,7 +306,8 @@ def report(paths):
             lab = "%s, %s %d%s" % ({"RESIDUAL": "lights + residual", "SH": "lights + SH"}[k[0]],
                                    k[1], k[2], sun_label(dict(sun_angle=k[3])))
             if t is None or th is None:
-                out.append("- %s: not reached (error floor %.2f %%)" % (lab, 100 * cross[k][2]))
+                out.append("- %s: not reached by %d spp (lowest error %.2f %%)"
+                           % (lab, cross[k][3], 100 * cross[k][2]))
             else:
                 out.append("- %s: %s%.2f s vs HDR world %.2f s → **%.1fx**%s" % (
                     lab, cross[k][1], t, th, th / t,
