@@ -6,7 +6,7 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    envl_limits lim = {1 << 22, NULL};
+    envl_limits lim = {1 << 22, NULL, 0};
     envl_image img = {0};
     if (FUZZ_READER(data, size, "fuzz", &lim, &img) != ENVL_OK)
         return 0;

@@ -255,11 +255,13 @@ fail:
 
 static envl_limits limits_of(const envl_load_options *o)
 {
-    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, NULL};
+    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, NULL, 0};
     if (o && o->max_pixels > 0)
         lim.max_pixels = o->max_pixels;
-    if (o)
+    if (o) {
         lim.exr_part = o->exr_part;
+        lim.threads = o->threads;
+    }
     return lim;
 }
 

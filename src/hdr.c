@@ -627,7 +627,7 @@ envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
      * is a subnormal, and (m + 0.5) * 2^-135 = (2m + 1) 2^-136 still fits). */
     for (int e = 1; e < 256; e++)
         job.scale[e] = ldexpf(1.0f, e - 136);
-    envl__parallel_for(nscans, (int64_t)w * h >= 65536 ? envl__threads(0) : 1,
+    envl__parallel_for(nscans, (int64_t)w * h >= 65536 ? envl__threads(lim->threads) : 1,
                        decode_scanlines, &job);
     free(starts);
     if (atomic_load(&job.failed)) {

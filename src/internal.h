@@ -59,6 +59,7 @@ typedef struct envl_image {
 typedef struct envl_limits {
     int64_t max_pixels;     /* refuse headers that claim more; > 0 */
     const char *exr_part;   /* NULL: first part with colour channels */
+    int32_t threads;        /* decoding threads; 0: all cores */
 } envl_limits;
 
 /* Allocates img->px for w x h (checks w, h > 0, the limit and size_t overflow first). The error

@@ -78,7 +78,7 @@ envl_result envl__read_pfm(const uint8_t *data, size_t size, const char *name,
                           "the scale at byte %zu", name, pos);
     pos++;
     /* Check the size against the limit and the bytes present before allocating. */
-    envl_limits deflim = {ENVL_DEFAULT_MAX_PIXELS, NULL};
+    envl_limits deflim = {ENVL_DEFAULT_MAX_PIXELS, NULL, 0};
     const envl_limits *l = lim ? lim : &deflim;
     int64_t max = l->max_pixels > 0 ? l->max_pixels : ENVL_DEFAULT_MAX_PIXELS;
     if ((int64_t)w * h > max)

@@ -41,7 +41,7 @@ envl_result envl_envmap_sky(const envl_sky_options *options, envl_envmap **out)
                           elev_deg, (int)w);
 
     envl_image img = {0};
-    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, NULL};
+    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, NULL, 0};
     envl_result rc = envl__image_alloc(&img, w, h, &lim, "sky");
     if (rc)
         return rc;

@@ -11,7 +11,7 @@
 #include <stdint.h>
 #include <unistd.h>
 
-static const envl_limits default_limits = {ENVL_DEFAULT_MAX_PIXELS, NULL};
+static const envl_limits default_limits = {ENVL_DEFAULT_MAX_PIXELS, NULL, 0};
 
 /* File -> image through envl__read_file + envl__read_exr (as the loader does). */
 static envl_result read_exr_file(const char *path, const envl_limits *lim, envl_image *img)
@@ -495,7 +495,7 @@ static void test_parts_and_layers(void)
     CHECK(img.px && img.meta.channels == 3 && check_window_pixels(&img, tp[1].disp, tp[1].dw) == 0);
     envl__image_free(&img);
 
-    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, "depth"};
+    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, "depth", 0};
     CHECK_OK(read_exr_file(path, &lim, &img)); /* named: the single channel as grey */
     CHECK(img.px && img.meta.channels == 1);
     if (img.px)
@@ -805,7 +805,7 @@ static void test_limits(void)
     const char *path = tmp_path("limit.exr");
     CHECK(write_test_file(path, &tp, 1) == 0);
     envl_image img;
-    envl_limits lim = {4095, NULL};
+    envl_limits lim = {4095, NULL, 0};
     CHECK_RC(read_exr_file(path, &lim, &img), ENVL_ERR_LIMIT);
     CHECK(img.px == NULL && strstr(envl_last_error(), "limit.exr") != NULL);
     lim.max_pixels = 4096;

@@ -9,7 +9,7 @@
  * a 64 x 64 file with extra channels. Now every channel gets a destination. */
 static void test_exr_unused_channel(void)
 {
-    envl_limits lim = {1 << 22, NULL};
+    envl_limits lim = {1 << 22, NULL, 0};
     envl_image img = {0};
     CHECK_OK(envl__read_image_file(DIR "exr_unused_channel_null_destination.exr", &lim, &img));
     CHECK(img.width == 64 && img.height == 64);

@@ -38,7 +38,7 @@ static void byte(buf *b, int v)
 
 static double dec(int m, int e) { return e ? (m + 0.5) * ldexp(1.0, e - 136) : 0.0; }
 
-static envl_limits lim_default = {ENVL_DEFAULT_MAX_PIXELS, NULL};
+static envl_limits lim_default = {ENVL_DEFAULT_MAX_PIXELS, NULL, 0};
 
 static envl_result rd(const buf *b, envl_image *img)
 {
@@ -575,9 +575,9 @@ static void test_malformed(void)
     puts_(&b, "#?RADIANCE\n\n-Y 2 +X 3\n");
     for (int k = 0; k < 6; k++)
         px4(&b, 1, 2, 3, 128);
-    envl_limits small = {5, NULL};
+    envl_limits small = {5, NULL, 0};
     CHECK_RC(envl__read_hdr(b.d, b.n, "t.hdr", &small, &img), ENVL_ERR_LIMIT);
-    envl_limits exact = {6, NULL};
+    envl_limits exact = {6, NULL, 0};
     CHECK_OK(envl__read_hdr(b.d, b.n, "t.hdr", &exact, &img));
     envl__image_free(&img);
     /* a header claiming far more scanlines than bytes present: FORMAT before allocating */
@@ -973,6 +973,27 @@ static void test_real_files(void)
     /* every other file under radiance_hdr/ is in the table above */
 }
 
+/* The decoder splits the scanlines between threads: the same floats at 1 and 4 threads, bit for
+ * bit (a 512 x 256 RLE file: above the 65536 pixels where decoding goes parallel). */
+static void test_threads(void)
+{
+    const int w = 512, h = 256;
+    float *src = malloc(sizeof(float) * 3 * w * h);
+    for (int i = 0; i < 3 * w * h; i++)
+        src[i] = (float)(1e-3 + fmod(i * 0.618034, 7.0) * (i % 97 == 0 ? 1e4 : 1.0));
+    const char *path = tmp_path("threads.hdr");
+    CHECK_OK(envl__write_hdr(path, src, w, h));
+    envl_image a = {0}, b = {0};
+    envl_limits one = {ENVL_DEFAULT_MAX_PIXELS, NULL, 1}, four = {ENVL_DEFAULT_MAX_PIXELS, NULL, 4};
+    CHECK_OK(envl__read_image_file(path, &one, &a));
+    CHECK_OK(envl__read_image_file(path, &four, &b));
+    CHECK(a.width == w && b.width == w && a.height == h && b.height == h);
+    CHECK(a.px && b.px && memcmp(a.px, b.px, sizeof(float) * 3 * w * h) == 0);
+    envl__image_free(&a);
+    envl__image_free(&b);
+    free(src);
+}
+
 int main(void)
 {
     test_orientations();
@@ -986,5 +1007,6 @@ int main(void)
     test_malformed();
     test_round_trip();
     test_real_files();
+    test_threads();
     return check_report("test_hdr");
 }

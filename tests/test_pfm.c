@@ -4,7 +4,7 @@
 
 static envl_result read_buf(const char *bytes, size_t n, envl_image *img)
 {
-    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, NULL};
+    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, NULL, 0};
     return envl__read_pfm((const uint8_t *)bytes, n, "t.pfm", &lim, img);
 }
 
@@ -15,7 +15,7 @@ static void test_round_trip(void)
     const char *path = tmp_path("rt.pfm");
     CHECK_OK(envl_image_save(path, px, 3, 2, NULL));
     envl_image img;
-    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, NULL};
+    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, NULL, 0};
     CHECK_OK(envl__read_image_file(path, &lim, &img));
     CHECK(img.width == 3 && img.height == 2);
     CHECK(memcmp(img.px, px, sizeof px) == 0); /* bit-exact */
