@@ -211,17 +211,18 @@ int cli_prefilter(int argc, char **argv)
     q.brdf.threads = c.load.threads;
     q.measure = measure;
 
-    if (mkdir(dir, 0777) != 0 && errno != EEXIST) {
-        cli_error("%s: cannot create the directory: %s", dir, strerror(errno));
-        free(list);
-        return CLI_FAIL;
-    }
     envl_envmap *map;
     if (cli_load(file, &c, &map)) {
         free(list);
         return CLI_FAIL;
     }
+    /* the folder only once the input has been read: a bad input leaves nothing behind */
     envl_products *p = NULL;
+    if (mkdir(dir, 0777) != 0 && errno != EEXIST) {
+        cli_error("%s: cannot create the directory: %s", dir, strerror(errno));
+        rc = CLI_FAIL;
+        goto done;
+    }
     if (envl_compute(map, &q, &p) || envl_products_export(p, dir, &eo)) {
         rc = cli_fail();
         goto done;
