@@ -118,7 +118,8 @@ def world_state(world):
                 n.bl_idname == "ShaderNodeTexEnvironment"), None)
     out = {"nodes": len(tree.nodes), "tagged_nodes": sum(1 for n in tree.nodes if n.get("envlight")),
            "user_value": "UserValue" in tree.nodes, "active_outputs": active,
-           "images": [i.name for i in bpy.data.images]}
+           "images": [i.name for i in bpy.data.images],
+           "sampling": [world.cycles.sampling_method, world.cycles.sample_map_resolution]}
     if res is not None and res.image is not None:
         img = res.image
         buf = np.empty(img.size[0] * img.size[1] * img.channels, np.float32)

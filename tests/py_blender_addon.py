@@ -192,6 +192,7 @@ def test_remove_restores_the_users_world(spot_run):
     after = spot_run["after_remove"]
     assert [l["name"] for l in after["lamps"]] == ["UserLamp"]
     assert after["world"]["tagged_nodes"] == 0 and after["world"]["user_value"]
+    assert after["world"]["sampling"] == spot_run["runs"][0]["world"]["sampling"]
     assert after["world"]["active_outputs"] == ["World Output"]
     assert "EnvLight Residual" not in after["world"]["images"]
 
@@ -289,11 +290,15 @@ def test_sh_world_evaluates_the_remainder(addon_zip, spot_hdr):
     path, info, d = spot_hdr
     pano = os.path.join(TMP, "sh_pano.exr")
     spec = {"hdr": path, "mapping": {"type": "POINT", "rotation": [0, 0, 30]}, "panorama": pano,
+            "remove": True,
             "settings": {"count": 4, "method": "fit", "world_mode": "SH",
                          "keep_background": False}}
     res, _ = run_blender("sh_world", spec, addon_zip)
     run = res["runs"][0]
     assert run["rc"] == ["FINISHED"] and "residual_image" not in run["world"]
+    # a smooth world: Cycles' importance map at 64 (the user's settings back after Remove)
+    assert run["world"]["sampling"] == ["MANUAL", 64]
+    assert res["after_remove"]["world"]["sampling"] == ["AUTOMATIC", 1024]
     # the world the panorama camera sees is the remainder's radiance, turned by the mapping
     with envlight.load(path) as env, env.lights(4, method="fit") as lr:
         rad = np.asarray(lr.remainder_radiance)

@@ -18,6 +18,12 @@ COLLECTION = "EnvLight"
 NODE_PREFIX = "EnvLight "
 #: world custom property: the name of the user's World Output that was active before ours
 USER_OUTPUT = "envlight_user_output"
+# the user's Cycles world sampling settings while the SH world is in place
+USER_SAMPLING = "envlight_user_sampling"
+# the SH world is an order-2 polynomial: a 64 x 32 importance map holds it. Cycles' default map
+# (1024) is evaluated through the SH node tree at every render (measured on a 64 x 64 px sphere:
+# 3.0 s of a 3.1 s render at 16 spp, 0.08 s with 64)
+SH_MAP_RESOLUTION = 64
 
 # order-2 real SH basis constants (DESIGN.md, Ramamoorthi & Hanrahan 2001)
 _Y00, _Y1, _Y2, _Y20, _Y22 = 0.282095, 0.488603, 1.092548, 0.315392, 0.546274
@@ -187,9 +193,34 @@ def remove_created(world):
             tree.nodes[name].is_active_output = True
         if USER_OUTPUT in world:
             del world[USER_OUTPUT]
+    if world is not None:
+        restore_world_sampling(world)
     for img in [i for i in bpy.data.images if tagged(i) and i.users == 0]:
         bpy.data.images.remove(img)
     return removed
+
+
+def set_world_sampling(world, resolution):
+    """Cycles' world importance map at `resolution`, the user's settings kept for Remove."""
+    cw = getattr(world, "cycles", None)
+    if cw is None or not hasattr(cw, "sample_map_resolution"):
+        return
+    if USER_SAMPLING not in world:
+        world[USER_SAMPLING] = {"method": cw.sampling_method,
+                                "resolution": cw.sample_map_resolution}
+    cw.sampling_method = "MANUAL"
+    cw.sample_map_resolution = resolution
+
+
+def restore_world_sampling(world):
+    saved = world.get(USER_SAMPLING)
+    if saved is None:
+        return
+    cw = getattr(world, "cycles", None)
+    if cw is not None:
+        cw.sampling_method = saved["method"]
+        cw.sample_map_resolution = int(saved["resolution"])
+    del world[USER_SAMPLING]
 
 
 # ---- lamps ------------------------------------------------------------------------------------
@@ -350,6 +381,7 @@ def build_world(world, mode, original_socket, residual_image, sh_coeffs, mapping
         tree.links.new(env.outputs["Color"], lighting.inputs["Color"])
     elif mode == "SH":
         lighting.inputs["Strength"].default_value = 1.0  # the coefficients include it
+        set_world_sampling(world, SH_MAP_RESOLUTION)
         tree.links.new(sh_radiance_socket(tree, sh_coeffs, x0, y0 - 400), lighting.inputs["Color"])
     else:
         lighting.inputs["Color"].default_value = (0, 0, 0, 1)
