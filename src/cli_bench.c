@@ -103,6 +103,15 @@ static void record(const char *map, const char *kind, const char *series, int pa
     b->seconds = seconds;
 }
 
+/* The Markdown rule under a table's header: lead + n columns. */
+static void table_rule(int lead, int n)
+{
+    printf("\n|");
+    for (int i = 0; i < lead + n; i++)
+        printf("---|");
+    printf("\n");
+}
+
 /* One lights configuration: median seconds over runs (tables dropped before each), error. */
 static int bench_lights_one(envl_envmap *m, int method, int n, const bench_opts *o,
                             double *seconds, double *error, int *count)
@@ -135,10 +144,7 @@ static int bench_lights_table(const char *name, envl_envmap *m, const bench_opts
     printf("| method |");
     for (int i = 0; i < ncounts; i++)
         printf(" %d |", counts[i]);
-    printf("\n|---|");
-    for (int i = 0; i < ncounts; i++)
-        printf("---|");
-    printf("\n");
+    table_rule(1, ncounts);
     for (int method = 0; method < ENVL_METHOD_COUNT; method++) {
         printf("| %s |", envl_method_name(method));
         for (int i = 0; i < ncounts; i++) {
@@ -170,10 +176,7 @@ static int bench_sh_table(const char *name, envl_envmap *m, const bench_opts *o)
     printf("\n#### SH irradiance: %s\n\ndiffuse error %% (seconds)\n\n| window |", name);
     for (int l = 1; l <= maxorder; l++)
         printf(" order %d |", l);
-    printf("\n|---|");
-    for (int l = 1; l <= maxorder; l++)
-        printf("---|");
-    printf("\n");
+    table_rule(1, maxorder);
     for (int w = 0; w < ENVL_WINDOW_COUNT; w++) {
         printf("| %s |", envl_window_name(w));
         for (int l = 1; l <= maxorder; l++) {
@@ -243,10 +246,7 @@ static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_o
            "| roughness | level |", name);
     for (int i = 0; i < ns; i++)
         printf(" %d samples |", samples[o->quick ? 1 + 2 * i : i]);
-    printf("\n|---|---|");
-    for (int i = 0; i < ns; i++)
-        printf("---|");
-    printf("\n");
+    table_rule(2, ns);
     for (int k = 0; k < nr; k++) {
         double r = rough[o->quick ? 1 : k];
         envl_request q = {.n_roughness = 1, .roughness = &r};
@@ -271,10 +271,7 @@ static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_o
            "| roughness |");
     for (int i = 0; i < nw; i++)
         printf(" base %d |", widths[o->quick ? 1 + i : i]);
-    printf("\n|---|");
-    for (int i = 0; i < nw; i++)
-        printf("---|");
-    printf("\n");
+    table_rule(1, nw);
     for (int k = 0; k < nr; k++) {
         double r = rough[o->quick ? 1 : k];
         printf("| %.2f |", r);
