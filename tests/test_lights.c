@@ -388,6 +388,79 @@ static void test_fit_lights_alone(void)
     free(px);
 }
 
+/* The region table against brute force: random rectangles (wrapping across the seam too) of a
+ * random map whose width is no multiple of the block, every sum to 1e-9 relative (double sums
+ * in another order: ~1e-13; the direction sums within a block are float, 2^-24 x 32 of the
+ * block's own total, which bounds them by 1e-5 of the rectangle's energy); and the median
+ * column, which must be where the running energy first reaches half. */
+static void test_region_table(void)
+{
+    const int w = 333, h = 97;
+    float *px = malloc(sizeof(float) * 3 * w * h);
+    uint32_t seed = 7;
+    for (int i = 0; i < 3 * w * h; i++) {
+        seed = seed * 1664525u + 1013904223u;
+        px[i] = (float)((seed >> 8) / 16777216.0 * (i % 31 == 0 ? 1000.0 : 1.0));
+    }
+    envl_envmap *m = map_of(px, w, h, 0);
+    CHECK_OK(envl__region_table(m));
+    for (int t = 0; t < 400; t++) {
+        seed = seed * 1664525u + 1013904223u;
+        int x0 = (int)(seed % w), wd = 1 + (int)((seed >> 9) % w);
+        seed = seed * 1664525u + 1013904223u;
+        int y0 = (int)(seed % h), y1 = y0 + 1 + (int)((seed >> 9) % (h - y0));
+        int x1 = x0 + wd;
+        double direct[6] = {0, 0, 0, 0, 0, 0}, got[6];
+        for (int y = y0; y < y1; y++)
+            for (int x = x0; x < x1; x++) {
+                const float *p = px + 3 * ((size_t)y * w + x % w);
+                double om = envl_envmap_solid_angle(m, y), d[3];
+                envl_envmap_direction(m, x % w, y, d);
+                double e = envl_luminance(p[0], p[1], p[2]) * om;
+                for (int k = 0; k < 3; k++) {
+                    direct[k] += p[k] * om;
+                    direct[3 + k] += e * d[k];
+                }
+            }
+        envl__rect_sums(m, x0, x1, y0, y1, got);
+        double energy = envl_luminance(direct[0], direct[1], direct[2]);
+        for (int k = 0; k < 3; k++) {
+            CHECK_REL(got[k], direct[k], 1e-9);
+            /* the direction sums are those of the pixels' centres, as the table's */
+            CHECK(fabs(got[3 + k] - direct[3 + k]) <= 1e-5 * energy);
+        }
+        CHECK_REL(envl__rect_energy(m, x0, x1, y0, y1), energy, 1e-9);
+        if (wd >= 2) {
+            double left, half = 0.5 * energy, *cols = malloc(sizeof(double) * wd);
+            int s = envl__median_column(m, x0, x1, y0, y1, half, &left);
+            envl__column_energies(m, x0, x1, y0, y1, cols);
+            /* F(s) = energy([x0, s)); the exact rule: the smallest s in [x0 + 1, x1 - 1] with
+             * F(s) >= half (else x1 - 1), or s - 1 if that is as close to half */
+            double *F = malloc(sizeof(double) * (wd + 1));
+            F[0] = 0;
+            for (int c = 0; c < wd; c++)
+                F[c + 1] = F[c] + cols[c];
+            int want = wd - 1;
+            for (int k = 1; k <= wd - 1; k++)
+                if (F[k] >= half) {
+                    want = k;
+                    break;
+                }
+            if (want > 1 && fabs(F[want - 1] - half) <= fabs(F[want] - half))
+                want--;
+            CHECK(s >= x0 + 1 && s <= x1 - 1);
+            /* the same split, or one exactly as good up to rounding (a tie) */
+            CHECK(s - x0 == want ||
+                  fabs(fabs(F[s - x0] - half) - fabs(F[want] - half)) <= 1e-9 * energy);
+            CHECK(fabs(left - F[s - x0]) <= 1e-9 * energy);
+            free(F);
+            free(cols);
+        }
+    }
+    envl_envmap_free(m);
+    free(px);
+}
+
 int main(void)
 {
     test_constant();
@@ -400,5 +473,6 @@ int main(void)
     test_sat_precision();
     test_fit_light_size();
     test_fit_lights_alone();
+    test_region_table();
     return check_report("test_lights");
 }
