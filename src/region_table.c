@@ -21,7 +21,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 
 /* four floats, two doubles; unaligned loads go through memcpy */
 typedef float v4f __attribute__((vector_size(16)));
@@ -149,15 +148,12 @@ envl_result envl__region_table(envl_envmap *m)
     if (m->region_table)
         return ENVL_OK;
     int32_t w = m->width, h = m->height, nb = blocks_of(w);
-    /* in huge pages where the kernel offers them: fresh 4 kB pages cost a fault each (12288
-     * for the 50 MB of an 8192 x 4096 map, as much time as building the table) */
-    size_t align = (size_t)2 << 20, bytes = sizeof(double) * (size_t)(h + 1) * (nb + 1) * 6;
-    bytes = (bytes + align - 1) / align * align;
-    double *t = aligned_alloc(align, bytes);
-#ifdef MADV_HUGEPAGE
-    if (t)
-        madvise(t, bytes, MADV_HUGEPAGE);
-#endif
+    /* Plain pages on purpose: on this project's VMs a fresh huge page is backed by the host
+     * on first touch, and freed huge pages go back to it, so a huge-page table cost 0.003 s
+     * or 0.05-0.1 s to touch depending on where it landed (bench ratios 2.4-6.3); 4 kB pages
+     * come from recently freed memory and cost a steady ~0.018 s for 50 MB (ratios 2.7-2.9). */
+    size_t bytes = sizeof(double) * (size_t)(h + 1) * (nb + 1) * 6;
+    double *t = malloc(bytes);
     float *wcos = malloc(sizeof(float) * 6 * ENVL_TABLE_BLOCK);
     if (!t || !wcos) {
         free(t);
