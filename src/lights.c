@@ -51,12 +51,6 @@ typedef struct region {
     double priority;        /* which region to split next */
 } region;
 
-/* Energy of columns [x0, x1) (wrapping) and rows [y0, y1). */
-static double rect_energy(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0, int32_t y1)
-{
-    return envl__rect_energy(m, x0, x1, y0, y1);
-}
-
 /* Keeps 0 <= x0 < W after a split of a region that wraps. */
 static void normalise_columns(const envl_envmap *m, region *r)
 {
@@ -105,7 +99,7 @@ static int split_median(const envl_envmap *m, const region *r, region *a, region
         double e = 0, e_prev = 0;
         for (s = r->y0; s < hi && (s < lo || e < half); s++) {
             e_prev = e;
-            e += rect_energy(m, r->x0, r->x1, s, s + 1);
+            e += envl__rect_energy(m, r->x0, r->x1, s, s + 1);
         }
         if (s > lo && fabs(e_prev - half) <= fabs(e - half)) {
             s--;
@@ -298,7 +292,7 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
     double dark = INFINITY, cols[ENVL_TABLE_BLOCK];
     for (int32_t c = 0; c < m->width; c += ENVL_TABLE_BLOCK) {
         int32_t c1 = c + ENVL_TABLE_BLOCK < m->width ? c + ENVL_TABLE_BLOCK : m->width;
-        double e = rect_energy(m, c, c1, 0, m->height);
+        double e = envl__rect_energy(m, c, c1, 0, m->height);
         if (e < dark) {
             dark = e;
             b0 = c;
@@ -310,7 +304,7 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
         if (c == b0 || cols[c - b0] < cols[x0 - b0])
             x0 = c;
     rs[0] = (region){x0, x0 + m->width, 0, m->height, 0, 0};
-    rs[0].energy = rect_energy(m, rs[0].x0, rs[0].x1, 0, m->height);
+    rs[0].energy = envl__rect_energy(m, rs[0].x0, rs[0].x1, 0, m->height);
     int32_t k = 1;
     if (method == ENVL_METHOD_MEDIAN) {
         rs[0].priority = rs[0].energy;
@@ -356,8 +350,8 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
             }
             if (s == 0)
                 break;
-            a.energy = rect_energy(m, a.x0, a.x1, a.y0, a.y1);
-            b.energy = rect_energy(m, b.x0, b.x1, b.y0, b.y1);
+            a.energy = envl__rect_energy(m, a.x0, a.x1, a.y0, a.y1);
+            b.energy = envl__rect_energy(m, b.x0, b.x1, b.y0, b.y1);
         }
         rs[best] = a;
         rs[k++] = b;

@@ -211,13 +211,19 @@ static void table_sums(const envl_envmap *m, int32_t k0, int32_t k1, int32_t y0,
         out[ch] += (b[6 * k1 + ch] - b[6 * k0 + ch]) - (a[6 * k1 + ch] - a[6 * k0 + ch]);
 }
 
+/* The whole blocks [k0, k1) inside columns [x0, x1) (0 <= x0 <= x1 <= W); k0 >= k1: none. */
+static void whole_blocks(int32_t w, int32_t x0, int32_t x1, int32_t *k0, int32_t *k1)
+{
+    *k0 = (x0 + ENVL_TABLE_BLOCK - 1) / ENVL_TABLE_BLOCK;
+    *k1 = x1 == w ? blocks_of(w) : x1 / ENVL_TABLE_BLOCK;
+}
+
 /* Columns [x0, x1) without the seam: the whole blocks from the table, the ragged ends directly. */
 static void span_sums(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0, int32_t y1,
                       double out[6])
 {
-    int32_t w = m->width, nb = blocks_of(w);
-    int32_t k0 = (x0 + ENVL_TABLE_BLOCK - 1) / ENVL_TABLE_BLOCK;
-    int32_t k1 = x1 == w ? nb : x1 / ENVL_TABLE_BLOCK;
+    int32_t w = m->width, k0, k1;
+    whole_blocks(w, x0, x1, &k0, &k1);
     if (k0 >= k1) {
         direct_sums(m, x0, x1, y0, y1, out);
         return;
@@ -260,9 +266,8 @@ static double direct_energy(const envl_envmap *m, int32_t x0, int32_t x1, int32_
 
 static double span_energy(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0, int32_t y1)
 {
-    int32_t w = m->width, nb = blocks_of(w);
-    int32_t k0 = (x0 + ENVL_TABLE_BLOCK - 1) / ENVL_TABLE_BLOCK;
-    int32_t k1 = x1 == w ? nb : x1 / ENVL_TABLE_BLOCK;
+    int32_t w = m->width, k0, k1;
+    whole_blocks(w, x0, x1, &k0, &k1);
     if (k0 >= k1)
         return direct_energy(m, x0, x1, y0, y1);
     double s[6] = {0, 0, 0, 0, 0, 0};

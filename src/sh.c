@@ -78,6 +78,7 @@ typedef struct project_job {
     const float *wt;         /* 2 L x 3 SH_BLOCK: per order m = 1..L, cos then sin (m c D) per
                                 float of a block (repeated over the 3 channels) */
     const double *turn;      /* blocks x L x 2: cos, sin (m phi_0) of each block's first pixel */
+    const double *k;         /* 2 L + 1: k_m, index L + m */
     double *row_coef;        /* H x n x 3: each row's contribution */
 } project_job;
 
@@ -176,13 +177,6 @@ static void project_rows(void *arg, int64_t begin, int64_t end)
     double *s = malloc(sizeof(double) * nm * 3);
     if (!theta || !y || !s)
         goto out; /* row_coef stays zero; the caller checks the allocation up front */
-    double *k = malloc(sizeof(double) * nm);
-    if (!k)
-        goto out;
-    /* k_m = (2 / |m|) sin(|m| D / 2), k_0 = D */
-    for (int32_t mm = -L; mm <= L; mm++)
-        k[L + mm] = mm == 0 ? 2.0 * ENVL_PI / w
-                            : 2.0 / abs(mm) * sin(abs(mm) * ENVL_PI / w);
     for (int64_t r = begin; r < end; r++) {
         /* Theta_lm(r) = integral over the row of (Y_lm at phi = 0, i.e. without the azimuth
          * factor) cos t dt, by Gauss-Legendre in t on pieces no taller than pi / 64 (a map only
@@ -203,8 +197,7 @@ static void project_rows(void *arg, int64_t begin, int64_t end)
                         theta[l * (l + 1) + mm] += wt * y[l * (l + 1) + mm];
             }
         }
-        /* S_m = sum over the row of L(c) Phi_m(c), for m = -L..L, per channel: every column
-         * feeds 3 (2L+1) independent accumulators (no add waits for another). */
+        /* S_m = sum over the row of L(c) Phi_m(c) = k_m x the row's sums, m = -L..L */
         const float *p = m->px + (size_t)r * w * 3;
         row_sums(p, w, j->block, j->wt, j->turn, L, s);
         double *out = j->row_coef + (size_t)r * n * 3;
@@ -213,10 +206,9 @@ static void project_rows(void *arg, int64_t begin, int64_t end)
                 int32_t i = l * (l + 1) + mm;
                 double th = theta[l * (l + 1) + (mm < 0 ? -mm : mm)];
                 for (int ch = 0; ch < 3; ch++)
-                    out[3 * i + ch] = th * k[L + mm] * s[3 * (L + mm) + ch];
+                    out[3 * i + ch] = th * j->k[L + mm] * s[3 * (L + mm) + ch];
             }
     }
-    free(k);
 out:
     free(theta);
     free(y);
@@ -263,7 +255,11 @@ static envl_result project(const envl_envmap *m, int32_t L, double *coef)
             turn[((size_t)k * L + mm - 1) * 2 + 1] = sin(mm * phi0);
         }
     }
-    project_job job = {m, L, n, block, wt, turn, row_coef};
+    /* k_m = (2 / |m|) sin(|m| D / 2), k_0 = D */
+    double k[2 * 32 + 1];
+    for (int32_t mm = -L; mm <= L; mm++)
+        k[L + mm] = mm == 0 ? 2.0 * ENVL_PI / w : 2.0 / abs(mm) * sin(abs(mm) * ENVL_PI / w);
+    project_job job = {m, L, n, block, wt, turn, k, row_coef};
     envl__parallel_for(h, m->threads, project_rows, &job);
     /* Rows summed in order: the same result at any thread count. */
     memset(coef, 0, sizeof(double) * n * 3);
