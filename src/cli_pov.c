@@ -19,6 +19,7 @@
  * C[0][0] = (sky + ground) / 2, C[0][1] = (sky - ground) / 2.
  */
 #include "cli.h"
+#include "ground.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -31,8 +32,8 @@
 static const char pov_help[] =
     "Usage: envlight pov [FILE] -o OUT.inc [-n N] [--method fit|median|variance] [--order L]\n"
     "                    [--ambient sh|hemi|none] [--shadows hard|soft|none] [--sky]\n"
-    "                    [--sky-image PATH] [--sky-residual] [--scene-radius R] [--no-place]\n"
-    "                    [input options]\n"
+    "                    [--ground ALBEDO] [--sky-image PATH] [--sky-residual]\n"
+    "                    [--scene-radius R] [--no-place] [input options]\n"
     "A POV-Ray 3.7 include (POV-Ray's frame: left-handed, +Y up; POV <x,y,z> = canonical\n"
     "<x,z,y>) for povray_include/envlight.inc: light directions and colours (rgb / pi), the\n"
     "ambient that the lights did not take, the sky; then the macro calls that place them.\n"
@@ -42,6 +43,11 @@ static const char pov_help[] =
     "                    fit: -1 fits lights alone (the default with --ambient none)\n"
     "  --ambient A       sh (default): the SH ambient as slope-pattern pigments (no radiosity\n"
     "                    needed); hemi: its best sky/ground/axis form; none: lights only\n"
+    "  --ground A        the scene stands on a ground plane (POV-Ray y = 0) of albedo A\n"
+    "                    (0..1): lights, ambient and error are computed from the map with its\n"
+    "                    lower hemisphere replaced by the plane's radiance A E_up / pi (E_up:\n"
+    "                    the map's exact irradiance at the normal +Z); the ambient then holds\n"
+    "                    the plane's bounce and no light comes from below the horizon\n"
     "  --shadows S       hard (default), soft (area lights sized by each light's angular\n"
     "                    diameter), none (shadowless lights)\n"
     "  --sky             declare the environment as a sky_sphere (EnvLight_Sky())\n"
@@ -285,7 +291,8 @@ int cli_pov(int argc, char **argv)
     envl_lights_options lo = {.method = ENVL_METHOD_FIT, .count = 4};
     int order = 2, order_set = 0, ambient = AMB_SH, shadows = SHADOW_HARD, sky = 0;
     int sky_residual = 0, place = 1;
-    double radius = 100;
+    double radius = 100, ground = -1; /* ground < 0: no ground plane */
+    double ground_radiance[3] = {0, 0, 0};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v;
         long long n;
@@ -336,6 +343,10 @@ int cli_pov(int argc, char **argv)
         } else if ((r = cli_value(argc, argv, &i, "--scene-radius", &v)) != 0) {
             if (r < 0 || cli_parse_double(v, &radius) || !(radius > 0) || radius > 1e12)
                 return cli_usage("pov", "--scene-radius takes a positive number");
+        } else if ((r = cli_value(argc, argv, &i, "--ground", &v)) != 0) {
+            if (r < 0 || cli_parse_double(v, &ground) || !(ground >= 0 && ground <= 1))
+                return cli_usage("pov", "--ground takes the plane's albedo, a number within "
+                                 "[0, 1]");
         } else if ((r = cli_value(argc, argv, &i, "--sky-image", &v)) != 0) {
             if (r < 0 || !*v)
                 return cli_usage("pov", "--sky-image needs a file name");
@@ -383,10 +394,22 @@ int cli_pov(int argc, char **argv)
     int rc = CLI_FAIL;
     envl_lights *ls = NULL;
     envl_sh *sh = NULL;
-    envl_envmap *residual = NULL;
+    envl_envmap *residual = NULL, *grounded = NULL;
     char *sky_path = NULL;
     double *emit = NULL;
-    if (envl_lights_compute(map, &lo, &ls)) {
+    /* lit: what the scene's objects see (the map, or with --ground the map over the plane);
+     * map stays the environment as read (info, the sky image). */
+    envl_envmap *lit = map;
+    if (ground >= 0) {
+        envl_result gr = envl_ground_plane_map(map, ground, c.load.threads, &grounded,
+                                               ground_radiance);
+        if (gr) {
+            rc = gr == ENVL_ERR_MEMORY ? (cli_error("pov: out of memory"), CLI_FAIL) : cli_fail();
+            goto done;
+        }
+        lit = grounded;
+    }
+    if (envl_lights_compute(lit, &lo, &ls)) {
         rc = cli_fail();
         goto done;
     }
@@ -444,7 +467,7 @@ int cli_pov(int argc, char **argv)
      * irradiance at DESIGN.md's 1024 normals. */
     const double *ref;
     emit = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
-    if (!emit || envl_envmap_reference_irradiance(map, &ref)) {
+    if (!emit || envl_envmap_reference_irradiance(lit, &ref)) {
         rc = emit ? cli_fail() : (cli_error("pov: out of memory"), CLI_FAIL);
         goto done;
     }
@@ -533,6 +556,12 @@ int cli_pov(int argc, char **argv)
         fprintf(f, " (%s order %d, %d slope terms)", rem ? "fit remainder" : "residual SH",
                 amb_order, rd.terms);
     fprintf(f, "; shadows %s\n", shadow_names[shadows]);
+    if (grounded) {
+        fprintf(f, "// ground plane (canonical z = 0, POV-Ray y = 0), albedo %.9g: the lower "
+                "hemisphere\n//   is its radiance albedo * E_up / pi = <%.6g, %.6g, %.6g>; "
+                "lights, ambient and\n//   error are those of the map so edited\n", ground,
+                ground_radiance[0], ground_radiance[1], ground_radiance[2]);
+    }
     fprintf(f, "// diffuse error %.4f %% (lights + ambient as written, against the exact "
             "integrator,\n//   relative RMS luminance over 1024 normals); %.3f s\n",
             100 * error, seconds);
@@ -560,6 +589,12 @@ int cli_pov(int argc, char **argv)
     fprintf(f, "#declare EnvLight_Method = \"%s\";\n", envl_method_name(s.method));
     fprintf(f, "#declare EnvLight_Diffuse_Error = %.9g;\n", error);
     fprintf(f, "#declare EnvLight_Seconds = %.6g;\n", seconds);
+    if (grounded) {
+        fprintf(f, "#declare EnvLight_Ground_Albedo = %.9g;\n", ground);
+        fputs("#declare EnvLight_Ground_Radiance = ", f);
+        pov_rgb(f, ground_radiance, 1);
+        fputs("; // below the horizon: albedo * E_up / pi\n", f);
+    }
     fprintf(f, "#ifndef (EnvLight_Scene_Center) #declare EnvLight_Scene_Center = <0, 0, 0>; "
                "#end\n");
     fprintf(f, "#ifndef (EnvLight_Scene_Radius) #declare EnvLight_Scene_Radius = %.9g; #end\n",
@@ -660,6 +695,7 @@ done:
     free(sky_path);
     envl_sh_free(sh);
     envl_envmap_free(residual);
+    envl_envmap_free(grounded);
     envl_lights_free(ls);
     envl_envmap_free(map);
     return rc;

@@ -36,6 +36,21 @@ has order4.inc "#declare EnvLight_Ambient_SH = array\[25\]"
 run "$ENVLIGHT" pov - $S --method median -n 8 -o median.inc
 has median.inc "8 lights by median"
 
+# --ground: the plane's albedo and radiance declared, the header says so; without it, nothing
+run "$ENVLIGHT" pov - $S --ground 0.5 -o ground.inc
+has ground.inc "#declare EnvLight_Ground_Albedo = 0.5;"
+has ground.inc "#declare EnvLight_Ground_Radiance = <"
+has ground.inc "^// ground plane (canonical z = 0, POV-Ray y = 0), albedo 0.5"
+hasnt default.inc "EnvLight_Ground"
+run "$ENVLIGHT" pov - $S --ground 0 --ambient none -o ground0.inc
+has ground0.inc "#declare EnvLight_Ground_Radiance = <0, 0, 0>;"
+for bad in 1.5 -0.1 abc nan inf ""; do
+  usage "$ENVLIGHT" pov - $S --ground "$bad" -o bad.inc
+  has err.txt "ground takes the plane's albedo, a number within \[0, 1\]"
+done
+usage "$ENVLIGHT" pov - $S --ground
+checks=$((checks + 1)); [ ! -e bad.inc ] || { fails=$((fails + 1)); echo "FAIL: bad --ground wrote bad.inc"; }
+
 # names: quotes, backslashes and '#' escaped; control characters refused, nothing written
 run "$ENVLIGHT" convert - 'a"b\c#d.hdr' $S
 run "$ENVLIGHT" pov 'a"b\c#d.hdr' --sky -o q.inc
@@ -64,7 +79,7 @@ usage "$ENVLIGHT" pov a.hdr b.hdr
 # POV-Ray parses the generated include with every option (no render: +W8 +H8 -F)
 if command -v povray >/dev/null; then
   src=$(cd "$(dirname "$0")/.." && pwd)
-  for inc in default none hemi soft shadowless sky res order4 median q; do
+  for inc in default none hemi soft shadowless sky res order4 median q ground ground0; do
     printf '#version 3.7;\nglobal_settings { assumed_gamma 1 }\n#include "%s.inc"\ncamera { location <0,0,-5> look_at 0 }\nsphere { 0, 1 EnvLight_Diffuse_Texture(<1,1,1>) }\n' "$inc" > p_$inc.pov
     checks=$((checks + 1))
     povray +Ip_$inc.pov -F +W8 +H8 -D -P +L"$src/povray_include" >pov.txt 2>&1 ||

@@ -1,0 +1,59 @@
+/* The environment as a scene on a ground plane sees it (envlight pov --ground).
+ *
+ * A scene standing on an infinite Lambertian plane (canonical z = 0, normal +Z) of albedo a
+ * never sees the map's lower hemisphere: the plane hides it and shows its own radiance
+ * instead. Lit by the upper hemisphere alone (the plane cannot see itself), the plane's
+ * irradiance is E_up = integral over z > 0 of L(d) d_z dw: the exact irradiance of the map at
+ * the normal +Z (the lower hemisphere has n . d <= 0 there), from envl_irradiance_exact. A
+ * Lambertian surface (BRDF a / pi) under irradiance E reflects the uniform radiance a E / pi
+ * (e.g. Pharr, Jakob & Humphreys, Physically Based Rendering, 3rd ed., 8.3, LambertianReflection),
+ * so the plane shows
+ *     L_ground = a E_up / pi
+ * in every direction below the horizon. The returned map keeps the upper hemisphere and sets
+ * every pixel below the horizon to L_ground. A row straddling the horizon (the middle row of
+ * an odd height) gets the mix of both by the solid-angle share on each side, so the map's power
+ * stays exact. Left out: the scene's own objects (their shadows on the plane, occlusion near a
+ * contact point) and the plane's finite size. */
+#include "ground.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+#define GROUND_PI 3.14159265358979323846
+
+envl_result envl_ground_plane_map(const envl_envmap *map, double albedo, int32_t threads,
+                                  envl_envmap **out, double ground_rgb[3])
+{
+    *out = NULL;
+    if (!(albedo >= 0 && albedo <= 1))
+        return ENVL_ERR_ARGUMENT; /* the caller checks and names it */
+    const double up[3] = {0, 0, 1};
+    double e_up[3], ground[3];
+    envl_result rc = envl_irradiance_exact(map, 1, up, e_up);
+    if (rc)
+        return rc;
+    for (int k = 0; k < 3; k++)
+        ground[k] = albedo * e_up[k] / GROUND_PI;
+    if (ground_rgb)
+        for (int k = 0; k < 3; k++)
+            ground_rgb[k] = ground[k];
+
+    int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
+    const float *src = envl_envmap_pixels(map);
+    float *px = malloc(sizeof(float) * 3 * (size_t)w * h);
+    if (!px)
+        return ENVL_ERR_MEMORY;
+    for (int32_t r = 0; r < h; r++) {
+        /* row r spans the elevations [t1, t0], t = pi (0.5 - v) (DESIGN.md) */
+        double t0 = GROUND_PI * (0.5 - (double)r / h), t1 = GROUND_PI * (0.5 - (r + 1.0) / h);
+        double below = t0 <= 0 ? 1 : t1 >= 0 ? 0 : -sin(t1) / (sin(t0) - sin(t1));
+        const float *s = src + (size_t)3 * w * r;
+        float *d = px + (size_t)3 * w * r;
+        for (int32_t i = 0; i < 3 * w; i++)
+            d[i] = below == 0 ? s[i] : (float)((1 - below) * s[i] + below * ground[i % 3]);
+    }
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
+    rc = envl_envmap_from_pixels(px, w, h, 3, &lo, out);
+    free(px);
+    return rc;
+}
