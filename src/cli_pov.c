@@ -26,7 +26,6 @@
 #include <string.h>
 #include <time.h>
 
-#define POV_PI 3.14159265358979323846
 #define POV_MAX_ORDER 8
 
 static const char pov_help[] =
@@ -191,7 +190,7 @@ static double ridge_from_sh(int order, const double *sh, ridge *r)
     for (int k = 0; k < r->terms; k++) {
         /* Fibonacci spiral on the upper hemisphere (antipodal directions would be redundant). */
         double z = r->terms == 1 ? 1 : 1 - (k + 0.5) / r->terms;
-        double s = sqrt(1 - z * z), ph = k * POV_PI * (3 - sqrt(5.0));
+        double s = sqrt(1 - z * z), ph = k * CLI_PI * (3 - sqrt(5.0));
         r->dir[k][0] = s * cos(ph);
         r->dir[k][1] = s * sin(ph);
         r->dir[k][2] = z;
@@ -212,7 +211,7 @@ static double ridge_from_sh(int order, const double *sh, ridge *r)
                         s += y[k][base + i] * y[k][base + j];
                     g[i * m + j] = s;
                 }
-                rhs[i] = (2 * l + 1) / (4 * POV_PI) * sh[3 * (base + i) + ch];
+                rhs[i] = (2 * l + 1) / (4 * CLI_PI) * sh[3 * (base + i) + ch];
             }
             if (solve(m, g, rhs))
                 return -1;
@@ -620,13 +619,13 @@ int cli_pov(int argc, char **argv)
                 if (a == 0)
                     pov_vector(f, l.direction);
                 else if (a == 1)
-                    pov_rgb(f, l.rgb, 1 / POV_PI);
+                    pov_rgb(f, l.rgb, 1 / CLI_PI);
                 else if (a == 2)
                     pov_rgb(f, l.rgb, 1);
                 else if (a == 3)
                     fprintf(f, "%.9g", l.solid_angle);
                 else
-                    fprintf(f, "%.9g", l.angle * 180 / POV_PI);
+                    fprintf(f, "%.9g", l.angle * 180 / CLI_PI);
                 fputs(j + 1 < s.count ? ",\n" : "\n", f);
             }
             fputs("};\n", f);

@@ -27,6 +27,9 @@ static const char prefilter_help[] =
     "  --min-size S       no level narrower than S (lat-long width; default 64)\n"
     "  --samples M        GGX samples per texel (default 128; filtered importance sampling)\n"
     "  --unfiltered       plain GGX importance sampling of the full map (the baseline)\n"
+    "  --sun-lights       the sun (pixels above 50x the mean luminance) as lights in the\n"
+    "                     sidecar, left out of the irradiance map and the glossy levels, for\n"
+    "                     the renderer to add analytically; errors are measured with them\n"
     "  --irradiance-method resampled|sh|exact   (default resampled: exact sum over the map\n"
     "                     area-averaged to 256 x 128; sh: SH of --irradiance-order; exact:\n"
     "                     every pixel, slow)\n"
@@ -167,6 +170,8 @@ int cli_prefilter(int argc, char **argv)
             want_spec = 1;
         } else if (!strcmp(a, "--unfiltered")) {
             q.prefilter.unfiltered = 1;
+        } else if (!strcmp(a, "--sun-lights")) {
+            q.prefilter.sun_lights = 1;
         } else if (!strcmp(a, "--brdf")) {
             brdf = 1;
         } else if (!strcmp(a, "--no-error")) {
@@ -260,6 +265,12 @@ int cli_prefilter(int argc, char **argv)
             printf("  glossy error %.3f %%", 100 * l.glossy_error);
         printf("  %.3f s\n", l.seconds);
     }
+    int32_t nsun;
+    const envl_light *sun = envl_products_sun_lights(p, &nsun);
+    for (int32_t i = 0; i < nsun; i++)
+        printf("sun_light_%02d direction %.4f %.4f %.4f  rgb %.5g %.5g %.5g  angle %.3f deg\n",
+               (int)i, sun[i].direction[0], sun[i].direction[1], sun[i].direction[2],
+               sun[i].rgb[0], sun[i].rgb[1], sun[i].rgb[2], sun[i].angle * 180 / CLI_PI);
     int32_t bs;
     if (envl_products_brdf(p, &bs, NULL))
         printf("brdf_lut     %d x %d  %.3f s\n", (int)bs, (int)bs, s.seconds_brdf);

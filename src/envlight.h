@@ -333,6 +333,12 @@ typedef struct envl_prefilter_options {
     int32_t irradiance_width; /* lat-long width of the irradiance map; default 64 */
     int32_t irradiance_order; /* ENVL_IRRADIANCE_SH: SH order 0..32; default 2 */
     int32_t threads;          /* default: the map's */
+    int32_t sun_lights;       /* nonzero: the bright pixels split off before filtering (more
+                                 than 50x the mean luminance: a sun) are not baked into the
+                                 levels of roughness > 0 nor into the irradiance map but
+                                 returned as lights (envl_products_sun_lights) that the renderer
+                                 adds analytically, as engines light with a sun; each product's
+                                 error is measured with them added (README "Prefiltered maps") */
 } envl_prefilter_options;
 
 /* Width of the specular level of `roughness` under `options` (height = width / 2). */
@@ -417,6 +423,16 @@ ENVL_API envl_result envl_products_irradiance(const envl_products *products,
                                               envl_irradiance_map *out);
 ENVL_API const envl_sh *envl_products_sh(const envl_products *products);       /* or NULL */
 ENVL_API const envl_lights *envl_products_lights(const envl_products *products); /* or NULL */
+/* With options.sun_lights: the split-off bright pixels, one light per 8-connected group (the
+ * roughness-0 level keeps them: a light's mirror reflection is a delta no renderer draws).
+ * rgb = sum of the excess L dw, direction = the luminance-weighted centroid, solid_angle = the
+ * uniform disc of the same spread. A renderer adds, per light, E max(n.l, 0) to the irradiance
+ * map and E w(R.l) / N(alpha) to a level's P(R), w(u) = u / q^2, q = ((1 + u) / 2)(alpha^2 - 1) +
+ * 1, N = envl_ggx_lobe_norm. NULL (count 0) when none were split or not asked. */
+ENVL_API const envl_light *envl_products_sun_lights(const envl_products *products,
+                                                    int32_t *count);
+/* N(alpha) = integral over the sphere of w(R.l) above (pi at alpha = 1). */
+ENVL_API double envl_ggx_lobe_norm(double alpha);
 /* The BRDF table (size x size x 2 floats) or NULL. */
 ENVL_API const float *envl_products_brdf(const envl_products *products, int32_t *size,
                                          int32_t *multiscatter);

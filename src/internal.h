@@ -117,9 +117,6 @@ envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32
                                    int32_t out_h, double rotate_degrees, float **out);
 
 /* ---- prefiltering (prefilter.c, png.c) ---- */
-/* Integral over the sphere of w(u) = u / q^2, q = ((1 + u)/2)(alpha^2 - 1) + 1 (GGX D(h) R.l up
- * to a constant), a2 = alpha^2: the normaliser of a point lobe. */
-double envl__ggx_lobe_norm(double a2);
 /* Reads an 8-bit RGB / RGBA PNG; *px gets w * h * channels bytes (caller frees). */
 envl_result envl__png_read(const char *path, int32_t *w, int32_t *h, int32_t *channels,
                            uint8_t **px);

@@ -363,7 +363,7 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
 
 /* Angular diameter of a cone of the light's solid angle: 2 acos(1 - omega / 2 pi), capped at
  * pi (DESIGN.md). */
-static void set_angle(envl_light *l)
+void envl__light_set_angle(envl_light *l)
 {
     double c = 1.0 - l->solid_angle / (2.0 * ENVL_PI);
     l->angle = fmin(ENVL_PI, 2.0 * acos(c < -1 ? -1 : c > 1 ? 1 : c));
@@ -387,7 +387,7 @@ static void region_light(const envl_envmap *m, const region *r, envl_light *l)
     }
     memcpy(l->rgb, t, sizeof l->rgb);
     l->solid_angle = omega;
-    set_angle(l);
+    envl__light_set_angle(l);
     l->rect[0] = r->x0;
     l->rect[1] = r->y0;
     l->rect[2] = r->x1;
@@ -929,7 +929,7 @@ static envl_result take_cones(const envl_envmap *m, envl_lights *ls)
          * around a 0.5-degree sun with its glow): as a disc it would soften the terminator of
          * a lit sphere the sun leaves sharp. */
         l->solid_angle = taken > 0 ? fmin(4.0 * ENVL_PI, 4.0 * ENVL_PI * spread / taken) : 0.0;
-        set_angle(l);
+        envl__light_set_angle(l);
         l->rect[0] = x0 < W ? x0 : 0;
         l->rect[1] = y0 < H ? y0 : 0;
         l->rect[2] = x1 > 0 ? x1 : 0;

@@ -87,7 +87,7 @@ int32_t envl_export_layout_from_name(const char *name)
 
 typedef struct resolved {
     int32_t levels, width, min_width, samples, unfiltered;
-    int32_t irr_method, irr_width, irr_order, threads;
+    int32_t irr_method, irr_width, irr_order, threads, sun_lights;
 } resolved;
 
 static envl_result resolve(const envl_prefilter_options *o, const envl_envmap *m, resolved *r)
@@ -104,6 +104,10 @@ static envl_result resolve(const envl_prefilter_options *o, const envl_envmap *m
     r->irr_width = o->irradiance_width ? o->irradiance_width : DEFAULT_IRRADIANCE_WIDTH;
     r->irr_order = o->irradiance_order ? o->irradiance_order : 2;
     r->threads = o->threads > 0 ? o->threads : m ? m->threads : envl__threads(0);
+    r->sun_lights = o->sun_lights != 0;
+    if (r->sun_lights && r->unfiltered)
+        return envl__fail(ENVL_ERR_ARGUMENT, "prefilter: sun lights need the filtered levels "
+                          "(the unfiltered baseline samples the map as it is)");
     if (r->levels < 1 || r->levels > 16 || r->width < 2 || r->width > 65536 ||
         r->min_width < 2 || r->samples < 1 || r->samples > (1 << 20) || r->irr_method < 0 ||
         r->irr_method >= ENVL_IRRADIANCE_COUNT || r->irr_width < 2 || r->irr_width > 65536 ||
@@ -125,6 +129,21 @@ static int32_t level_width(const resolved *r, double roughness)
     int32_t w = k >= 31 ? 0 : r->width >> k;
     int32_t mn = r->min_width < r->width ? r->min_width : r->width;
     return w < mn ? mn : w;
+}
+
+/* GGX samples per texel of a filtered level w wide: M at the base width W and M (W / w)^2 below
+ * it, at most ROUGH_SAMPLES_MAX x M: a rough level's few texels get the samples its wide lobe
+ * needs (with M = 128 at roughness 1, the sum of 128 mip footprints is 2-4 % off the lobe;
+ * with 1024, 0.4-0.7 %) for about the cost of the base level. The unfiltered baseline always
+ * takes M. */
+#define ROUGH_SAMPLES_MAX 8
+static int32_t level_samples(const resolved *r, int32_t w)
+{
+    if (r->unfiltered || w >= r->width)
+        return r->samples;
+    double f = (double)r->width / w;
+    double n = r->samples * fmin(f * f, ROUGH_SAMPLES_MAX);
+    return n > (1 << 20) ? (1 << 20) : (int32_t)n;
 }
 
 int32_t envl_prefilter_level_width(const envl_prefilter_options *options, double roughness)
@@ -483,6 +502,7 @@ static void image_energy(const float *px, int32_t w, int32_t h, double e[3])
 typedef struct lobe {
     double d[3], e[3];
     int32_t r, c;
+    int32_t taken;            /* a sun light took it (options.sun_lights): not baked */
 } lobe;
 
 typedef struct split {
@@ -568,6 +588,7 @@ static envl_result make_split(const envl_envmap *m, split *s)
             l->d[1] = m->row_cos[r] * m->col_sin[c];
             l->d[2] = m->row_sin[r];
             l->r = r, l->c = c;
+            l->taken = 0;
         }
     envl_result rc = build_pyramid(s->res, w, h, &s->mip, &s->levels, s->mw, s->mh, s->off);
     if (rc)
@@ -575,9 +596,10 @@ static envl_result make_split(const envl_envmap *m, split *s)
     return rc;
 }
 
-/* N(alpha): the integral of w over the sphere (a2 = alpha^2). */
-double envl__ggx_lobe_norm(double a2)
+/* N(alpha): the integral of w over the sphere. */
+double envl_ggx_lobe_norm(double alpha)
 {
+    double a2 = alpha * alpha;
     double A = 0.5 * (1 + a2), B = 0.5 * (a2 - 1), x = B / A;
     if (fabs(x) < 1e-3) /* ln(1+x) + 1/(1+x) - 1 = x^2/2 - 2x^3/3 + 3x^4/4 - ... */
         return 2 * ENVL_PI / (A * A) * (0.5 - 2 * x / 3 + 0.75 * x * x - 0.8 * x * x * x);
@@ -650,12 +672,15 @@ static envl_result add_lobes(const split *s, int32_t mh, double alpha, int32_t w
         free(k), free(cl), free(lp);
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
     }
+    int32_t nk = 0;
     for (int32_t i = 0; i < s->n; i++)
-        k[i].key = (int64_t)(s->lobes[i].r / f) * (1 << 30) + s->lobes[i].c / f, k[i].i = i;
-    qsort(k, (size_t)s->n, sizeof *k, cmp_key);
+        if (!s->lobes[i].taken)
+            k[nk].key = (int64_t)(s->lobes[i].r / f) * (1 << 30) + s->lobes[i].c / f,
+            k[nk++].i = i;
+    qsort(k, (size_t)nk, sizeof *k, cmp_key);
     int32_t nc = 0;
     double etot[3] = {0, 0, 0};
-    for (int32_t i = 0; i < s->n; i++) {
+    for (int32_t i = 0; i < nk; i++) {
         if (i == 0 || k[i].key != k[i - 1].key)
             nc++;
         lobe *c = cl + nc - 1;
@@ -673,7 +698,7 @@ static envl_result add_lobes(const split *s, int32_t mh, double alpha, int32_t w
     double texel = ENVL_PI / h;
     int32_t ss = texel > 2 * alpha ? (int32_t)ceil(texel / alpha) : 1;
     ss = ss > 32 ? 32 : ss;
-    lobe_job j = {cl, nc, w, h, ss, alpha * alpha, 1.0 / envl__ggx_lobe_norm(alpha * alpha), lp};
+    lobe_job j = {cl, nc, w, h, ss, alpha * alpha, 1.0 / envl_ggx_lobe_norm(alpha), lp};
     envl__parallel_for(h, threads, lobe_rows, &j);
     double eout[3];
     image_energy(lp, w, h, eout);
@@ -684,6 +709,171 @@ static envl_result add_lobes(const split *s, int32_t mh, double alpha, int32_t w
     }
     free(k), free(cl), free(lp);
     return ENVL_OK;
+}
+
+/* ---- the split-off lobes as lights (options.sun_lights) ----
+ * An 8-connected group of split pixels (columns wrap; a pole row is one group) becomes a light
+ * when it is a sun: rgb = sum E_j, direction = the luminance-weighted centroid of the l_j, and
+ * the solid angle of the uniform disc with the same spread, 4 pi mean(1 - cos t) over the
+ * group's pixels, each pixel counted as its own disc (mean(1 - cos t) = omega_j / 4 pi), as
+ * lights.c sizes fit lights. A sun: that disc at most SUN_MAX_ANGLE across, the group's pixels
+ * filling at least 1 / SUN_MIN_FILL of it (a window frame or a ring of lamps is no disc), and
+ * at least SUN_MIN_SHARE of the map's power (no light for a glint). The other groups stay point
+ * lobes baked into the levels. */
+#define SUN_MAX_ANGLE (5.0 * ENVL_PI / 180)
+#define SUN_MIN_FILL 2.0
+#define SUN_MIN_SHARE 0.01
+static int lobes_touch(const lobe *a, const lobe *b, int32_t w, int32_t h)
+{
+    int32_t dr = abs(a->r - b->r), dc = abs(a->c - b->c);
+    if (dr > 1)
+        return 0;
+    if (dr == 0 && (a->r == 0 || a->r == h - 1))
+        return 1;
+    return dc <= 1 || dc == w - 1;
+}
+
+static int32_t find_root(int32_t *parent, int32_t i)
+{
+    while (parent[i] != i)
+        i = parent[i] = parent[parent[i]];
+    return i;
+}
+
+static envl_result split_lights(const envl_envmap *m, split *s, envl_light **out,
+                                int32_t *count)
+{
+    double power = 0; /* of the map: sum of Y dw */
+    for (int32_t r = 0; r < m->height; r++) {
+        const float *p = m->px + 3 * (size_t)r * m->width;
+        double row = 0;
+        for (int32_t c = 0; c < m->width; c++)
+            row += envl__lum(p[3 * c], p[3 * c + 1], p[3 * c + 2]);
+        power += row * m->row_omega[r];
+    }
+    *out = NULL;
+    *count = 0;
+    if (s->n == 0)
+        return ENVL_OK;
+    int32_t *parent = malloc(sizeof(int32_t) * s->n), *slot = malloc(sizeof(int32_t) * s->n);
+    int32_t *slot_light = malloc(sizeof(int32_t) * s->n);
+    double *acc = calloc((size_t)s->n, 8 * sizeof(double)); /* e[3], y d[3], y, y omega/4pi */
+    double *pixels = calloc((size_t)s->n, sizeof(double)); /* the group's solid angle */
+    envl_light *l = calloc((size_t)s->n, sizeof(envl_light));
+    if (!parent || !slot || !slot_light || !acc || !pixels || !l) {
+        free(parent), free(slot), free(slot_light), free(acc), free(pixels), free(l);
+        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
+    }
+    for (int32_t i = 0; i < s->n; i++)
+        parent[i] = i;
+    /* lobes are in row-major order: only the rows r and r + 1 can touch */
+    for (int32_t i = 0; i < s->n; i++)
+        for (int32_t j = i + 1; j < s->n && s->lobes[j].r <= s->lobes[i].r + 1; j++)
+            if (lobes_touch(s->lobes + i, s->lobes + j, m->width, m->height))
+                parent[find_root(parent, j)] = find_root(parent, i);
+    int32_t n = 0;
+    for (int32_t i = 0; i < s->n; i++) {
+        int32_t root = find_root(parent, i);
+        if (root == i)
+            slot[i] = n++;
+    }
+    for (int32_t i = 0; i < s->n; i++) {
+        const lobe *b = s->lobes + i;
+        double *a = acc + 8 * slot[find_root(parent, i)];
+        double y = envl__lum(b->e[0], b->e[1], b->e[2]);
+        for (int k = 0; k < 3; k++)
+            a[k] += b->e[k], a[3 + k] += y * b->d[k];
+        a[6] += y;
+        a[7] += y * m->row_omega[b->r] / (4 * ENVL_PI);
+    }
+    for (int32_t i = 0; i < n; i++) { /* the direction first, then the spread about it */
+        const double *a = acc + 8 * i;
+        double nd = sqrt(a[3] * a[3] + a[4] * a[4] + a[5] * a[5]);
+        for (int k = 0; k < 3; k++)
+            l[i].direction[k] = nd > 0 ? a[3 + k] / nd : 0;
+    }
+    for (int32_t i = 0; i < s->n; i++) {
+        const lobe *b = s->lobes + i;
+        double *a = acc + 8 * slot[find_root(parent, i)];
+        const envl_light *li = l + slot[find_root(parent, i)];
+        double y = envl__lum(b->e[0], b->e[1], b->e[2]);
+        a[7] += y * (1 - (b->d[0] * li->direction[0] + b->d[1] * li->direction[1] +
+                          b->d[2] * li->direction[2]));
+    }
+    for (int32_t i = 0; i < s->n; i++)
+        pixels[slot[find_root(parent, i)]] += m->row_omega[s->lobes[i].r];
+    int32_t nl = 0;
+    for (int32_t i = 0; i < n; i++) {
+        const double *a = acc + 8 * i;
+        envl_light li = {.solid_angle = a[6] > 0 ? fmin(4 * ENVL_PI, 4 * ENVL_PI * a[7] / a[6]) : 0};
+        memcpy(li.direction, l[i].direction, sizeof li.direction);
+        for (int k = 0; k < 3; k++)
+            li.rgb[k] = a[k];
+        envl__light_set_angle(&li);
+        int keep = li.angle <= SUN_MAX_ANGLE && li.solid_angle <= SUN_MIN_FILL * pixels[i] &&
+                   a[6] >= SUN_MIN_SHARE * power;
+        slot_light[i] = keep ? nl : -1;
+        if (keep)
+            l[nl++] = li;
+    }
+    for (int32_t i = 0; i < s->n; i++)
+        s->lobes[i].taken = slot_light[slot[find_root(parent, i)]] >= 0;
+    free(parent), free(slot), free(acc), free(pixels), free(slot_light);
+    if (nl == 0) {
+        free(l);
+        l = NULL;
+    }
+    *out = l;
+    *count = nl;
+    return ENVL_OK;
+}
+
+/* Adds what the lights give to P(R) at roughness > 0, or to the irradiance E(n) for roughness
+ * < 0, in `count` directions. A light is the uniform disc of its solid angle about its
+ * direction (a sun as Cycles draws a sun lamp of that angle), integrated over SUN_DISC points
+ * spread uniformly in solid angle (a Fibonacci spiral on the cap): P += E mean w(R.l) / N(alpha),
+ * E += E mean max(n.l, 0). */
+#define SUN_DISC 256
+
+/* x, y completing the unit z to a right-handed frame (Duff et al. 2017). */
+static void orthonormal_basis(const double z[3], double x[3], double y[3])
+{
+    double sg = z[2] >= 0 ? 1.0 : -1.0, a = -1.0 / (sg + z[2]), b = z[0] * z[1] * a;
+    x[0] = 1 + sg * z[0] * z[0] * a, x[1] = sg * b, x[2] = -sg * z[0];
+    y[0] = b, y[1] = sg + z[1] * z[1] * a, y[2] = -z[1];
+}
+static void sun_lights_add(const envl_light *l, int32_t n, double roughness, int32_t count,
+                           const double *dirs, double *out)
+{
+    double a = roughness * roughness, a2 = a * a;
+    double inv = roughness > 0 ? 1.0 / envl_ggx_lobe_norm(a) : 0;
+    for (int32_t j = 0; j < n; j++) {
+        const double *z = l[j].direction;
+        double x[3], y[3];
+        orthonormal_basis(z, x, y);
+        double cap = fmin(2.0, l[j].solid_angle / (2 * ENVL_PI)); /* 1 - cos(radius) */
+        int32_t np = cap > 0 ? SUN_DISC : 1;
+        for (int32_t p = 0; p < np; p++) {
+            double ct = 1 - cap * (p + 0.5) / np, st = sqrt(fmax(0.0, 1 - ct * ct));
+            double ph = p * ENVL_PI * (3 - sqrt(5.0)), cp = cos(ph) * st, sp = sin(ph) * st;
+            double d[3];
+            for (int k = 0; k < 3; k++)
+                d[k] = cp * x[k] + sp * y[k] + ct * z[k];
+            for (int32_t i = 0; i < count; i++) {
+                const double *R = dirs + 3 * i;
+                double u = R[0] * d[0] + R[1] * d[1] + R[2] * d[2];
+                if (u <= 0)
+                    continue;
+                double f = u / np;
+                if (roughness > 0) {
+                    double q = 0.5 * (1 + u) * (a2 - 1) + 1;
+                    f *= inv / (q * q);
+                }
+                for (int k = 0; k < 3; k++)
+                    out[3 * i + k] += f * l[j].rgb[k];
+            }
+        }
+    }
 }
 
 /* sp: the map's split (NULL: made here when needed). */
@@ -724,7 +914,8 @@ static envl_result specular_level(envl_envmap *m, const resolved *o, double roug
         split_free(&own);
         return rc;
     }
-    ggx_sample *s = malloc(sizeof(ggx_sample) * (size_t)o->samples);
+    int32_t nsamp = level_samples(o, width);
+    ggx_sample *s = malloc(sizeof(ggx_sample) * (size_t)nsamp);
     float *px = malloc(sizeof(float) * 3 * (size_t)width * h);
     if (!s || !px) {
         free(s);
@@ -733,7 +924,7 @@ static envl_result specular_level(envl_envmap *m, const resolved *o, double roug
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for a %d x %d level",
                           (int)width, (int)h);
     }
-    int32_t ns = make_samples(st->alpha, o->samples, m->width, m->height, s);
+    int32_t ns = make_samples(st->alpha, nsamp, m->width, m->height, s);
     double wsum = 0;
     for (int32_t i = 0; i < ns; i++)
         wsum += s[i].weight;
@@ -800,7 +991,7 @@ static envl_result specular_level(envl_envmap *m, const resolved *o, double roug
         free(px);
         return rc;
     }
-    st->samples = o->samples;
+    st->samples = nsamp;
     st->filtered = !o->unfiltered;
     st->seconds = now() - t0;
     *out = px;
@@ -909,14 +1100,18 @@ static double *fibonacci_dirs(void)
     return d;
 }
 
+/* The error of a lat-long product read bilinearly, plus n_sun sun lights as they add to P(R)
+ * at `roughness` (or to E(n) for roughness < 0). */
 static envl_result sampled_error(const double *dirs, const double *ref, const float *rgb,
-                                 int32_t w, int32_t h, double *error)
+                                 int32_t w, int32_t h, const envl_light *sun, int32_t n_sun,
+                                 double roughness, double *error)
 {
     double *approx = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
     if (!approx)
         return envl__fail(ENVL_ERR_MEMORY, "error measure: out of memory");
     for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
         envl_latlong_sample(rgb, w, h, dirs + 3 * i, approx + 3 * i);
+    sun_lights_add(sun, n_sun, roughness, ENVL_ERROR_NORMALS, dirs, approx);
     *error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, approx, ref);
     free(approx);
     return ENVL_OK;
@@ -934,7 +1129,7 @@ envl_result envl_glossy_error(const envl_envmap *m, double roughness, const floa
     if (!rc)
         rc = envl_prefilter_reference(m, roughness, ENVL_ERROR_NORMALS, dirs, ref);
     if (!rc)
-        rc = sampled_error(dirs, ref, rgb, w, h, error);
+        rc = sampled_error(dirs, ref, rgb, w, h, NULL, 0, roughness, error);
     free(dirs);
     free(ref);
     return rc;
@@ -1027,6 +1222,8 @@ struct envl_products {
     float *irr_px;
     envl_sh *sh;
     envl_lights *lights;
+    envl_light *sun;          /* options.sun_lights: the split-off pixels as lights */
+    int32_t n_sun;
     float *brdf;
     int32_t brdf_size, brdf_multiscatter, brdf_samples;
     char file[1024];
@@ -1043,6 +1240,7 @@ void envl_products_free(envl_products *p)
     free(p->irr_px);
     envl_sh_free(p->sh);
     envl_lights_free(p->lights);
+    free(p->sun);
     free(p->brdf);
     free(p);
 }
@@ -1116,12 +1314,50 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
         s->sh_projections++;
         s->seconds_sh += now() - t;
     }
+    /* The bright pixels split off once for every filtered level (see make_split), and for
+     * the irradiance map when they become lights. */
+    int need_mips = 0;
+    for (int32_t i = 0; i < nw; i++)
+        need_mips |= want[i] > 0 && !p->opt.unfiltered;
+    split sp = {0};
+    if ((need_mips || (p->opt.sun_lights && q->irradiance_map)) && (rc = make_split(m, &sp))) {
+        free(want);
+        goto fail;
+    }
+    if (p->opt.sun_lights && (rc = split_lights(m, &sp, &p->sun, &p->n_sun))) {
+        split_free(&sp);
+        free(want);
+        goto fail;
+    }
     if (q->irradiance_map) {
         t = now();
         int projected = 0;
         const envl_sh *shared = p->sh && irr_sh && p->opt.irr_order == sh_order ? p->sh : NULL;
-        rc = irradiance_map(m, &p->opt, shared, &p->irr_px, &p->irr, &projected);
+        envl_envmap *residual = NULL;
+        if (p->n_sun) { /* the map without what the lights took */
+            size_t npx = (size_t)m->width * m->height;
+            float *px = malloc(sizeof(float) * 3 * npx);
+            if (!px) {
+                rc = envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+            } else {
+                memcpy(px, m->px, sizeof(float) * 3 * npx);
+                for (int32_t i = 0; i < sp.n; i++)
+                    if (sp.lobes[i].taken) {
+                        size_t at = 3 * ((size_t)sp.lobes[i].r * m->width + sp.lobes[i].c);
+                        memcpy(px + at, sp.res + at, sizeof(float) * 3);
+                    }
+                envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = p->opt.threads};
+                rc = envl_envmap_from_pixels(px, m->width, m->height, 3, &lo, &residual);
+                free(px);
+            }
+            shared = NULL;
+        }
+        if (!rc)
+            rc = irradiance_map(residual ? residual : m, &p->opt, shared, &p->irr_px, &p->irr,
+                                &projected);
+        envl_envmap_free(residual);
         if (rc) {
+            split_free(&sp);
             free(want);
             goto fail;
         }
@@ -1134,6 +1370,7 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
     if (q->shadows) {
         t = now();
         if ((rc = envl_lights_compute(m, &q->lights, &p->lights))) {
+            split_free(&sp);
             free(want);
             goto fail;
         }
@@ -1141,24 +1378,16 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
         s->seconds_lights += now() - t;
     }
     /* One pyramid for every filtered specular level of non-zero roughness. */
-    int need_mips = 0;
-    for (int32_t i = 0; i < nw; i++)
-        need_mips |= want[i] > 0 && !p->opt.unfiltered;
     if (need_mips) {
         t = now();
         int built = m->mip_levels == 0;
         if ((rc = envl_envmap_mips(m, &s->pyramid_levels))) {
+            split_free(&sp);
             free(want);
             goto fail;
         }
         s->pyramids_built += built;
         s->seconds_pyramid += now() - t;
-    }
-    /* The bright pixels split off once for every filtered level (see make_split). */
-    split sp = {0};
-    if (need_mips && (rc = make_split(m, &sp))) {
-        free(want);
-        goto fail;
     }
     for (int32_t i = 0; i < nw; i++) {
         t = now();
@@ -1198,14 +1427,16 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
             envl_level *l = &p->levels[i];
             rc = envl_prefilter_reference(m, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
             if (!rc)
-                rc = sampled_error(dirs, ref, l->rgb, l->width, l->height, &l->glossy_error);
+                rc = sampled_error(dirs, ref, l->rgb, l->width, l->height, p->sun,
+                                   l->roughness > 0 ? p->n_sun : 0, l->roughness,
+                                   &l->glossy_error);
         }
         if (!rc && p->has_irradiance) {
             const double *eref;
             rc = envl_envmap_reference_irradiance(m, &eref);
             if (!rc)
-                rc = sampled_error(dirs, eref, p->irr_px, p->irr.width, p->irr.height,
-                                   &p->irr.diffuse_error);
+                rc = sampled_error(dirs, eref, p->irr_px, p->irr.width, p->irr.height, p->sun,
+                                   p->n_sun, -1, &p->irr.diffuse_error);
         }
         free(dirs);
         free(ref);
@@ -1256,6 +1487,13 @@ envl_result envl_products_irradiance(const envl_products *p, envl_irradiance_map
 
 const envl_sh *envl_products_sh(const envl_products *p) { return p ? p->sh : NULL; }
 const envl_lights *envl_products_lights(const envl_products *p) { return p ? p->lights : NULL; }
+
+const envl_light *envl_products_sun_lights(const envl_products *p, int32_t *count)
+{
+    if (count)
+        *count = p ? p->n_sun : 0;
+    return p && p->n_sun ? p->sun : NULL;
+}
 
 const float *envl_products_brdf(const envl_products *p, int32_t *size, int32_t *multiscatter)
 {
@@ -1495,6 +1733,23 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
             "\"levels\": %d, \"base_width\": %d, \"min_width\": %d, \"samples\": %d, "
             "\"filtered\": %s},\n", (int)r->levels, (int)r->width, (int)r->min_width,
             (int)r->samples, r->unfiltered ? "false" : "true");
+    if (r->sun_lights) {
+        fprintf(j, " \"sun_lights\": {\"split\": \"pixels above 50x the mean luminance, one "
+                "light per 8-connected group; not in the irradiance map nor in the levels of "
+                "roughness > 0 (the roughness-0 level keeps them)\", \"add\": \"irradiance map: "
+                "+ rgb max(n.l, 0); level of roughness r: P(R) + rgb w(R.l) / N(alpha), w(u) = u / "
+                "q^2, q = ((1 + u) / 2)(alpha^2 - 1) + 1, N(alpha) = (2 pi / B^2)(ln(alpha^2 / A) + "
+                "A / alpha^2 - 1), A = (1 + alpha^2) / 2, B = (alpha^2 - 1) / 2 (pi at alpha = 1)\","
+                " \"count\": %d, \"lights\": [", (int)p->n_sun);
+        for (int32_t i = 0; i < p->n_sun; i++) {
+            const envl_light *l = p->sun + i;
+            fprintf(j, "%s\n  {\"direction\": [%.9g, %.9g, %.9g], \"rgb\": [%.9g, %.9g, %.9g], "
+                    "\"solid_angle\": %.9g, \"angle\": %.9g}", i ? "," : "", l->direction[0],
+                    l->direction[1], l->direction[2], l->rgb[0], l->rgb[1], l->rgb[2],
+                    l->solid_angle, l->angle);
+        }
+        fprintf(j, "]},\n");
+    }
     envl_result rc = ENVL_OK;
     if (p->has_irradiance) {
         fprintf(j, " \"irradiance\": {\"method\": \"%s\"",

@@ -54,6 +54,26 @@ for name in ["atlas/specular_atlas.png", "atlas/brdf_lut.png"]:
     assert (w, h, depth) == ((64, 64, 8) if "atlas" in name.split("/")[1] else (128, 128, 8)), (name, w, h)
     assert ctype == (6 if "specular" in name else 2)
 PY
+# --sun-lights: the built-in sky's sun as one light in the sidecar, towards (cos 35, 0, sin 35)
+# to half a pixel (0.35 degree: the centroid of a 0.53-degree disc drawn in 0.7-degree pixels),
+# out of the glossy
+# levels (their power + the light = the map's, checked in test_prefilter), errors measured with
+# it; the unfiltered baseline refuses it.
+run "$ENVLIGHT" prefilter - -o sun --sky-width 512 --quiet --roughness 0.5,1 --sun-lights --json
+py <<'PY'
+import json, math
+d = json.load(open("out.txt"))
+s = d["sun_lights"]
+assert s["count"] == 1 and len(s["lights"]) == 1, s
+l = s["lights"][0]
+e = math.radians(35)
+dot = l["direction"][0] * math.cos(e) + l["direction"][2] * math.sin(e)
+assert math.degrees(math.acos(min(1, dot))) < 0.36, l
+assert all(c > 0 for c in l["rgb"]) and 0 < l["angle"] < math.radians(3), l
+assert all(x["glossy_error"] < 0.01 for x in d["specular"]), d["specular"]
+PY
+status 1 "$ENVLIGHT" prefilter - -o sun2 $S --roughness 0.5 --sun-lights --unfiltered
+grep -q "sun lights need the filtered levels" err.txt || { fails=$((fails + 1)); echo "FAIL: sun + unfiltered message"; cat err.txt; }
 # Only the levels asked for.
 run "$ENVLIGHT" prefilter - -o one $S --roughness 0.4 --no-error --json
 py <<'PY'

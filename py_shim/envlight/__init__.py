@@ -447,7 +447,7 @@ class Envmap(_Handle):
 
     def _prefilter_options(self, levels=0, width=0, min_width=0, samples=0, unfiltered=False,
                            irradiance_method="resampled", irradiance_width=0,
-                           irradiance_order=2, threads=0):
+                           irradiance_order=2, threads=0, sun_lights=False):
         o = _lib.PrefilterOptions()
         o.levels, o.width, o.min_width, o.samples = int(levels), int(width), int(min_width), \
             int(samples)
@@ -456,6 +456,7 @@ class Envmap(_Handle):
                                     lib.envl_irradiance_method_name, "irradiance method")
         o.irradiance_width, o.irradiance_order = int(irradiance_width), int(irradiance_order)
         o.threads = int(threads)
+        o.sun_lights = 1 if sun_lights else 0
         return o
 
     def prefilter(self, roughness=None, chain=False, mirror=False, irradiance=False,
@@ -464,7 +465,8 @@ class Envmap(_Handle):
         """Prefiltered maps (one envl_compute request; only what is asked is computed):
         roughness: GGX roughness values (one specular level each); chain: all K levels
         (options: levels, width, min_width, samples, unfiltered, irradiance_method
-        'resampled'|'sh'|'exact', irradiance_width, irradiance_order, threads); mirror: the
+        'resampled'|'sh'|'exact', irradiance_width, irradiance_order, threads, sun_lights: the
+        sun as lights, left out of the irradiance map and glossy levels); mirror: the
         roughness-0 level; irradiance: an irradiance map; diffuse: SH irradiance of sh_order;
         brdf: the split-sum table; measure: also the glossy / diffuse errors (slow).
         Returns Products (a context manager)."""
@@ -563,6 +565,11 @@ class Products(_Handle):
             sm = _lib.SHSummary()
             _check(lib.envl_sh_get_summary(shp, byref(sm)))
             self.sh_irradiance = _rows(lib.envl_sh_irradiance(shp), (sm.order + 1) ** 2, 3)
+        n_sun = c_int32()
+        sp = lib.envl_products_sun_lights(handle, byref(n_sun))
+        #: with sun_lights: the split-off sun as a list of Light (rect unused), else []
+        self.sun_lights = [Light(_t(sp[i].direction), _t(sp[i].rgb), sp[i].solid_angle,
+                                 sp[i].angle, _t(sp[i].rect)) for i in range(n_sun.value)]
         size, ms = c_int32(), c_int32()
         bp = lib.envl_products_brdf(handle, byref(size), byref(ms))
         self.brdf = None

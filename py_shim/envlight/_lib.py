@@ -151,6 +151,7 @@ class PrefilterOptions(Structure):
         ("irradiance_width", c_int32),
         ("irradiance_order", c_int32),
         ("threads", c_int32),
+        ("sun_lights", c_int32),
     ]
 
 
@@ -333,6 +334,8 @@ FUNCTIONS = {
     "envl_products_irradiance": (_R, [_prod, POINTER(IrradianceMap)]),
     "envl_products_sh": (_sh, [_prod]),
     "envl_products_lights": (_lts, [_prod]),
+    "envl_products_sun_lights": (POINTER(Light), [_prod, POINTER(c_int32)]),
+    "envl_ggx_lobe_norm": (c_double, [c_double]),
     "envl_products_brdf": (_pf, [_prod, POINTER(c_int32), POINTER(c_int32)]),
     "envl_prefilter_specular": (_R, [_map, c_double, c_int32, POINTER(PrefilterOptions),
                                      POINTER(_pf), POINTER(Level)]),
