@@ -51,6 +51,7 @@ SUN_LIGHTS = 16
 SKY_LIGHTS = 1024
 VALIDATION_SIZE = 128
 VALIDATION_TOLERANCE = 0.01    # the reference must match the exact E(n) / pi to 1 % RMS
+FLOOR_ALBEDO = 0.5             # bench_scene.pov's Bench_Floor_Albedo: `envlight pov --ground`
 MAPS = [("rooitou_park (strong sun)", "rooitou_park_1k.hdr"),
         ("potsdamer_platz (overcast)", "potsdamer_platz_1k.hdr")]
 TMP = os.environ.get("ENVL_TEST_TMP", "/tmp/envl_pov_bench")
@@ -147,12 +148,14 @@ def cases(quick):
     that no longer help), median 1..256; median's residual is zero, so its SH ambient adds
     nothing and is not rendered. Ambient "sh": the slope-pattern SH ambient (no radiosity);
     "sh-radiosity": the same SH as EnvLight_Radiosity_Sky() under EnvLight_Radiosity_Settings()
-    with recursion 2 (POV-Ray radiosity of the smooth remainder: occlusion and bounces)."""
+    with recursion 2 (POV-Ray radiosity of the smooth remainder: occlusion and bounces);
+    "sh-ground", "sh-ground-radiosity": the same from `envlight pov --ground FLOOR_ALBEDO`
+    (the map's lower hemisphere replaced by the floor's bounce before lights and SH)."""
     fit = (1, 4) if quick else (1, 4, 16)
     median = (4, 16) if quick else (1, 4, 16, 64, 256)
     out = []
     for shadows in ("hard", "soft"):
-        out += [("fit", n, a, shadows) for n in fit for a in ("none", "sh", "sh-radiosity")]
+        out += [("fit", n, a, shadows) for n in fit for a in ("none", "sh", "sh-radiosity", "sh-ground", "sh-ground-radiosity")]
         out += [("median", n, "none", shadows) for n in median]
     return out
 
@@ -194,10 +197,14 @@ def run_map(label, path, quick, rows, images):
     images[(label, "reference")] = ref_glossy * 1  # full scene as seen (+ sky highlights)
     rows.append((label, "reference", 0, "-", "-", t_ref, 0.0, 0.0, 0.0, v_err, c_ref))
     for method, n, ambient, shadows in cases(quick):
+        ground = ("--ground", str(FLOOR_ALBEDO)) if "ground" in ambient else ()
         P.envlight("pov", "full.pfm", "-n", str(n), "--method", method, "--ambient",
-                   ambient.split("-")[0], "--shadows", shadows, "-o", "env.inc", "--quiet", cwd=d)
-        lighting = "#declare Bench_Ambient = %d;\n#include \"env.inc\"\n" % (ambient == "sh")
-        if ambient == "sh-radiosity":
+                   ambient.split("-")[0], "--shadows", shadows, *ground, "-o", "env.inc",
+                   "--quiet", cwd=d)
+        radiosity = ambient.endswith("radiosity")
+        lighting = "#declare Bench_Ambient = %d;\n#include \"env.inc\"\n" % (
+            ambient != "none" and not radiosity)
+        if radiosity:
             # the include's settings, with the reference's recursion (the plane's bounce of
             # the sky onto the spheres; a later radiosity block changes only what it names)
             lighting += ("global_settings { EnvLight_Radiosity_Settings() }\n"
@@ -242,6 +249,11 @@ def goal(rows, refs):
                                                          100 * r[6], "met" if ok else "NOT met"))
 
 
+COLOURS = {"fit": "#999999", "fit + SH": "#e69f00", "fit + SH radiosity": "#0072b2",
+           "fit + SH ground": "#009e73", "fit + SH ground radiosity": "#cc79a7",
+           "median": "#d55e00"}
+
+
 def plot(rows, out_dir, images):
     """Error against seconds (log axes) and a strip of renders, as PNG."""
     d = P.tmpdir("plot")
@@ -250,7 +262,8 @@ def plot(rows, out_dir, images):
     for r in rows:
         if r[1] == "reference":
             continue
-        amb = {"sh": " + SH", "sh-radiosity": " + SH radiosity"}.get(r[3], "")
+        amb = {"sh": " + SH", "sh-radiosity": " + SH radiosity", "sh-ground": " + SH ground",
+               "sh-ground-radiosity": " + SH ground radiosity"}.get(r[3], "")
         key = "%s, %s%s, %s" % (r[0].split(" ")[0], r[1], amb, r[4])
         series.setdefault(key, []).append((r[5], 100 * r[6], r[2]))
     plots = []
@@ -259,10 +272,15 @@ def plot(rows, out_dir, images):
         with open(fn, "w") as f:
             for t, e, n in pts:
                 f.write("%g %g %d\n" % (t, e, n))
-        dt = "dashtype 2" if "soft" in key else "dashtype 1"
-        plots.append("'%s' using 1:2 with linespoints lc %d %s pt %d title '%s', "
+        # colour: method + ambient; point: map (square: the first, circle: the second);
+        # line: shadows (dashed: soft)
+        kind = key.split(", ", 1)[1].rsplit(", ", 1)[0]
+        colour = COLOURS.get(kind, "black")
+        dt = "dashtype 2" if key.endswith("soft") else "dashtype 1"
+        pt = 5 if key.startswith(MAPS[0][0].split(" ")[0]) else 7
+        plots.append("'%s' using 1:2 with linespoints lc rgb '%s' %s pt %d title '%s', "
                      "'%s' using 1:2:3 with labels offset 0.6,0.6 font ',7' notitle"
-                     % (fn, i // 2 + 1, dt, 5 + (i % 2) * 2, key, fn))
+                     % (fn, colour, dt, pt, key, fn))
     refs = [(r[0], r[5]) for r in rows if r[1] == "reference"]
     arrows = "".join("set arrow from %g, graph 0 to %g, graph 1 nohead dt 3 lc rgb 'gray40'\n"
                      "set label '%s reference' at %g, graph 0.97 right rotate by 90 font ',8'\n"
@@ -278,11 +296,12 @@ def plot(rows, out_dir, images):
               % (png, IMAGE[0], IMAGE[1], arrows, ", ".join(plots)))
     subprocess.run(["gnuplot"], input=script, text=True, check=True)
     os.replace(png + ".tmp", png)
-    # renders: reference, fit 4 + SH, median 16, median 256 (hard shadows), per map
+    # renders: reference, fit 4 + SH, + SH radiosity, + SH ground (hard), median 256 (soft)
     strip = []
     for label in [m[0] for m in MAPS]:
         keys = [(label, "reference"), (label, "fit", 4, "sh", "hard"),
-                (label, "fit", 4, "sh-radiosity", "hard"), (label, "median", 256, "none", "soft")]
+                (label, "fit", 4, "sh-radiosity", "hard"), (label, "fit", 4, "sh-ground", "hard"),
+                (label, "median", 256, "none", "soft")]
         ref = images.get(keys[0])
         if ref is None:
             continue
@@ -293,7 +312,7 @@ def plot(rows, out_dir, images):
                 E.save_image(fn, (images[k] * scale).astype(np.float32))
                 strip.append(fn)
     if strip:
-        tiles = "%dx%d" % (4, (len(strip) + 3) // 4)
+        tiles = "%dx%d" % (len(keys), (len(strip) + len(keys) - 1) // len(keys))
         out = os.path.join(out_dir, "pov_renders.png")
         subprocess.run(["oiiotool", *strip, "--mosaic:pad=2", tiles, "--clamp:min=0:max=1",
                         "--colorconvert", "linear", "sRGB", "-d", "uint8", "-o", out + ".tmp.png"],
