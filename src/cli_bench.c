@@ -242,10 +242,11 @@ static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_o
     static const double rough[] = {0.25, 0.5};
     int nr = o->quick ? 1 : 2, ns = o->quick ? 2 : 4, nw = o->quick ? 2 : 4;
     printf("\n#### Specular (GGX, filtered importance sampling): %s\n\nglossy error %% "
-           "(seconds); base level 512 wide, level width for the roughness as the chain's\n\n"
+           "(seconds, samples per texel); base level 512 wide, level width for the roughness as "
+           "the chain's; --samples M (a level w wide gets M (512 / w)^2, at most 8 M)\n\n"
            "| roughness | level |", name);
     for (int i = 0; i < ns; i++)
-        printf(" %d samples |", samples[o->quick ? 1 + 2 * i : i]);
+        printf(" M = %d |", samples[o->quick ? 1 + 2 * i : i]);
     table_rule(2, ns);
     for (int k = 0; k < nr; k++) {
         double r = rough[o->quick ? 1 : k];
@@ -259,15 +260,15 @@ static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_o
             envl_level l;
             if (bench_products(m, &q, o, &sec, &l, NULL))
                 return CLI_FAIL;
-            printf(" %.3f (%.3f s) |", 100 * l.glossy_error, sec);
+            printf(" %.3f (%.3f s, %d) |", 100 * l.glossy_error, sec, (int)l.samples);
             fflush(stdout);
             char series[32];
             snprintf(series, sizeof series, "ggx-r%.2f-samples", r);
-            record(name, "glossy", series, q.prefilter.samples, l.width, l.glossy_error, sec);
+            record(name, "glossy", series, l.samples, l.width, l.glossy_error, sec);
         }
         printf("\n");
     }
-    printf("\nglossy error %% (seconds) against the base level's width, 128 samples\n\n"
+    printf("\nglossy error %% (seconds) against the base level's width, default samples\n\n"
            "| roughness |");
     for (int i = 0; i < nw; i++)
         printf(" base %d |", widths[o->quick ? 1 + i : i]);
@@ -733,7 +734,7 @@ static const char bench_help[] =
     "../shared/data). Then the speed of the stages on a large map as ratios to one plain pass\n"
     "over its floats measured in the same run (--speed-width, default 8192; 0 skips).\n"
     "Also SH orders 1..8 with each window; the GGX level of roughness 0.25 and 0.5 against\n"
-    "samples per texel (16..1024) and the base level's width (128..1024), glossy error; the\n"
+    "samples (M = 16..1024) and the base level's width (128..1024), glossy error; the\n"
     "irradiance map by SH (orders 1, 2, 4, 8), resampled and exact sums, diffuse error.\n"
     "--csv writes every point (map, measure, series, param, count, error, seconds); --plots\n"
     "DIR writes one PNG per map and error measure (gnuplot): error against seconds, log axes,\n"

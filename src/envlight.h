@@ -326,7 +326,8 @@ typedef struct envl_prefilter_options {
     int32_t levels;           /* K levels of the chain; default 6 */
     int32_t width;            /* lat-long width of the roughness-0 level; default 512 */
     int32_t min_width;        /* no specular level narrower than this; default 64 */
-    int32_t samples;          /* GGX samples per texel; default 128 */
+    int32_t samples;          /* GGX samples per texel at the base width; default 64 (a level w
+                                 wide: samples (width / w)^2, at most 8 x; unfiltered: samples) */
     int32_t unfiltered;       /* nonzero: plain GGX importance sampling of the full-resolution
                                  map (no mip filtering): the benchmark's baseline */
     int32_t irradiance_method;/* ENVL_IRRADIANCE_*; default RESAMPLED */

@@ -40,7 +40,7 @@
 
 #define DEFAULT_WIDTH 512
 #define DEFAULT_MIN_WIDTH 64
-#define DEFAULT_SAMPLES 128
+#define DEFAULT_SAMPLES 64
 #define DEFAULT_IRRADIANCE_WIDTH 64
 #define RESAMPLED_IRRADIANCE_WIDTH 256
 #define LOD_BIAS 0.5
@@ -133,9 +133,9 @@ static int32_t level_width(const resolved *r, double roughness)
 
 /* GGX samples per texel of a filtered level w wide: M at the base width W and M (W / w)^2 below
  * it, at most ROUGH_SAMPLES_MAX x M: a rough level's few texels get the samples its wide lobe
- * needs (with M = 128 at roughness 1, the sum of 128 mip footprints is 2-4 % off the lobe;
- * with 1024, 0.4-0.7 %) for about the cost of the base level. The unfiltered baseline always
- * takes M. */
+ * needs for about the base level's cost (at roughness 1 the sum of 128 mip footprints was
+ * 0.4-6.8 % off the lobe on the built-in sky, adams_place_bridge, lebombo and forest_slope;
+ * of 512, 0.1-2.9 %). The unfiltered baseline always takes M. */
 #define ROUGH_SAMPLES_MAX 8
 static int32_t level_samples(const resolved *r, int32_t w)
 {
@@ -366,9 +366,35 @@ typedef struct mip_view {
     double pole[6];           /* means of the first and last rows */
 } mip_view;
 
-static inline void row_lerp_add_one(const mip_view *lv, int32_t r, double x, double wgt,
-                                    double acc[3])
+/* Near a pole: the mean of n lerps one texel apart (an n-texel box in azimuth), which is
+ * texels x0 .. x0 + n weighted (1 - tx, 1, ..., 1, tx) / n. */
+static void row_box_add(const mip_view *lv, int32_t r, int32_t n, double x, double wgt,
+                        double acc[3])
 {
+    double start = x - 0.5 * (n - 1), fx = floor(start), tx = start - fx;
+    int64_t c = (int64_t)fx % lv->w;
+    if (c < 0)
+        c += lv->w;
+    const float *row = lv->px + 3 * (size_t)r * lv->w;
+    wgt /= n;
+    for (int32_t i = 0; i <= n; i++) {
+        const float *p = row + 3 * c;
+        double f = wgt * (i == 0 ? 1 - tx : i == n ? tx : 1.0);
+        acc[0] += f * p[0], acc[1] += f * p[1], acc[2] += f * p[2];
+        if (++c == lv->w)
+            c = 0;
+    }
+}
+
+/* Adds wgt * (row r at column coordinate x, linear between texel centres, wrapping) to acc. */
+static inline void row_lerp_add(const mip_view *lv, int32_t r, double x, double wgt,
+                                double acc[3])
+{
+    int32_t n = lv->taps[r];
+    if (n > 1) {
+        row_box_add(lv, r, n, x, wgt, acc);
+        return;
+    }
     double fx = floor(x), tx = x - fx;
     int64_t x0 = (int64_t)fx % lv->w;
     if (x0 < 0)
@@ -379,20 +405,6 @@ static inline void row_lerp_add_one(const mip_view *lv, int32_t r, double x, dou
     double wa = wgt * (1 - tx), wb = wgt * tx;
     for (int k = 0; k < 3; k++)
         acc[k] += wa * a[k] + wb * b[k];
-}
-
-static inline void row_lerp_add(const mip_view *lv, int32_t r, double x, double wgt,
-                                double acc[3])
-{
-    int32_t n = lv->taps[r];
-    if (n > 1) { /* near a pole: n taps one texel apart, an n-texel box in azimuth */
-        wgt /= n;
-        x -= 0.5 * (n - 1);
-        for (int32_t i = 0; i < n - 1; i++)
-            row_lerp_add_one(lv, r, x + i, wgt, acc);
-        x += n - 1;
-    }
-    row_lerp_add_one(lv, r, x, wgt, acc);
 }
 
 /* Adds weight * L(u, v) to acc (u, v: lat-long image coordinates in [0, 1]). */
