@@ -185,15 +185,20 @@ static double lobe_w(const lobe *b, double u)
     return u / (q * q);
 }
 
-/* Blinn-Phong exponent matching GGX alpha: e = 2 / alpha^2 - 2 (Walter et al. 2007). The norm
- * 2 pi int_0^1 w(u) du by the midpoint rule in s, u = 1 - s^2 (du = 2 s ds), which resolves the
- * peak at u = 1 (its width in s is ~alpha) for alpha >= 0.0025. */
+/* Blinn-Phong exponent matching GGX alpha: e = 2 / alpha^2 - 2 (Walter et al. 2007). The norm:
+ * GGX's closed form (the prefilter's, envl_ggx_lobe_norm); Blinn-Phong's 2 pi int_0^1 w(u) du by
+ * the midpoint rule in s, u = 1 - s^2 (du = 2 s ds), which resolves the peak at u = 1 (its
+ * width in s is ~alpha) for alpha >= 0.0025. */
 static lobe make_lobe(int specular, double roughness)
 {
     lobe b = {specular, 0, 0, 0};
     double alpha = roughness * roughness;
     b.a2 = alpha * alpha;
     b.e = 2 / b.a2 - 2;
+    if (specular != PREVIEW_SPECULAR_BLINN_PHONG) {
+        b.norm = envl_ggx_lobe_norm(alpha);
+        return b;
+    }
     const int n = 20000;
     double s = 0;
     for (int i = 0; i < n; i++) {

@@ -461,14 +461,15 @@ class Envmap(_Handle):
 
     def prefilter(self, roughness=None, chain=False, mirror=False, irradiance=False,
                   diffuse=False, brdf=False, measure=False, sh_order=2, brdf_size=0,
-                  multiscatter=False, **options):
+                  multiscatter=False, shadows=0, shadows_method="median", **options):
         """Prefiltered maps (one envl_compute request; only what is asked is computed):
         roughness: GGX roughness values (one specular level each); chain: all K levels
         (options: levels, width, min_width, samples, unfiltered, irradiance_method
         'resampled'|'sh'|'exact', irradiance_width, irradiance_order, threads, sun_lights: the
         sun as lights, left out of the irradiance map and glossy levels); mirror: the
         roughness-0 level; irradiance: an irradiance map; diffuse: SH irradiance of sh_order;
-        brdf: the split-sum table; measure: also the glossy / diffuse errors (slow).
+        brdf: the split-sum table; shadows: that many lights for shadows (shadows_method
+        'median'|'variance'|'fit'); measure: also the glossy / diffuse errors (slow).
         Returns Products (a context manager)."""
         req = _lib.Request()
         rough = [float(r) for r in (roughness or [])]
@@ -483,6 +484,10 @@ class Envmap(_Handle):
         req.measure = 1 if measure else 0
         req.sh_order = int(sh_order)
         req.prefilter = self._prefilter_options(**options)
+        req.shadows = 1 if shadows else 0
+        req.lights.count = int(shadows or 0)
+        req.lights.method = _enum(shadows_method, lib.envl_method_from_name, lib.envl_method_name,
+                                  "method")
         req.brdf.size = int(brdf_size)
         req.brdf.multiscatter = 1 if multiscatter else 0
         h = c_void_p()
