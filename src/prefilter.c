@@ -325,6 +325,14 @@ static inline double ggx_d(double noh2, double a2)
     return a2 / (ENVL_PI * q * q);
 }
 
+/* w(u) = D(h) R.l up to a constant, u = R.l > 0 (N = V = R, h = normalize(R + l), so
+ * (N.h)^2 = (1 + u) / 2): u / q^2, q = ((1 + u) / 2)(alpha^2 - 1) + 1. */
+static inline double ggx_w(double u, double a2)
+{
+    double q = 0.5 * (1 + u) * (a2 - 1) + 1;
+    return u / (q * q);
+}
+
 
 typedef struct ggx_sample {
     double l[3];       /* in the tangent frame (east, north, R) */
@@ -540,6 +548,7 @@ typedef struct split {
     int32_t levels, mw[40], mh[40];
     size_t off[40];
     double threshold;
+    double power;             /* of the map: sum of Y dw */
 } split;
 
 static void split_free(split *s)
@@ -568,6 +577,7 @@ static envl_result make_split(const envl_envmap *m, split *s)
             row += envl__lum(p[3 * c], p[3 * c + 1], p[3 * c + 2]);
         e += row * m->row_omega[r];
     }
+    s->power = e;
     double T = SPLIT_K * e / (4 * ENVL_PI);
     if (!(T > 0) || !isfinite(T))
         return ENVL_OK;
@@ -660,8 +670,7 @@ static void lobe_rows(void *ctx, int64_t begin, int64_t end)
                         double u = R[0] * l->d[0] + R[1] * l->d[1] + R[2] * l->d[2];
                         if (u <= 0)
                             continue;
-                        double q = 0.5 * (1 + u) * (j->a2 - 1) + 1;
-                        double v = sw * u / (q * q);
+                        double v = sw * ggx_w(u, j->a2);
                         acc[0] += v * l->e[0], acc[1] += v * l->e[1], acc[2] += v * l->e[2];
                     }
                 }
@@ -770,14 +779,6 @@ static int32_t find_root(int32_t *parent, int32_t i)
 static envl_result split_lights(const envl_envmap *m, split *s, envl_light **out,
                                 int32_t *count)
 {
-    double power = 0; /* of the map: sum of Y dw */
-    for (int32_t r = 0; r < m->height; r++) {
-        const float *p = m->px + 3 * (size_t)r * m->width;
-        double row = 0;
-        for (int32_t c = 0; c < m->width; c++)
-            row += envl__lum(p[3 * c], p[3 * c + 1], p[3 * c + 2]);
-        power += row * m->row_omega[r];
-    }
     *out = NULL;
     *count = 0;
     if (s->n == 0)
@@ -838,7 +839,7 @@ static envl_result split_lights(const envl_envmap *m, split *s, envl_light **out
             li.rgb[k] = a[k];
         envl__light_set_angle(&li);
         int keep = li.angle <= SUN_MAX_ANGLE && li.solid_angle <= SUN_MIN_FILL * pixels[i] &&
-                   a[6] >= SUN_MIN_SHARE * power;
+                   a[6] >= SUN_MIN_SHARE * s->power;
         slot_light[i] = keep ? nl : -1;
         if (keep)
             l[nl++] = li;
@@ -891,11 +892,7 @@ static void sun_lights_add(const envl_light *l, int32_t n, double roughness, int
                 double u = R[0] * d[0] + R[1] * d[1] + R[2] * d[2];
                 if (u <= 0)
                     continue;
-                double f = u / np;
-                if (roughness > 0) {
-                    double q = 0.5 * (1 + u) * (a2 - 1) + 1;
-                    f *= inv / (q * q);
-                }
+                double f = (roughness > 0 ? ggx_w(u, a2) * inv : u) / np;
                 for (int k = 0; k < 3; k++)
                     out[3 * i + k] += f * l[j].rgb[k];
             }
@@ -1091,9 +1088,7 @@ static void ref_range(void *ctx, int64_t begin, int64_t end)
                 double d = rc * ac[c] + rz; /* R.l */
                 if (d <= 0)
                     continue;
-                double noh2 = 0.5 * (1.0 + d); /* (N.h)^2 with h = normalize(R + l) */
-                double q = noh2 * (j->a2 - 1.0) + 1.0;
-                double w = d / (q * q); /* D(h) R.l up to a constant */
+                double w = ggx_w(d, j->a2);
                 rs[0] += w * p[3 * c], rs[1] += w * p[3 * c + 1], rs[2] += w * p[3 * c + 2];
                 rw += w;
             }

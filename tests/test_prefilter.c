@@ -689,6 +689,57 @@ static void test_sun_lights(void)
     envl_envmap_free(m);
 }
 
+/* Which split-off groups become sun lights: on a 512 x 256 map of 1, a disc of radius 1.5
+ * degrees at 1e3 (a sun: compact, a third of the power), a line 1 pixel tall and 7 wide at 1e3
+ * (a window edge, 5 % of the power: its disc of the same spread, 4 degrees across, is about
+ * 0.82^2 pi 7^2 / 4 = 26 pixels, more than twice its 7) and one pixel at 200 (above 50x the
+ * mean but 0.1 % of the power): exactly one light, at the disc's centre to half a pixel (0.35
+ * degree); the rest stays baked, so level power + light = map power to 1e-5. */
+static void test_sun_light_choice(void)
+{
+    int32_t w = 512, h = 256;
+    float *px = malloc(sizeof(float) * 3 * w * h);
+    for (int32_t i = 0; i < 3 * w * h; i++)
+        px[i] = 1.0f;
+    double sun[3];
+    envl_latlong_direction(w, h, 100.5, 80.5, sun);
+    for (int32_t r = 0; r < h; r++)
+        for (int32_t c = 0; c < w; c++) {
+            double d[3];
+            envl_latlong_direction(w, h, c, r, d);
+            double cosd = d[0] * sun[0] + d[1] * sun[1] + d[2] * sun[2];
+            float v = cosd > cos(1.5 * M_PI / 180) ? 1e3f
+                      : r == 150 && c >= 300 && c < 307 ? 1e3f
+                      : r == 40 && c == 450 ? 200.0f : 1.0f;
+            for (int k = 0; k < 3; k++)
+                px[3 * (r * w + c) + k] = v;
+        }
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG};
+    envl_envmap *m;
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &lo, &m));
+    free(px);
+    double r1 = 1.0;
+    envl_request q = {.n_roughness = 1, .roughness = &r1};
+    q.prefilter.sun_lights = 1;
+    envl_products *p;
+    CHECK_OK(envl_compute(m, &q, &p));
+    int32_t n;
+    const envl_light *l = envl_products_sun_lights(p, &n);
+    CHECK(n == 1 && l);
+    if (n == 1 && l) {
+        double dot = l->direction[0] * sun[0] + l->direction[1] * sun[1] +
+                     l->direction[2] * sun[2];
+        CHECK(acos(fmin(1, dot)) * 180 / M_PI < 0.35);
+        envl_info info;
+        envl_envmap_info(m, &info);
+        envl_level lv;
+        CHECK_OK(envl_products_level(p, 0, &lv));
+        CHECK_REL(energy(lv.rgb, lv.width, lv.height, 0) + l->rgb[0], info.power[0], 1e-5);
+    }
+    envl_products_free(p);
+    envl_envmap_free(m);
+}
+
 int main(void)
 {
     test_constant();
@@ -703,6 +754,7 @@ int main(void)
     test_point_lobe();
     test_sun_glossy();
     test_sun_lights();
+    test_sun_light_choice();
     test_request();
     test_threads();
     test_export();
