@@ -475,6 +475,42 @@ def test_radiosity_ambient():
     assert rms < 0.02 and worst < 0.05
 
 
+RESIDUAL_SCENE = """#version 3.7;
+#include "env.inc"
+global_settings { assumed_gamma 1 ambient_light 0 EnvLight_Radiosity_Residual_Settings() }
+camera { orthographic location <0, 0, -10> look_at <0, 0, 0> right x * 2.2 up y * 2.2 }
+sphere { 0, 1 pigment { rgb 1 } finish { diffuse 1 ambient 0 emission 0 } }
+"""
+
+
+@pytest.mark.parametrize("kind", ["sky", "rooitou"])
+def test_radiosity_residual(kind):
+    """EnvLight_Radiosity_Residual_Settings() with the residual sky (--sky-residual, placed by
+    the include with the fit's 4 lights): on an unoccluded white sphere, the lights as parallel
+    lights plus radiosity of the residual image give the lights' E(n) plus the residual's
+    exact irradiance (of the .hdr as written), within the radiosity estimate's bounds of
+    test_radiosity_ambient (5 % of the mean, RMS 2 %). Lights + residual hold the map's power
+    (the residual is what the lights did not take), so the sphere's mean is the map's."""
+    d = tmpdir("radiosity_residual_" + kind)
+    src, exact_path, width = map_for(kind, d)
+    envlight("pov", *src, "-n", "4", "--sky-residual", "-o", "env.inc", "--quiet", cwd=d)
+    inc = parse_include(os.path.join(d, "env.inc"))
+    assert "EnvLight_Sky()" in inc["text"] and len(inc["EnvLight_Direction"]) > 0
+    del inc["EnvLight_Ambient_Coef"]  # the SH remainder is not used: lights only
+    img, _ = render(RESIDUAL_SCENE, d, size=64)
+    mask, n = sphere_normals(64)
+    rendered = lum(img[mask])
+    expect = (lum(include_irradiance(inc, n[mask]))
+              + lum(exact_irradiance(os.path.join(d, "env_sky.hdr"), width, n[mask]))) / math.pi
+    whole = lum(exact_irradiance(exact_path, width, n[mask])) / math.pi
+    mean = expect.mean()
+    rms = math.sqrt(np.mean((rendered - expect) ** 2)) / mean
+    worst = np.abs(rendered - expect).max() / mean
+    print("residual radiosity %s: rms %.4f worst %.4f; lights + residual vs the map: mean "
+          "%+.4f" % (kind, rms, worst, expect.mean() / whole.mean() - 1))
+    assert rms < 0.02 and worst < 0.05
+
+
 PENUMBRA_SCENE = """#version 3.7;
 global_settings { assumed_gamma 1 ambient_light 0 }
 #declare EnvLight_Scene_Radius = 20;
