@@ -27,8 +27,11 @@ pixels (an id-mask render). Times: POV-Ray wall time of the whole run, and the s
 Usage (from the build folder; not run in CI; a few minutes on 2 cores):
   ENVLIGHT=./envlight ENVLIGHT_LIBRARY=./libenvlight.so PYTHONPATH=../py_shim \\
       /usr/bin/python3 ../povray_include/examples/bench_scene.py [--quick] [--plot DIR]
+          [--map NAME] [--ambient A[,A...]]
 --quick: one map, a few cases (the script's own check); --plot DIR: write
-DIR/pov_error_time.png (gnuplot) and DIR/pov_renders.png (oiiotool) for the README.
+DIR/pov_error_time.png (gnuplot) and DIR/pov_renders.png (oiiotool) for the README;
+--map NAME: only the map whose file name starts with NAME (its reference is still rendered);
+--ambient A,B: only the fit cases with these ambients (no median cases): a partial run.
 """
 import math
 import os
@@ -143,24 +146,33 @@ def validate(d):
     return rel_rms(img[mask], exact), t
 
 
-def cases(quick):
+def cases(quick, ambients=None):
     """(method, N, ambient, shadows): fit up to 16 lights (its greedy fit stops adding lights
     that no longer help), median 1..256; median's residual is zero, so its SH ambient adds
     nothing and is not rendered. Ambient "sh": the slope-pattern SH ambient (no radiosity);
     "sh-radiosity": the same SH as EnvLight_Radiosity_Sky() under EnvLight_Radiosity_Settings()
     with recursion 2 (POV-Ray radiosity of the smooth remainder: occlusion and bounces);
     "sh-ground", "sh-ground-radiosity": the same from `envlight pov --ground FLOOR_ALBEDO`
-    (the map's lower hemisphere replaced by the floor's bounce before lights and SH)."""
+    (the map's lower hemisphere replaced by the floor's bounce before lights and SH);
+    "image-radiosity": no SH: the residual image (`envlight pov --sky-residual`, the map minus
+    what the fit's lights took, so lights + sky = the map) as EnvLight_Sky() under
+    EnvLight_Radiosity_Residual_Settings() (count 150, recursion 2). ambients: only these
+    (a partial run: fit cases only)."""
     fit = (1, 4) if quick else (1, 4, 16)
     median = (4, 16) if quick else (1, 4, 16, 64, 256)
     out = []
     for shadows in ("hard", "soft"):
-        out += [("fit", n, a, shadows) for n in fit for a in ("none", "sh", "sh-radiosity", "sh-ground", "sh-ground-radiosity")]
-        out += [("median", n, "none", shadows) for n in median]
+        out += [("fit", n, a, shadows) for n in fit for a in AMBIENTS
+                if ambients is None or a in ambients]
+        if ambients is None:
+            out += [("median", n, "none", shadows) for n in median]
     return out
 
 
-def run_map(label, path, quick, rows, images):
+AMBIENTS = ("none", "sh", "sh-radiosity", "sh-ground", "sh-ground-radiosity", "image-radiosity")
+
+
+def run_map(label, path, quick, rows, images, ambients=None):
     d = P.tmpdir(os.path.basename(path).split(".")[0])
     n_sun, frac = split(path, d)
     # id mask
@@ -196,15 +208,21 @@ def run_map(label, path, quick, rows, images):
                  % (path, 100 * v_err, 100 * VALIDATION_TOLERANCE))
     images[(label, "reference")] = ref_glossy * 1  # full scene as seen (+ sky highlights)
     rows.append((label, "reference", 0, "-", "-", t_ref, 0.0, 0.0, 0.0, v_err, c_ref))
-    for method, n, ambient, shadows in cases(quick):
+    print("  load average %.2f %.2f %.2f" % os.getloadavg())
+    for method, n, ambient, shadows in cases(quick, ambients):
         ground = ("--ground", str(FLOOR_ALBEDO)) if "ground" in ambient else ()
+        image = ambient == "image-radiosity"
         P.envlight("pov", "full.pfm", "-n", str(n), "--method", method, "--ambient",
-                   ambient.split("-")[0], "--shadows", shadows, *ground, "-o", "env.inc",
-                   "--quiet", cwd=d)
+                   "sh" if image else ambient.split("-")[0], "--shadows", shadows, *ground,
+                   *(("--sky-residual",) if image else ()), "-o", "env.inc", "--quiet", cwd=d)
         radiosity = ambient.endswith("radiosity")
         lighting = "#declare Bench_Ambient = %d;\n#include \"env.inc\"\n" % (
             ambient != "none" and not radiosity)
-        if radiosity:
+        if image:
+            # the include placed the lights and EnvLight_Sky() (the residual); the SH
+            # remainder it declares is not used
+            lighting += "global_settings { EnvLight_Radiosity_Residual_Settings() }\n"
+        elif radiosity:
             # the include's settings, with the reference's recursion (the plane's bounce of
             # the sky onto the spheres; a later radiosity block changes only what it names)
             lighting += ("global_settings { EnvLight_Radiosity_Settings() }\n"
@@ -218,6 +236,7 @@ def run_map(label, path, quick, rows, images):
         print("  %s %d %s %s: %.2f s, matte %.2f %%, plane %.2f %%, glossy %.2f %%"
               % (method, n, ambient, shadows, t, 100 * e[0], 100 * e[1], 100 * e[2]))
         sys.stdout.flush()
+    print("  load average %.2f %.2f %.2f" % os.getloadavg())
     return t_start, (t_ref, c_ref)
 
 
@@ -243,14 +262,16 @@ def goal(rows, refs):
     for r in rows:
         if r[1] == "fit" and r[2] == 4 and r[3] != "none":
             ratio, cpu_ratio = refs[r[0]][0] / r[5], refs[r[0]][1] / r[10]
-            ok = min(ratio, cpu_ratio) >= 10 and r[6] < 0.02
+            on = [k for k, q in (("wall", ratio), ("CPU", cpu_ratio)) if q >= 10]
+            ok = "met (%s)" % " and ".join(on) if on and r[6] < 0.02 else "NOT met"
             print("goal %s fit 4 + %s, %s shadows: %.1fx faster than the reference (CPU time "
                   "%.1fx), matte error %.2f %% -> %s" % (r[0], r[3], r[4], ratio, cpu_ratio,
-                                                         100 * r[6], "met" if ok else "NOT met"))
+                                                         100 * r[6], ok))
 
 
 COLOURS = {"fit": "#999999", "fit + SH": "#e69f00", "fit + SH radiosity": "#0072b2",
            "fit + SH ground": "#009e73", "fit + SH ground radiosity": "#cc79a7",
+           "fit + image radiosity": "#56b4e9",
            "median": "#d55e00"}
 
 
@@ -263,7 +284,8 @@ def plot(rows, out_dir, images):
         if r[1] == "reference":
             continue
         amb = {"sh": " + SH", "sh-radiosity": " + SH radiosity", "sh-ground": " + SH ground",
-               "sh-ground-radiosity": " + SH ground radiosity"}.get(r[3], "")
+               "sh-ground-radiosity": " + SH ground radiosity",
+               "image-radiosity": " + image radiosity"}.get(r[3], "")
         key = "%s, %s%s, %s" % (r[0].split(" ")[0], r[1], amb, r[4])
         series.setdefault(key, []).append((r[5], 100 * r[6], r[2]))
     plots = []
@@ -323,17 +345,24 @@ def plot(rows, out_dir, images):
 def main():
     quick = "--quick" in sys.argv
     out_dir = sys.argv[sys.argv.index("--plot") + 1] if "--plot" in sys.argv else None
+    only_map = sys.argv[sys.argv.index("--map") + 1] if "--map" in sys.argv else None
+    ambients = (sys.argv[sys.argv.index("--ambient") + 1].split(",")
+                if "--ambient" in sys.argv else None)
+    if ambients and not set(ambients) <= set(AMBIENTS):
+        sys.exit("--ambient: one of %s" % ", ".join(AMBIENTS))
     os.makedirs(TMP, exist_ok=True)
     P.TMP = TMP
     P.ENVLIGHT = os.path.abspath(P.ENVLIGHT)  # envlight runs inside the work folders
     data = os.path.join(P.DATA, "latlong_hdri")
     rows, starts, refs, images = [], {}, {}, {}
-    for label, name in MAPS[:1] if quick else MAPS:
+    for label, name in MAPS[:1] if quick and not only_map else MAPS:
+        if only_map and not name.startswith(only_map):
+            continue
         path = os.path.join(data, name)
         if not os.path.exists(path):
             print("SKIP: %s absent" % path)
             continue
-        starts[label], refs[label] = run_map(label, path, quick, rows, images)
+        starts[label], refs[label] = run_map(label, path, quick, rows, images, ambients)
     if not rows:
         return
     table(rows, starts)
