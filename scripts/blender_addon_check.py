@@ -27,7 +27,7 @@ import mathutils
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from blender_scene import add_white_sphere_and_camera  # noqa: E402
+from blender_scene import add_white_sphere_and_camera, run_main  # noqa: E402
 
 
 def spec_from_argv():
@@ -316,12 +316,6 @@ def main_in_window():
 
 
 if bpy.app.background:
-    try:
-        main()
-    except Exception:
-        import traceback
-        traceback.print_exc()
-        sys.exit(1)
-    sys.exit(0)
+    run_main(main)
 else:
     bpy.app.timers.register(main_in_window, first_interval=0.5)

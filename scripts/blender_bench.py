@@ -30,6 +30,8 @@ import os
 import sys
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))  # blender_scene
+
 try:
     import bpy
     import numpy as np
@@ -87,7 +89,6 @@ def setup_world(hdr, pack=False):
 
 
 def setup_scene(scene, a):
-    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from blender_scene import add_white_sphere_and_camera
     add_white_sphere_and_camera(scene, "Bench")
     scene.render.engine = "CYCLES"
@@ -345,10 +346,5 @@ if __name__ == "__main__":
         argv = sys.argv[sys.argv.index("--report") + 1:]
         report(argv)
         sys.exit(0)
-    try:
-        main()
-    except Exception:
-        import traceback
-        traceback.print_exc()
-        sys.exit(1)
-    sys.exit(0)
+    from blender_scene import run_main
+    run_main(main)

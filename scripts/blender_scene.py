@@ -1,9 +1,22 @@
-"""Scene pieces shared by the scripts that run inside Blender (blender_addon_check.py,
+"""Pieces shared by the scripts that run inside Blender (blender_addon_check.py,
 blender_bench.py): a white diffuse unit sphere at the origin seen by an orthographic camera
-on -Y."""
+on -Y, and the way a script ends."""
 import math
+import sys
+import traceback
 
 import bpy
+
+
+def run_main(main):
+    """Runs main() as a `blender -b --python` script: exit status 0, or the traceback and 1
+    when it raises (Blender itself would exit 0)."""
+    try:
+        main()
+    except Exception:
+        traceback.print_exc()
+        sys.exit(1)
+    sys.exit(0)
 
 
 def add_white_sphere_and_camera(scene, name):

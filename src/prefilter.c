@@ -244,40 +244,6 @@ static const float *mip_level(const envl_envmap *m, int32_t k)
 
 /* ---- lat-long lookups ---- */
 
-/* Bilinear at continuous pixel coordinates (x, y) (pixel centres at integers): wraps in x;
- * between the centre of the first (last) row and the pole it blends linearly towards `pole`
- * (the mean of that row: the value at the pole itself), when given. Adds weight * value to
- * acc. */
-static inline void bilerp_add(const float *img, int32_t w, int32_t h, double x, double y,
-                              double weight, double acc[3], const double *pole)
-{
-    if (pole && (y < 0 || y > h - 1)) {
-        int top = y < 0;
-        double t = top ? -2.0 * y : 2.0 * (y - (h - 1)); /* 0 at the row centre, 1 at the pole */
-        t = t > 1 ? 1 : t;
-        const double *pv = pole + (top ? 0 : 3);
-        for (int k = 0; k < 3; k++)
-            acc[k] += weight * t * pv[k];
-        weight *= 1 - t;
-        y = top ? 0 : h - 1;
-    }
-    double fx = floor(x), fy = floor(y);
-    double tx = x - fx, ty = y - fy;
-    int64_t x0 = (int64_t)fx % w;
-    if (x0 < 0)
-        x0 += w;
-    int64_t x1 = x0 + 1 == w ? 0 : x0 + 1;
-    int64_t y0 = (int64_t)fy, y1 = y0 + 1;
-    y0 = y0 < 0 ? 0 : y0 >= h ? h - 1 : y0;
-    y1 = y1 < 0 ? 0 : y1 >= h ? h - 1 : y1;
-    const float *a = img + 3 * (y0 * w + x0), *b = img + 3 * (y0 * w + x1);
-    const float *c = img + 3 * (y1 * w + x0), *d = img + 3 * (y1 * w + x1);
-    double w00 = (1 - tx) * (1 - ty) * weight, w10 = tx * (1 - ty) * weight;
-    double w01 = (1 - tx) * ty * weight, w11 = tx * ty * weight;
-    for (int k = 0; k < 3; k++)
-        acc[k] += w00 * a[k] + w10 * b[k] + w01 * c[k] + w11 * d[k];
-}
-
 /* u, v in [0, 1] of a direction (v = 0 at the top). */
 static inline void dir_uv(const double d[3], double *u, double *v)
 {
@@ -303,18 +269,106 @@ static void pole_means(const float *img, int32_t w, int32_t h, double out[6])
         out[k] /= w;
 }
 
+/* A lat-long image as the lookups see it (the map, a level of its pyramid or a product). */
+typedef struct mip_view {
+    const float *px;
+    int32_t w, h;
+    int32_t *taps;            /* NULL: 1; else lookups per row: 1, or ~1 / sin(colatitude) near
+                                 the poles,
+                                 where a texel is that much narrower than it is tall, so a
+                                 lookup covers the footprint its level was chosen for (else a
+                                 thin bright line through a pole aliases into +-20 % noise) */
+    double pole[6];           /* means of the first and last rows */
+} mip_view;
+
+/* Near a pole: the mean of n lerps one texel apart (an n-texel box in azimuth), which is
+ * texels x0 .. x0 + n weighted (1 - tx, 1, ..., 1, tx) / n. */
+static void row_box_add(const mip_view *lv, int32_t r, int32_t n, double x, double wgt,
+                        double acc[3])
+{
+    double start = x - 0.5 * (n - 1), fx = floor(start), tx = start - fx;
+    int64_t c = (int64_t)fx % lv->w;
+    if (c < 0)
+        c += lv->w;
+    const float *row = lv->px + 3 * (size_t)r * lv->w;
+    wgt /= n;
+    for (int32_t i = 0; i <= n; i++) {
+        const float *p = row + 3 * c;
+        double f = wgt * (i == 0 ? 1 - tx : i == n ? tx : 1.0);
+        acc[0] += f * p[0], acc[1] += f * p[1], acc[2] += f * p[2];
+        if (++c == lv->w)
+            c = 0;
+    }
+}
+
+/* Adds wgt * (row r at column coordinate x, linear between texel centres, wrapping) to acc. */
+static inline void row_lerp_add(const mip_view *lv, int32_t r, double x, double wgt,
+                                double acc[3])
+{
+    int32_t n = lv->taps ? lv->taps[r] : 1;
+    if (n > 1) {
+        row_box_add(lv, r, n, x, wgt, acc);
+        return;
+    }
+    double fx = floor(x), tx = x - fx;
+    int64_t x0 = (int64_t)fx % lv->w;
+    if (x0 < 0)
+        x0 += lv->w;
+    int64_t x1 = x0 + 1 == lv->w ? 0 : x0 + 1;
+    const float *row = lv->px + 3 * (size_t)r * lv->w;
+    const float *a = row + 3 * x0, *b = row + 3 * x1;
+    double wa = wgt * (1 - tx), wb = wgt * tx;
+    for (int k = 0; k < 3; k++)
+        acc[k] += wa * a[k] + wb * b[k];
+}
+
+/* Adds weight * the image at continuous pixel coordinates (x, y) (pixel centres at integers)
+ * to acc: bilinear, wrapping in x; between the centre of the first (last) row and the pole,
+ * linear towards `pole` (the row's mean: the value at the pole itself). Rows are interpolated
+ * linearly in the row coordinate: the weight a row gets, integrated over the sphere, is its own
+ * solid angle to second order ((pi / h)^2 / 24). (Interpolating linearly in z between the rows'
+ * z-midpoints instead reproduces a map linear in z exactly but gives the first row 1.5 times
+ * its solid angle: in the specular levels a bright zenith came out 4-12 % too bright at
+ * roughness 0.5-1.) */
+static inline void view_add(const mip_view *lv, double x, double y, double weight, double acc[3])
+{
+    int32_t h = lv->h;
+    if (y < 0 || y > h - 1) {
+        int top = y < 0;
+        double t = top ? -2.0 * y : 2.0 * (y - (h - 1)); /* 0 at the row centre, 1 at the pole */
+        t = t > 1 ? 1 : t;
+        const double *pv = lv->pole + (top ? 0 : 3);
+        for (int k = 0; k < 3; k++)
+            acc[k] += weight * t * pv[k];
+        row_lerp_add(lv, top ? 0 : h - 1, x, weight * (1 - t), acc);
+        return;
+    }
+    int32_t y0 = (int32_t)y;
+    double ty = y - y0;
+    row_lerp_add(lv, y0, x, weight * (1 - ty), acc);
+    if (ty > 0)
+        row_lerp_add(lv, y0 + 1 < h ? y0 + 1 : h - 1, x, weight * ty, acc);
+}
+
+/* Adds weight * L(u, v) to acc (u, v: lat-long image coordinates in [0, 1]). */
+static inline void mip_add(const mip_view *lv, double u, double v, double weight, double acc[3])
+{
+    view_add(lv, u * lv->w - 0.5, v * lv->h - 0.5, weight, acc);
+}
+
 void envl_latlong_sample(const float *rgb, int32_t w, int32_t h, const double d[3],
                          double out[3])
 {
     out[0] = out[1] = out[2] = 0;
     if (!rgb || w <= 0 || h <= 0 || !d)
         return;
-    double u, v, pole[6];
+    double u, v;
     dir_uv(d, &u, &v);
+    mip_view lv = {rgb, w, h, NULL, {0}};
     double y = v * h - 0.5;
     if (y < 0 || y > h - 1)
-        pole_means(rgb, w, h, pole);
-    bilerp_add(rgb, w, h, u * w - 0.5, y, 1.0, out, pole);
+        pole_means(rgb, w, h, lv.pole);
+    view_add(&lv, u * w - 0.5, y, 1.0, out);
 }
 
 /* ---- GGX ---- */
@@ -364,87 +418,6 @@ static int32_t make_samples(double alpha, int32_t n, int32_t w0, int32_t h0, ggx
         k++;
     }
     return k;
-}
-
-/* One level of the pyramid as the lookups see it: bilinear in the image coordinates, beyond
- * the first (last) row's centre towards the row's mean (the pole's value). */
-typedef struct mip_view {
-    const float *px;
-    int32_t w, h;
-    int32_t *taps;            /* lookups per row: 1, or ~1 / sin(colatitude) near the poles,
-                                 where a texel is that much narrower than it is tall, so a
-                                 lookup covers the footprint its level was chosen for (else a
-                                 thin bright line through a pole aliases into +-20 % noise) */
-    double pole[6];           /* means of the first and last rows */
-} mip_view;
-
-/* Near a pole: the mean of n lerps one texel apart (an n-texel box in azimuth), which is
- * texels x0 .. x0 + n weighted (1 - tx, 1, ..., 1, tx) / n. */
-static void row_box_add(const mip_view *lv, int32_t r, int32_t n, double x, double wgt,
-                        double acc[3])
-{
-    double start = x - 0.5 * (n - 1), fx = floor(start), tx = start - fx;
-    int64_t c = (int64_t)fx % lv->w;
-    if (c < 0)
-        c += lv->w;
-    const float *row = lv->px + 3 * (size_t)r * lv->w;
-    wgt /= n;
-    for (int32_t i = 0; i <= n; i++) {
-        const float *p = row + 3 * c;
-        double f = wgt * (i == 0 ? 1 - tx : i == n ? tx : 1.0);
-        acc[0] += f * p[0], acc[1] += f * p[1], acc[2] += f * p[2];
-        if (++c == lv->w)
-            c = 0;
-    }
-}
-
-/* Adds wgt * (row r at column coordinate x, linear between texel centres, wrapping) to acc. */
-static inline void row_lerp_add(const mip_view *lv, int32_t r, double x, double wgt,
-                                double acc[3])
-{
-    int32_t n = lv->taps[r];
-    if (n > 1) {
-        row_box_add(lv, r, n, x, wgt, acc);
-        return;
-    }
-    double fx = floor(x), tx = x - fx;
-    int64_t x0 = (int64_t)fx % lv->w;
-    if (x0 < 0)
-        x0 += lv->w;
-    int64_t x1 = x0 + 1 == lv->w ? 0 : x0 + 1;
-    const float *row = lv->px + 3 * (size_t)r * lv->w;
-    const float *a = row + 3 * x0, *b = row + 3 * x1;
-    double wa = wgt * (1 - tx), wb = wgt * tx;
-    for (int k = 0; k < 3; k++)
-        acc[k] += wa * a[k] + wb * b[k];
-}
-
-/* Adds weight * L(u, v) to acc (u, v: lat-long image coordinates in [0, 1]). */
-static inline void mip_add(const mip_view *lv, double u, double v, double weight, double acc[3])
-{
-    int32_t h = lv->h;
-    double x = u * lv->w - 0.5;
-    /* rows above and below (-1 / h: beyond the first / last row, which is then used alone),
-     * interpolated linearly in the row coordinate: the weight a row gets, integrated over the
-     * sphere, is its own solid angle to second order ((pi / h)^2 / 24), the first row's within
-     * 1 / 12 (interpolating linearly in z between the rows' z-midpoints instead reproduces a
-     * map linear in z exactly but gives the first row 1.5 times its solid angle: a bright zenith
-     * came out 4-12 % too bright at roughness 0.5-1) */
-    double y = v * h - 0.5;
-    int32_t ra = (int32_t)floor(y), rb = ra + 1;
-    double t = y - ra; /* weight of the row below */
-    if (ra < 0) {
-        for (int k = 0; k < 3; k++)
-            acc[k] += weight * (1 - t) * lv->pole[k];
-    } else {
-        row_lerp_add(lv, ra, x, weight * (1 - t), acc);
-    }
-    if (rb >= h) {
-        for (int k = 0; k < 3; k++)
-            acc[k] += weight * t * lv->pole[3 + k];
-    } else {
-        row_lerp_add(lv, rb, x, weight * t, acc);
-    }
 }
 
 typedef struct level_job {
@@ -548,7 +521,6 @@ typedef struct split {
     int32_t levels, mw[40], mh[40];
     size_t off[40];
     double threshold;
-    double power;             /* of the map: sum of Y dw */
 } split;
 
 static void split_free(split *s)
@@ -565,20 +537,17 @@ static int cmp_desc(const void *a, const void *b)
     return x > y ? -1 : x < y;
 }
 
+/* The map's power in luminance, sum of Y dw (luminance is linear in rgb). */
+static double map_power(const envl_envmap *m)
+{
+    return envl__lum(m->info.power[0], m->info.power[1], m->info.power[2]);
+}
+
 static envl_result make_split(const envl_envmap *m, split *s)
 {
     memset(s, 0, sizeof *s);
     int32_t w = m->width, h = m->height;
-    double e = 0;
-    for (int32_t r = 0; r < h; r++) {
-        const float *p = m->px + 3 * (size_t)r * w;
-        double row = 0;
-        for (int32_t c = 0; c < w; c++)
-            row += envl__lum(p[3 * c], p[3 * c + 1], p[3 * c + 2]);
-        e += row * m->row_omega[r];
-    }
-    s->power = e;
-    double T = SPLIT_K * e / (4 * ENVL_PI);
+    double T = SPLIT_K * map_power(m) / (4 * ENVL_PI);
     if (!(T > 0) || !isfinite(T))
         return ENVL_OK;
     size_t npx = (size_t)w * h, count = 0;
@@ -783,13 +752,13 @@ static envl_result split_lights(const envl_envmap *m, split *s, envl_light **out
     *count = 0;
     if (s->n == 0)
         return ENVL_OK;
-    int32_t *parent = malloc(sizeof(int32_t) * s->n), *slot = malloc(sizeof(int32_t) * s->n);
-    int32_t *slot_light = malloc(sizeof(int32_t) * s->n);
-    double *acc = calloc((size_t)s->n, 8 * sizeof(double)); /* e[3], y d[3], y, y omega/4pi */
-    double *pixels = calloc((size_t)s->n, sizeof(double)); /* the group's solid angle */
+    int32_t *parent = malloc(sizeof(int32_t) * s->n), *group = malloc(sizeof(int32_t) * s->n);
+    /* per group: e[3], sum y d[3], sum y, sum y (1 - cos t) (pixels as discs: omega / 4 pi
+     * each, then the distance to the centroid), solid angle of its pixels */
+    double *acc = calloc((size_t)s->n, 9 * sizeof(double));
     envl_light *l = calloc((size_t)s->n, sizeof(envl_light));
-    if (!parent || !slot || !slot_light || !acc || !pixels || !l) {
-        free(parent), free(slot), free(slot_light), free(acc), free(pixels), free(l);
+    if (!parent || !group || !acc || !l) {
+        free(parent), free(group), free(acc), free(l);
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
     }
     for (int32_t i = 0; i < s->n; i++)
@@ -800,53 +769,49 @@ static envl_result split_lights(const envl_envmap *m, split *s, envl_light **out
             if (lobes_touch(s->lobes + i, s->lobes + j, m->width, m->height))
                 parent[find_root(parent, j)] = find_root(parent, i);
     int32_t n = 0;
+    for (int32_t i = 0; i < s->n; i++)
+        if (find_root(parent, i) == i)
+            group[i] = n++;
     for (int32_t i = 0; i < s->n; i++) {
-        int32_t root = find_root(parent, i);
-        if (root == i)
-            slot[i] = n++;
-    }
-    for (int32_t i = 0; i < s->n; i++) {
+        group[i] = group[find_root(parent, i)];
         const lobe *b = s->lobes + i;
-        double *a = acc + 8 * slot[find_root(parent, i)];
-        double y = envl__lum(b->e[0], b->e[1], b->e[2]);
+        double *a = acc + 9 * group[i], y = envl__lum(b->e[0], b->e[1], b->e[2]);
+        double om = m->row_omega[b->r];
         for (int k = 0; k < 3; k++)
             a[k] += b->e[k], a[3 + k] += y * b->d[k];
         a[6] += y;
-        a[7] += y * m->row_omega[b->r] / (4 * ENVL_PI);
+        a[7] += y * om / (4 * ENVL_PI);
+        a[8] += om;
     }
-    for (int32_t i = 0; i < n; i++) { /* the direction first, then the spread about it */
-        const double *a = acc + 8 * i;
+    for (int32_t g = 0; g < n; g++) { /* the direction first, then the spread about it */
+        const double *a = acc + 9 * g;
         double nd = sqrt(a[3] * a[3] + a[4] * a[4] + a[5] * a[5]);
         for (int k = 0; k < 3; k++)
-            l[i].direction[k] = nd > 0 ? a[3 + k] / nd : 0;
+            l[g].direction[k] = nd > 0 ? a[3 + k] / nd : 0;
     }
     for (int32_t i = 0; i < s->n; i++) {
         const lobe *b = s->lobes + i;
-        double *a = acc + 8 * slot[find_root(parent, i)];
-        const envl_light *li = l + slot[find_root(parent, i)];
-        double y = envl__lum(b->e[0], b->e[1], b->e[2]);
-        a[7] += y * (1 - (b->d[0] * li->direction[0] + b->d[1] * li->direction[1] +
-                          b->d[2] * li->direction[2]));
+        const double *dir = l[group[i]].direction;
+        acc[9 * group[i] + 7] += envl__lum(b->e[0], b->e[1], b->e[2]) *
+                                 (1 - (b->d[0] * dir[0] + b->d[1] * dir[1] + b->d[2] * dir[2]));
     }
-    for (int32_t i = 0; i < s->n; i++)
-        pixels[slot[find_root(parent, i)]] += m->row_omega[s->lobes[i].r];
-    int32_t nl = 0;
-    for (int32_t i = 0; i < n; i++) {
-        const double *a = acc + 8 * i;
-        envl_light li = {.solid_angle = a[6] > 0 ? fmin(4 * ENVL_PI, 4 * ENVL_PI * a[7] / a[6]) : 0};
-        memcpy(li.direction, l[i].direction, sizeof li.direction);
+    int32_t nl = 0, *light = parent; /* group -> light, or -1 (parent is no longer needed) */
+    for (int32_t g = 0; g < n; g++) {
+        const double *a = acc + 9 * g;
+        envl_light li = l[g];
+        li.solid_angle = a[6] > 0 ? fmin(4 * ENVL_PI, 4 * ENVL_PI * a[7] / a[6]) : 0;
         for (int k = 0; k < 3; k++)
             li.rgb[k] = a[k];
         envl__light_set_angle(&li);
-        int keep = li.angle <= SUN_MAX_ANGLE && li.solid_angle <= SUN_MIN_FILL * pixels[i] &&
-                   a[6] >= SUN_MIN_SHARE * s->power;
-        slot_light[i] = keep ? nl : -1;
+        int keep = li.angle <= SUN_MAX_ANGLE && li.solid_angle <= SUN_MIN_FILL * a[8] &&
+                   a[6] >= SUN_MIN_SHARE * map_power(m);
+        light[g] = keep ? nl : -1;
         if (keep)
             l[nl++] = li;
     }
     for (int32_t i = 0; i < s->n; i++)
-        s->lobes[i].taken = slot_light[slot[find_root(parent, i)]] >= 0;
-    free(parent), free(slot), free(acc), free(pixels), free(slot_light);
+        s->lobes[i].taken = light[group[i]] >= 0;
+    free(parent), free(group), free(acc);
     if (nl == 0) {
         free(l);
         l = NULL;
@@ -856,13 +821,6 @@ static envl_result split_lights(const envl_envmap *m, split *s, envl_light **out
     return ENVL_OK;
 }
 
-/* Adds what the lights give to P(R) at roughness > 0, or to the irradiance E(n) for roughness
- * < 0, in `count` directions. A light is the uniform disc of its solid angle about its
- * direction (a sun as Cycles draws a sun lamp of that angle), integrated over SUN_DISC points
- * spread uniformly in solid angle (a Fibonacci spiral on the cap): P += E mean w(R.l) / N(alpha),
- * E += E mean max(n.l, 0). */
-#define SUN_DISC 256
-
 /* x, y completing the unit z to a right-handed frame (Duff et al. 2017). */
 static void orthonormal_basis(const double z[3], double x[3], double y[3])
 {
@@ -870,6 +828,13 @@ static void orthonormal_basis(const double z[3], double x[3], double y[3])
     x[0] = 1 + sg * z[0] * z[0] * a, x[1] = sg * b, x[2] = -sg * z[0];
     y[0] = b, y[1] = sg + z[1] * z[1] * a, y[2] = -z[1];
 }
+
+/* Adds what the lights give to P(R) at roughness > 0, or to the irradiance E(n) for roughness
+ * < 0, in `count` directions. A light is the uniform disc of its solid angle about its
+ * direction (a sun as Cycles draws a sun lamp of that angle), integrated over SUN_DISC points
+ * spread uniformly in solid angle (a Fibonacci spiral on the cap): P += E mean w(R.l) / N(alpha),
+ * E += E mean max(n.l, 0). */
+#define SUN_DISC 256
 static void sun_lights_add(const envl_light *l, int32_t n, double roughness, int32_t count,
                            const double *dirs, double *out)
 {
