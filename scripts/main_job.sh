@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The main job: from an environment (default: the built-in sky) to everything a scene needs,
 # in one folder: 4 fitted lights + SH remainder (JSON, CSV) and the residual environment, SH
-# coefficients with the artist forms, a POV-Ray include with the lights, ambient and sky, a
-# POV-Ray render (HDR) of the example scene lit by it, and preview.png (the map with its lights,
-# spheres lit by the exact reference and by each approximation, errors and times).
+# coefficients with the artist forms, a POV-Ray include for the example scene (its recipe picked
+# from the scene), POV-Ray renders of that scene (PNG at the include's auto exposure, and HDR),
+# and preview.png (the map with its lights, spheres lit by the exact reference and by each
+# approximation, errors and times).
 #   bash scripts/main_job.sh [OUTDIR] [FILE]      (OUTDIR default: envlight-out; FILE default: -)
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -15,11 +16,14 @@ out=$(cd "${1:-envlight-out}" && pwd)
 "$cli" lights "$file" --method fit -n 4 --json -o "$out/lights.json" --residual "$out/residual.exr"
 "$cli" lights "$file" --method fit -n 4 --csv -o "$out/lights.csv" --quiet
 "$cli" sh "$file" --order 2 --window auto --json -o "$out/sh.json" --quiet
-"$cli" pov "$file" -o "$out/env.inc" --shadows soft --sky --scene-radius 10 --quiet
-"$cli" preview "$file" -o "$out/preview.png" --quiet
 cp "$here/povray_include/envlight.inc" "$here/povray_include/examples/sphere_on_plane.pov" "$out/"
-if ! (cd "$out" && povray +Isphere_on_plane.pov +Orender.hdr +FH +W480 +H360 +A0.1 -D \
-        2>povray.log); then
+"$cli" pov "$file" --scene "$out/sphere_on_plane.pov" --sky --exposure auto --scene-radius 10 \
+  -o "$out/env.inc" --quiet
+"$cli" preview "$file" -o "$out/preview.png" --quiet
+# render.png at the include's exposure; render.hdr in the map's radiometry
+if ! (cd "$out" && povray +Isphere_on_plane.pov +Orender.png +W480 +H360 +A0.1 -D \
+        2>povray.log && povray +Isphere_on_plane.pov +Orender.hdr +FH +W480 +H360 +A0.1 -D \
+        Declare=EnvLight_Exposure=1 2>>povray.log); then
   echo "envlight: povray failed on $out/sphere_on_plane.pov (see $out/povray.log)" >&2
   exit 1
 fi

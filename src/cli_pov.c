@@ -20,28 +20,45 @@
  */
 #include "cli.h"
 #include "ground.h"
+#include "pov_recipe.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #define POV_MAX_ORDER 8
+/* The dome's own (unoccluded) diffuse error it grows until it meets: its lights are a
+ * quadrature of the sky, and this keeps that part well below the in-scene errors. */
+#define POV_DOME_ERROR 0.005
+/* --exposure auto: the value a white surface facing up shows (sRGB ~0.8 in an 8-bit image). */
+#define POV_AUTO_WHITE 0.6
 
 static const char pov_help[] =
-    "Usage: envlight pov [FILE] -o OUT.inc [-n N] [--method fit|median|variance] [--order L]\n"
-    "                    [--ambient sh|hemi|none] [--shadows hard|soft|none] [--sky]\n"
-    "                    [--ground ALBEDO] [--sky-image PATH] [--sky-residual]\n"
+    "Usage: envlight pov [FILE] -o OUT.inc [--scene SCENE.pov] [--recipe R] [--ground ALBEDO]\n"
+    "                    [--shadows hard|soft|none] [--sky] [--exposure auto|E]\n"
+    "                    [-n N] [--method fit|median|variance] [--order L]\n"
+    "                    [--ambient sh|hemi|none] [--sky-image PATH] [--sky-residual]\n"
     "                    [--scene-radius R] [--no-place] [input options]\n"
     "A POV-Ray 3.7 include (POV-Ray's frame: left-handed, +Y up; POV <x,y,z> = canonical\n"
     "<x,z,y>) for povray_include/envlight.inc: light directions and colours (rgb / pi), the\n"
     "ambient that the lights did not take, the sky; then the macro calls that place them.\n"
-    "  -n N              lights (default 4)\n"
-    "  --method M        fit (default: lights + SH remainder), median, variance\n"
+    "  --scene SCENE     the scene the include is for: what it uses (shadows between\n"
+    "                    objects, glossy finishes, a ground plane and its colour, radiosity)\n"
+    "                    picks the recipe and the ground; a scene it cannot read is a\n"
+    "                    warning and the defaults apply\n"
+    "  --recipe R        auto (default: from the scene, see the header's reasons), dome\n"
+    "                    (median-cut lights of the sky with shadows, 64-256 by the map, +\n"
+    "                    the ground's bounce), sh (4 fitted lights + SH ambient: exact\n"
+    "                    without occlusion), image-radiosity (4 fitted lights + the residual\n"
+    "                    sky under radiosity); -n/--method/--ambient/--order alone: custom\n"
+    "  -n N              lights (custom default 4; dome: 64, 128 or 256 by its error)\n"
+    "  --method M        fit (custom default: lights + SH remainder), median, variance\n"
     "  --order L         SH order of the ambient (fit: of its remainder), 0..8 (default 2);\n"
     "                    fit: -1 fits lights alone (the default with --ambient none)\n"
-    "  --ambient A       sh (default): the SH ambient as slope-pattern pigments (no radiosity\n"
-    "                    needed); hemi: its best sky/ground/axis form; none: lights only\n"
+    "  --ambient A       sh (custom default): the SH ambient as slope-pattern pigments (no\n"
+    "                    radiosity needed); hemi: its best sky/ground/axis form; none\n"
     "  --ground A        the scene stands on a ground plane (POV-Ray y = 0) of albedo A\n"
     "                    (0..1): lights, ambient and error are computed from the map with its\n"
     "                    lower hemisphere replaced by the plane's radiance A E_up / pi (E_up:\n"
@@ -54,6 +71,9 @@ static const char pov_help[] =
     "                    _sky.hdr; a lat-long .hdr input is used as it is when not given)\n"
     "  --sky-residual    the sky shows the residual (what the lights did not take)\n"
     "  --scene-radius R  lights are placed at 2 R from the scene centre (default 100)\n"
+    "  --exposure E      auto or a number: the default of EnvLight_Exposure, which scales\n"
+    "                    everything envlight adds (auto: a white surface facing up reads\n"
+    "                    0.6, for an 8-bit image; default 1: the map's radiometry)\n"
     "  --no-place        only declare: the scene calls EnvLight_Place_Lights() etc. itself\n"
     "  -o OUT            the include, written atomically (default: stdout)\n"
     "The header states the source, the options, the diffuse error of lights + ambient against\n"
@@ -277,6 +297,94 @@ static double now(void)
     return t.tv_sec + 1e-9 * t.tv_nsec;
 }
 
+/* Diffuse error of what is emitted: lights (+ the ambient rd, may be NULL) against the exact
+ * irradiance ref at DESIGN.md's 1024 normals; emit receives the emitted irradiance. */
+static double emitted_error(const envl_lights *ls, const ridge *rd, const double *ref,
+                            double *emit)
+{
+    int32_t count = envl_lights_count(ls);
+    for (int i = 0; i < ENVL_ERROR_NORMALS; i++) {
+        double n[3], e[3] = {0, 0, 0};
+        envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, n);
+        for (int j = 0; j < count; j++) {
+            envl_light l;
+            envl_lights_get(ls, j, &l);
+            double d = n[0] * l.direction[0] + n[1] * l.direction[1] + n[2] * l.direction[2];
+            for (int ch = 0; ch < 3; ch++)
+                e[ch] += d > 0 ? l.rgb[ch] * d : 0;
+        }
+        if (rd) {
+            double a[3];
+            ridge_eval(rd, n, a);
+            for (int ch = 0; ch < 3; ch++)
+                e[ch] += a[ch];
+        }
+        memcpy(emit + 3 * i, e, sizeof e);
+    }
+    return envl_relative_rms_luminance(ENVL_ERROR_NORMALS, emit, ref);
+}
+
+/* `#include "envlight.inc"`: from POV-Ray's library path (+L) when it is there, else from
+ * this build's povray_include/ (so a scene renders without +L). */
+static void pov_include_envlight(FILE *f)
+{
+#ifdef ENVL_POV_INCLUDE_DIR
+    const char *path = ENVL_POV_INCLUDE_DIR "/envlight.inc";
+    if (access(path, R_OK) == 0 && pov_string_ok(path)) {
+        fputs("#if (file_exists(\"envlight.inc\"))\n#include \"envlight.inc\"\n#else\n#include ", f);
+        pov_string(f, path);
+        fputs("\n#end\n", f);
+        return;
+    }
+#endif
+    fputs("#include \"envlight.inc\" // POV-Ray's +L: the folder of envlight.inc\n", f);
+}
+
+/* The header's account of the recipe: which, why, what the scene gets and what was skipped,
+ * and the in-scene error the scene benchmark measured for it. */
+static void pov_header_recipe(FILE *f, int recipe, const char *why, const pov_scene *scene,
+                              const char *ground_from, int sky, int has_ambient, int dome_count)
+{
+    fprintf(f, "// recipe: %s: %s\n", pov_recipe_name(recipe), why);
+    if (dome_count)
+        fprintf(f, "//   dome of %d lights: the smallest of 64, 128, 256 whose diffuse error "
+                "is within %.1f %%\n", dome_count, 100 * POV_DOME_ERROR);
+    if (scene)
+        fprintf(f, "// scene: %d object%s (%d casting shadows)%s%s%s\n", scene->objects,
+                scene->objects == 1 ? "" : "s",
+                scene->casters, scene->glossy ? ", glossy finishes" : ", matte finishes only",
+                scene->ground ? ", a ground plane" : ", no ground plane",
+                scene->radiosity ? ", radiosity" : "");
+    if (ground_from)
+        fprintf(f, "// ground: albedo from %s\n", ground_from);
+    fputs("// skipped:", f);
+    int any = 0;
+    if (!ground_from && recipe != POV_RECIPE_IMAGE_RADIOSITY) {
+        fputs(" the ground's bounce (no ground plane: --ground ALBEDO or a plane in --scene);", f);
+        any = 1;
+    }
+    if (!has_ambient && recipe != POV_RECIPE_IMAGE_RADIOSITY) {
+        fputs(" an ambient (the lights take the whole sky);", f);
+        any = 1;
+    }
+    if (!sky) {
+        fputs(" the sky image (not asked for: --sky);", f);
+        any = 1;
+    }
+    if (recipe != POV_RECIPE_IMAGE_RADIOSITY) {
+        fputs(" radiosity (not needed);", f);
+        any = 1;
+    }
+    if (scene && !scene->glossy) {
+        fputs(" highlights (no glossy finish in the scene);", f);
+        any = 1;
+    }
+    fputs(any ? "\n" : " nothing\n", f);
+    const char *expected = pov_recipe_expected_error(recipe);
+    fprintf(f, "// in-scene error to expect (scene benchmark, not this map): %s\n",
+            expected ? expected : "not measured for this recipe");
+}
+
 static int ends_with(const char *s, const char *suffix)
 {
     size_t a = strlen(s), b = strlen(suffix);
@@ -289,8 +397,11 @@ int cli_pov(int argc, char **argv)
     const char *file = NULL, *out = NULL, *sky_image = NULL;
     envl_lights_options lo = {.method = ENVL_METHOD_FIT, .count = 4};
     int order = 2, order_set = 0, ambient = AMB_SH, shadows = SHADOW_HARD, sky = 0;
-    int sky_residual = 0, place = 1;
+    int sky_residual = 0, place = 1, recipe = -1;
+    int method_set = 0, count_set = 0, ambient_set = 0;
+    const char *scene_path = NULL;
     double radius = 100, ground = -1; /* ground < 0: no ground plane */
+    double exposure = 0;              /* 0: not given; -1: auto */
     double ground_radiance[3] = {0, 0, 0};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v;
@@ -309,9 +420,18 @@ int cli_pov(int argc, char **argv)
             if (r < 0 || cli_parse_int(v, 1, 1 << 16, &n))
                 return cli_usage("pov", "-n takes a number of lights, 1..65536");
             lo.count = (int32_t)n;
+            count_set = 1;
         } else if ((r = cli_value(argc, argv, &i, "--method", &v)) != 0) {
             if (r < 0 || (lo.method = envl_method_from_name(v)) < 0)
                 return cli_usage("pov", "--method takes fit, median or variance");
+            method_set = 1;
+        } else if ((r = cli_value(argc, argv, &i, "--recipe", &v)) != 0) {
+            if (r < 0 || (recipe = pov_recipe_from_name(v)) < 0)
+                return cli_usage("pov", "--recipe takes auto, sh, dome or image-radiosity");
+        } else if ((r = cli_value(argc, argv, &i, "--scene", &v)) != 0) {
+            if (r < 0 || !*v)
+                return cli_usage("pov", "--scene needs the scene's .pov file");
+            scene_path = v;
         } else if ((r = cli_value(argc, argv, &i, "--order", &v)) != 0) {
             if (r < 0 || cli_parse_int(v, -1, POV_MAX_ORDER, &n))
                 return cli_usage("pov", "--order takes -1..%d", POV_MAX_ORDER);
@@ -328,6 +448,7 @@ int cli_pov(int argc, char **argv)
                 ambient = AMB_NONE;
             else
                 return cli_usage("pov", "--ambient takes sh, hemi or none");
+            ambient_set = 1;
         } else if ((r = cli_value(argc, argv, &i, "--shadows", &v)) != 0) {
             if (r < 0)
                 return cli_usage("pov", "--shadows takes hard, soft or none");
@@ -346,6 +467,12 @@ int cli_pov(int argc, char **argv)
             if (r < 0 || cli_parse_double(v, &ground) || !(ground >= 0 && ground <= 1))
                 return cli_usage("pov", "--ground takes the plane's albedo, a number within "
                                  "[0, 1]");
+        } else if ((r = cli_value(argc, argv, &i, "--exposure", &v)) != 0) {
+            if (r < 0 || (strcmp(v, "auto") && (cli_parse_double(v, &exposure) ||
+                                                !(exposure > 0) || exposure > 1e12)))
+                return cli_usage("pov", "--exposure takes auto or a positive number");
+            if (!strcmp(v, "auto"))
+                exposure = -1;
         } else if ((r = cli_value(argc, argv, &i, "--sky-image", &v)) != 0) {
             if (r < 0 || !*v)
                 return cli_usage("pov", "--sky-image needs a file name");
@@ -367,6 +494,64 @@ int cli_pov(int argc, char **argv)
         } else {
             file = a;
         }
+    }
+    /* What the scene uses (--scene): read tolerantly; a scene it cannot read is a warning and
+     * the defaults apply. */
+    pov_scene scene_uses;
+    const pov_scene *scene = NULL;
+    if (scene_path) {
+        if (pov_scene_read(scene_path, &scene_uses) == 0) {
+            scene = &scene_uses;
+            if (scene_uses.note[0] && !c.quiet)
+                cli_error("pov: warning: scene %s: %s (read as far as it goes)", scene_path,
+                          scene_uses.note);
+        } else if (!c.quiet) {
+            cli_error("pov: warning: %s; the defaults apply", scene_uses.note);
+        }
+    }
+    const char *ground_from = ground >= 0 ? "--ground" : NULL;
+    if (ground < 0 && scene && scene->ground) {
+        ground = scene->ground_albedo >= 0 ? fmax(0, fmin(scene->ground_albedo, 1)) : 0.5;
+        ground_from = scene->ground_albedo >= 0
+                          ? "the scene's plane"
+                          : "the scene's plane, whose colour is not a literal: 0.5 assumed";
+    }
+
+    /* The recipe: given, implied by the low-level options (custom), or picked (auto). */
+    char why[320];
+    if (recipe < 0)
+        recipe = method_set || count_set || ambient_set || order_set ? POV_RECIPE_CUSTOM
+                                                                     : POV_RECIPE_AUTO;
+    if (recipe == POV_RECIPE_AUTO)
+        recipe = pov_recipe_pick(scene, shadows != SHADOW_NONE, why, sizeof why);
+    else
+        snprintf(why, sizeof why, "%s", recipe == POV_RECIPE_CUSTOM ? "the options given"
+                                                                     : "--recipe");
+    int dome_auto_count = 0;
+    if (recipe == POV_RECIPE_SH || recipe == POV_RECIPE_IMAGE_RADIOSITY) {
+        if (!method_set)
+            lo.method = ENVL_METHOD_FIT;
+        if (!count_set)
+            lo.count = 4;
+    }
+    if (recipe == POV_RECIPE_DOME) {
+        if (!method_set)
+            lo.method = ENVL_METHOD_MEDIAN;
+        dome_auto_count = !count_set;
+        if (!ambient_set) /* the cut takes the whole sky: the ambient is the ground's bounce */
+            ambient = ground >= 0 ? AMB_SH : AMB_NONE;
+    }
+    if (recipe == POV_RECIPE_IMAGE_RADIOSITY) {
+        if (!ambient_set)
+            ambient = AMB_NONE; /* the residual sky under radiosity carries it */
+        if (!order_set)
+            order_set = 1;      /* the fit keeps its order-2 remainder: its lights stay peaks */
+        sky = sky_residual = 1;
+        if (ground >= 0 && ground_from && !strcmp(ground_from, "--ground") && !c.quiet)
+            cli_error("pov: warning: --ground is not used by image-radiosity: radiosity "
+                      "bounces the scene's own plane");
+        ground = -1;
+        ground_from = NULL;
     }
     if (lo.method == ENVL_METHOD_FIT)
         lo.remainder_bands = (ambient == AMB_NONE && !order_set) || order < 0
@@ -393,12 +578,12 @@ int cli_pov(int argc, char **argv)
     int rc = CLI_FAIL;
     envl_lights *ls = NULL;
     envl_sh *sh = NULL;
-    envl_envmap *residual = NULL, *grounded = NULL;
+    envl_envmap *residual = NULL, *grounded = NULL, *sky_half = NULL;
     char *sky_path = NULL;
     double *emit = NULL;
-    /* lit: what the scene's objects see (the map, or with --ground the map over the plane);
+    /* lit: what the scene's objects see (the map, or with a ground the map over the plane);
      * map stays the environment as read (info, the sky image). */
-    envl_envmap *lit = map;
+    envl_envmap *lit = map, *cut_map;
     if (ground >= 0) {
         envl_result gr = envl_ground_plane_map(map, ground, c.load.threads, &grounded,
                                                ground_radiance);
@@ -408,87 +593,117 @@ int cli_pov(int argc, char **argv)
         }
         lit = grounded;
     }
-    if (envl_lights_compute(lit, &lo, &ls)) {
-        rc = cli_fail();
-        goto done;
-    }
-    envl_info info;
-    envl_envmap_info(map, &info);
-    envl_lights_summary s;
-    envl_lights_get_summary(ls, &s);
-    if (s.no_light && !c.quiet)
-        cli_error("%s: no light: the environment is black", source);
-
-    /* The ambient: the fit's remainder, else the SH of the residual (zero for a full cut). */
-    int amb_order = -1;
-    const double *amb_sh = NULL;
-    int32_t rem_order;
-    const double *rem = envl_lights_remainder(ls, &rem_order);
-    if (ambient != AMB_NONE) {
-        if (rem) {
-            amb_order = rem_order;
-            amb_sh = rem;
-        } else {
-            envl_load_options rl = {.layout = ENVL_LAYOUT_LATLONG, .threads = c.load.threads};
-            envl_sh_options so = {.bands = order + 1};
-            if (envl_envmap_from_pixels(envl_lights_residual(ls), info.width, info.height, 3,
-                                        &rl, &residual) ||
-                envl_sh_compute(residual, &so, &sh)) {
-                rc = cli_fail();
-                goto done;
-            }
-            amb_order = order;
-            amb_sh = envl_sh_irradiance(sh);
-        }
-    }
-    ridge rd;
-    double hemi_axis[3] = {0, 0, 1}, hemi_sky[3] = {0}, hemi_ground[3] = {0};
-    if (ambient == AMB_SH) {
-        double dev = ridge_from_sh(amb_order, amb_sh, &rd);
-        if (dev < 0 || dev > 1e-9) {
-            cli_error("pov: internal error: the slope-pattern form of the SH ambient deviates "
-                      "by %g", dev);
+    /* A dome over a ground takes its lights from the sky half: the plane would shadow any
+     * light below the horizon. */
+    cut_map = lit;
+    if (recipe == POV_RECIPE_DOME && grounded) {
+        if (envl_sky_hemisphere_map(map, c.load.threads, &sky_half)) {
+            rc = cli_fail();
             goto done;
         }
-    } else if (ambient == AMB_HEMI) {
-        hemi_from_sh(amb_order, amb_sh, hemi_axis, hemi_sky, hemi_ground);
-        memset(&rd, 0, sizeof rd);
-        rd.terms = 1;
-        rd.order = 1;
-        memcpy(rd.dir[0], hemi_axis, sizeof hemi_axis);
-        for (int ch = 0; ch < 3; ch++) {
-            rd.coef[0][0][ch] = 0.5 * (hemi_sky[ch] + hemi_ground[ch]);
-            rd.coef[0][1][ch] = 0.5 * (hemi_sky[ch] - hemi_ground[ch]);
-        }
+        cut_map = sky_half;
     }
-
-    /* Diffuse error of what is emitted: lights + ambient (as written) against the exact
-     * irradiance at DESIGN.md's 1024 normals. */
     const double *ref;
     emit = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
     if (!emit || envl_envmap_reference_irradiance(lit, &ref)) {
         rc = emit ? cli_fail() : (cli_error("pov: out of memory"), CLI_FAIL);
         goto done;
     }
-    for (int i = 0; i < ENVL_ERROR_NORMALS; i++) {
-        double n[3], e[3] = {0, 0, 0};
-        envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, n);
-        for (int j = 0; j < s.count; j++) {
-            envl_light l;
-            envl_lights_get(ls, j, &l);
-            double d = n[0] * l.direction[0] + n[1] * l.direction[1] + n[2] * l.direction[2];
-            for (int ch = 0; ch < 3; ch++)
-                e[ch] += d > 0 ? l.rgb[ch] * d : 0;
+    envl_info info;
+    envl_envmap_info(map, &info);
+    envl_lights_summary s;
+    int amb_order = -1;
+    const double *amb_sh = NULL;
+    int32_t rem_order;
+    const double *rem = NULL;
+    double ground_sh[4 * 3] = {0};
+    ridge rd;
+    double hemi_axis[3] = {0, 0, 1}, hemi_sky[3] = {0}, hemi_ground[3] = {0};
+    double error = 0;
+    /* The dome's size, when not given: the smallest of these whose diffuse error (lights +
+     * ambient against the exact integrator, unoccluded) is within POV_DOME_ERROR. */
+    static const int dome_counts[] = {64, 128, 256};
+    int tries = dome_auto_count ? (int)(sizeof dome_counts / sizeof *dome_counts) : 1;
+    for (int t = 0; t < tries; t++) {
+        if (dome_auto_count)
+            lo.count = dome_counts[t];
+        envl_lights_free(ls);
+        envl_sh_free(sh);
+        envl_envmap_free(residual);
+        ls = NULL;
+        sh = NULL;
+        residual = NULL;
+        if (envl_lights_compute(cut_map, &lo, &ls)) {
+            rc = cli_fail();
+            goto done;
         }
+        envl_lights_get_summary(ls, &s);
+
+        /* The ambient: the ground's bounce under a dome, the fit's remainder, else the SH of
+         * the residual (zero for a full cut). */
+        amb_order = -1;
+        amb_sh = NULL;
+        rem = envl_lights_remainder(ls, &rem_order);
         if (ambient != AMB_NONE) {
-            double a[3];
-            ridge_eval(&rd, n, a);
-            for (int ch = 0; ch < 3; ch++)
-                e[ch] += a[ch];
+            if (cut_map == sky_half) {
+                /* Uniform radiance L_g below the horizon gives E(n) = pi L_g (1 - n_z) / 2
+                 * (the isotropic-sky formula turned over): bands 0 and 1 exactly. */
+                const double y00 = 0.28209479177387814, y1 = 0.4886025119029199;
+                for (int ch = 0; ch < 3; ch++) {
+                    double a = CLI_PI * ground_radiance[ch] / 2;
+                    ground_sh[ch] = a / y00;
+                    ground_sh[3 * 2 + ch] = -a / y1;
+                }
+                amb_order = 1;
+                amb_sh = ground_sh;
+            } else if (rem) {
+                amb_order = rem_order;
+                amb_sh = rem;
+            } else {
+                envl_load_options rl = {.layout = ENVL_LAYOUT_LATLONG,
+                                        .threads = c.load.threads};
+                envl_sh_options so = {.bands = order + 1};
+                if (envl_envmap_from_pixels(envl_lights_residual(ls), info.width, info.height,
+                                            3, &rl, &residual) ||
+                    envl_sh_compute(residual, &so, &sh)) {
+                    rc = cli_fail();
+                    goto done;
+                }
+                amb_order = order;
+                amb_sh = envl_sh_irradiance(sh);
+            }
         }
-        memcpy(emit + 3 * i, e, sizeof e);
+        if (ambient == AMB_SH) {
+            double dev = ridge_from_sh(amb_order, amb_sh, &rd);
+            if (dev < 0 || dev > 1e-9) {
+                cli_error("pov: internal error: the slope-pattern form of the SH ambient "
+                          "deviates by %g", dev);
+                goto done;
+            }
+        } else if (ambient == AMB_HEMI) {
+            hemi_from_sh(amb_order, amb_sh, hemi_axis, hemi_sky, hemi_ground);
+            memset(&rd, 0, sizeof rd);
+            rd.terms = 1;
+            rd.order = 1;
+            memcpy(rd.dir[0], hemi_axis, sizeof hemi_axis);
+            for (int ch = 0; ch < 3; ch++) {
+                rd.coef[0][0][ch] = 0.5 * (hemi_sky[ch] + hemi_ground[ch]);
+                rd.coef[0][1][ch] = 0.5 * (hemi_sky[ch] - hemi_ground[ch]);
+            }
+        }
+        error = emitted_error(ls, ambient != AMB_NONE ? &rd : NULL, ref, emit);
+        if (error <= POV_DOME_ERROR)
+            break;
     }
-    double error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, emit, ref);
+    if (s.no_light && !c.quiet)
+        cli_error("%s: no light: the environment is black", source);
+    /* Auto exposure: a white Lambertian surface facing up, unshadowed, reads POV_AUTO_WHITE:
+     * its radiance is E_up / pi. */
+    double exposure_auto = 1, e_up[3];
+    const double up[3] = {0, 0, 1};
+    if (envl_irradiance_exact(lit, 1, up, e_up) == ENVL_OK &&
+        envl_luminance(e_up[0], e_up[1], e_up[2]) > 0)
+        exposure_auto = POV_AUTO_WHITE * CLI_PI / envl_luminance(e_up[0], e_up[1], e_up[2]);
     double seconds = now() - t0;
 
     /* The sky image: the lat-long .hdr input as it is, else the canonical map (rotation
@@ -530,6 +745,14 @@ int cli_pov(int argc, char **argv)
                 goto done;
             }
         }
+        /* Named by its absolute path: the scene may be rendered from another folder. */
+        char *absolute = realpath(sky_path, NULL);
+        if (absolute && pov_string_ok(absolute)) {
+            free(sky_path);
+            sky_path = absolute;
+        } else {
+            free(absolute);
+        }
     }
 
     cli_output o;
@@ -552,9 +775,13 @@ int cli_pov(int argc, char **argv)
     fprintf(f, "\n// %d lights by %s%s; ambient %s", (int)s.count, envl_method_name(s.method),
             rem ? " (+ SH remainder)" : "", amb_names[ambient]);
     if (ambient != AMB_NONE)
-        fprintf(f, " (%s order %d, %d slope terms)", rem ? "fit remainder" : "residual SH",
+        fprintf(f, " (%s order %d, %d slope terms)",
+                amb_sh == ground_sh ? "the ground's bounce," : rem ? "fit remainder"
+                                                                   : "residual SH",
                 amb_order, rd.terms);
     fprintf(f, "; shadows %s\n", shadow_names[shadows]);
+    pov_header_recipe(f, recipe, why, scene, ground_from, sky, ambient != AMB_NONE,
+                      dome_auto_count ? (int)s.count : 0);
     if (grounded) {
         fprintf(f, "// ground plane (canonical z = 0, POV-Ray y = 0), albedo %.9g: the lower "
                 "hemisphere\n//   is its radiance albedo * E_up / pi = <%.6g, %.6g, %.6g>; "
@@ -680,11 +907,19 @@ int cli_pov(int argc, char **argv)
                 sky_residual ? " // the residual: what the lights did not take" : "",
                 sky_rotate);
     }
-    fputs("#include \"envlight.inc\"\n", f);
+    fprintf(f, "#declare EnvLight_Exposure_Auto = %.9g; // a white surface facing up reads "
+            "%.1f\n", exposure_auto, POV_AUTO_WHITE);
+    if (exposure != 0)
+        fprintf(f, "#ifndef (EnvLight_Exposure) #declare EnvLight_Exposure = %.9g; #end // "
+                "--exposure %s\n", exposure < 0 ? exposure_auto : exposure,
+                exposure < 0 ? "auto" : "X");
+    pov_include_envlight(f);
     if (place) {
         fputs("EnvLight_Place_Lights()\n", f);
         if (sky)
             fputs("EnvLight_Sky()\n", f);
+        if (recipe == POV_RECIPE_IMAGE_RADIOSITY)
+            fputs("global_settings { EnvLight_Radiosity_Residual_Settings() }\n", f);
     }
     fputs("#end\n", f);
     rc = cli_output_close(&o);
@@ -695,6 +930,7 @@ done:
     envl_sh_free(sh);
     envl_envmap_free(residual);
     envl_envmap_free(grounded);
+    envl_envmap_free(sky_half);
     envl_lights_free(ls);
     envl_envmap_free(map);
     return rc;

@@ -21,6 +21,38 @@
 
 #define GROUND_PI 3.14159265358979323846
 
+/* The fraction of row r's solid angle below the horizon: the row spans the elevations
+ * [t1, t0], t = pi (0.5 - v) (DESIGN.md), and dw ~ cos t dt, so the part below 0 is
+ * -sin t1 / (sin t0 - sin t1). */
+static double row_below(int32_t r, int32_t h)
+{
+    double t0 = GROUND_PI * (0.5 - (double)r / h), t1 = GROUND_PI * (0.5 - (r + 1.0) / h);
+    return t0 <= 0 ? 1 : t1 >= 0 ? 0 : -sin(t1) / (sin(t0) - sin(t1));
+}
+
+/* A copy of map whose lower hemisphere is the uniform radiance rgb (a row straddling the
+ * horizon mixed by solid angle, so the power stays exact). */
+static envl_result replace_lower_hemisphere(const envl_envmap *map, const double rgb[3],
+                                            int32_t threads, envl_envmap **out)
+{
+    int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
+    const float *src = envl_envmap_pixels(map);
+    float *px = malloc(sizeof(float) * 3 * (size_t)w * h);
+    if (!px)
+        return ENVL_ERR_MEMORY;
+    for (int32_t r = 0; r < h; r++) {
+        double below = row_below(r, h);
+        const float *s = src + (size_t)3 * w * r;
+        float *d = px + (size_t)3 * w * r;
+        for (int32_t i = 0; i < 3 * w; i++)
+            d[i] = below == 0 ? s[i] : (float)((1 - below) * s[i] + below * rgb[i % 3]);
+    }
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
+    envl_result rc = envl_envmap_from_pixels(px, w, h, 3, &lo, out);
+    free(px);
+    return rc;
+}
+
 envl_result envl_ground_plane_map(const envl_envmap *map, double albedo, int32_t threads,
                                   envl_envmap **out, double ground_rgb[3])
 {
@@ -38,22 +70,12 @@ envl_result envl_ground_plane_map(const envl_envmap *map, double albedo, int32_t
         for (int k = 0; k < 3; k++)
             ground_rgb[k] = ground[k];
 
-    int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
-    const float *src = envl_envmap_pixels(map);
-    float *px = malloc(sizeof(float) * 3 * (size_t)w * h);
-    if (!px)
-        return ENVL_ERR_MEMORY;
-    for (int32_t r = 0; r < h; r++) {
-        /* row r spans the elevations [t1, t0], t = pi (0.5 - v) (DESIGN.md) */
-        double t0 = GROUND_PI * (0.5 - (double)r / h), t1 = GROUND_PI * (0.5 - (r + 1.0) / h);
-        double below = t0 <= 0 ? 1 : t1 >= 0 ? 0 : -sin(t1) / (sin(t0) - sin(t1));
-        const float *s = src + (size_t)3 * w * r;
-        float *d = px + (size_t)3 * w * r;
-        for (int32_t i = 0; i < 3 * w; i++)
-            d[i] = below == 0 ? s[i] : (float)((1 - below) * s[i] + below * ground[i % 3]);
-    }
-    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
-    rc = envl_envmap_from_pixels(px, w, h, 3, &lo, out);
-    free(px);
-    return rc;
+    return replace_lower_hemisphere(map, ground, threads, out);
+}
+
+envl_result envl_sky_hemisphere_map(const envl_envmap *map, int32_t threads, envl_envmap **out)
+{
+    static const double black[3] = {0, 0, 0};
+    *out = NULL;
+    return replace_lower_hemisphere(map, black, threads, out);
 }

@@ -12,4 +12,8 @@
 envl_result envl_ground_plane_map(const envl_envmap *map, double albedo, int32_t threads,
                                   envl_envmap **out, double ground_rgb[3]);
 
+/* A copy of `map` with its lower hemisphere black: the sky a scene on a ground plane sees
+ * (envlight pov's dome takes its lights from it; ground.c). */
+envl_result envl_sky_hemisphere_map(const envl_envmap *map, int32_t threads, envl_envmap **out);
+
 #endif

@@ -5,7 +5,8 @@
 command -v povray >/dev/null || { echo "SKIP: povray absent"; exit 77; }
 
 run bash "$(dirname "$0")/../scripts/main_job.sh" job
-for f in lights.json lights.csv residual.exr sh.json env.inc envlight.inc render.hdr preview.png; do
+for f in lights.json lights.csv residual.exr sh.json env.inc envlight.inc render.hdr render.png \
+         preview.png; do
   checks=$((checks + 1)); [ -s "job/$f" ] || fail "job/$f missing or empty"
 done
 has out.txt "diffuse error"

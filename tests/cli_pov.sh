@@ -6,12 +6,79 @@
 S="--sky-width 128"
 run "$ENVLIGHT" pov - $S -o default.inc
 for k in "EnvLight_Generated_Inc_Temp" "#declare EnvLight_Count" "EnvLight_Colour" \
-         "EnvLight_Ambient_Coef" "#declare EnvLight_Shadows = 1" "diffuse error" \
+         "#declare EnvLight_Shadows = 1" "diffuse error" \
          "EnvLight_Place_Lights()" '#include "envlight.inc"' "POV-Ray vector <x, z, y>"; do
   has default.inc "$k"
 done
+# the default with no scene: a dome of median-cut lights with hard shadows, no ambient (the
+# lights take the whole sky), nothing else; the header says which recipe and why
+has default.inc "^// recipe: dome: no --scene given, shadows assumed"
+has default.inc "^//   dome of \(64\|128\|256\) lights: the smallest of 64, 128, 256"
+has default.inc "lights by median; ambient none; shadows hard"
+has default.inc "^// skipped: the ground's bounce .*; an ambient .*; the sky image .*; radiosity"
+has default.inc "^// in-scene error to expect (scene benchmark, not this map): "
+hasnt default.inc "#declare EnvLight_Ambient"
 hasnt default.inc "EnvLight_Sky_File"
 hasnt default.inc "^EnvLight_Sky()"
+hasnt default.inc "Radiosity"
+# envlight.inc: from +L when there, else from this build's povray_include/
+has default.inc '^#if (file_exists("envlight.inc"))$'
+has default.inc "^#include \"$(cd "$(dirname "$0")/.." && pwd)/povray_include/envlight.inc\"$"
+run "$ENVLIGHT" pov - $S --recipe sh -o sh.inc
+has sh.inc "^// recipe: sh: --recipe"
+has sh.inc "[1-4] lights by fit (+ SH remainder); ambient sh"
+has sh.inc "EnvLight_Ambient_Coef"
+# explicit low-level options: the recipe is "custom" (fit 4 + SH as before)
+run "$ENVLIGHT" pov - $S -n 4 -o custom.inc
+has custom.inc "^// recipe: custom: the options given"
+has custom.inc "EnvLight_Ambient_Coef"
+# a dome over a ground: lights from the sky half, the ground's bounce as an order-1 ambient
+run "$ENVLIGHT" pov - $S --recipe dome -n 32 --ground 0.5 -o dome_ground.inc
+has dome_ground.inc "32 lights by median; ambient sh (the ground's bounce, order 1"
+has dome_ground.inc "^// ground: albedo from --ground"
+# image-radiosity: fit 4, the residual sky, the radiosity settings placed; no ambient
+run "$ENVLIGHT" pov - $S --recipe image-radiosity -o ir.inc
+has ir.inc "[1-4] lights by fit (+ SH remainder); ambient none"
+has ir.inc "^global_settings { EnvLight_Radiosity_Residual_Settings() }$"
+has ir.inc "^EnvLight_Sky()$"
+has ir.inc "EnvLight_Sky_File = \"$PWD/ir_sky.hdr\"; // the residual"
+usage "$ENVLIGHT" pov - $S --recipe custom
+usage "$ENVLIGHT" pov - $S --recipe
+usage "$ENVLIGHT" pov - $S --scene
+
+# --scene: what the scene uses picks the recipe and the ground
+printf 'camera { location <0,1,-4> look_at 0 }\nsphere { 0, 1 pigment { rgb 1 } }\n' > matte.pov
+run "$ENVLIGHT" pov - $S --scene matte.pov -o matte.inc
+has matte.inc "^// recipe: sh: no object of the scene can shadow another and no finish is glossy"
+has matte.inc "^// scene: 1 object (1 casting shadows), matte finishes only, no ground plane"
+has matte.inc "highlights (no glossy finish in the scene)"
+printf 'sphere { <0,1,0>, 1 pigment { rgb 1 } finish { specular 0.5 } }\n' > glossy.pov
+run "$ENVLIGHT" pov - $S --scene glossy.pov -o glossy.inc
+has glossy.inc "^// recipe: dome: glossy finishes: POV-Ray draws highlights from light sources"
+printf 'sphere { <0,1,0>, 1 pigment { rgb 1 } }\nplane { y, 0 pigment { rgb <0.3, 0.3, 0.3> } }\n' > onplane.pov
+run "$ENVLIGHT" pov - $S --scene onplane.pov -o onplane.inc
+has onplane.inc "^// recipe: dome: objects of the scene shadow others"
+has onplane.inc "#declare EnvLight_Ground_Albedo = 0.3;"
+has onplane.inc "^// ground: albedo from the scene's plane$"
+printf '#declare F = pigment { rgb 0.2 };\nsphere { <0,1,0>, 1 }\nplane { y, 0 pigment { F } }\n' > idplane.pov
+run "$ENVLIGHT" pov - $S --scene idplane.pov -o idplane.inc
+has idplane.inc "#declare EnvLight_Ground_Albedo = 0.5;"
+has idplane.inc "colour is not a literal: 0.5 assumed"
+run "$ENVLIGHT" pov - $S --scene onplane.pov --ground 0.7 -o ground07.inc
+has ground07.inc "#declare EnvLight_Ground_Albedo = 0.7;"
+printf 'global_settings { radiosity { count 100 } }\nsphere { <0,1,0>, 1 }\nplane { y, 0 }\n' > rad.pov
+run "$ENVLIGHT" pov - $S --scene rad.pov -o rad.inc
+has rad.inc "^// recipe: image-radiosity: the scene renders radiosity"
+hasnt rad.inc "EnvLight_Ground_Albedo"
+run "$ENVLIGHT" pov - $S --scene onplane.pov --shadows none -o noshadow.inc
+has noshadow.inc "^// recipe: sh: shadowless lights asked for"
+# a scene it cannot read: a warning, the defaults, exit 0
+run "$ENVLIGHT" pov - $S --scene no_such_scene.pov -o unread.inc
+has err.txt "warning: no_such_scene.pov: .*; the defaults apply"
+has unread.inc "^// recipe: dome: no --scene given"
+printf 'sphere { 0, 1 /* open comment\n' > broken.pov
+run "$ENVLIGHT" pov - $S --scene broken.pov -o broken.inc
+has err.txt "warning: scene broken.pov: .*(read as far as it goes)"
 run "$ENVLIGHT" pov - $S --ambient none -o none.inc
 hasnt none.inc "#declare EnvLight_Ambient"
 run "$ENVLIGHT" pov - $S --ambient hemi -o hemi.inc
@@ -24,11 +91,11 @@ has shadowless.inc "#declare EnvLight_Shadows = 0"
 run "$ENVLIGHT" pov - $S --no-place -o noplace.inc
 hasnt noplace.inc "EnvLight_Place_Lights()"
 run "$ENVLIGHT" pov - $S --sky -o sky.inc
-has sky.inc '#declare EnvLight_Sky_File = "sky_sky.hdr";'
+has sky.inc "#declare EnvLight_Sky_File = \"$PWD/sky_sky.hdr\";"
 has sky.inc "EnvLight_Sky()"
 checks=$((checks + 1)); [ -s sky_sky.hdr ] || { fails=$((fails + 1)); echo "FAIL: sky_sky.hdr not written"; }
 run "$ENVLIGHT" pov - $S --sky-residual --sky-image res.hdr -o res.inc
-has res.inc '#declare EnvLight_Sky_File = "res.hdr";'
+has res.inc "#declare EnvLight_Sky_File = \"$PWD/res.hdr\";"
 # --order: SH order of the fit's remainder (25 coefficients for 4)
 run "$ENVLIGHT" pov - $S --order 4 -o order4.inc
 has order4.inc "#declare EnvLight_Ambient_SH = array\[25\]"
@@ -55,7 +122,7 @@ checks=$((checks + 1)); [ ! -e bad.inc ] || { fails=$((fails + 1)); echo "FAIL: 
 run "$ENVLIGHT" convert - 'a"b\c#d.hdr' $S
 run "$ENVLIGHT" pov 'a"b\c#d.hdr' --sky -o q.inc
 has q.inc '#declare EnvLight_Source = "a\\"b\\\\c#d.hdr";'
-has q.inc '#declare EnvLight_Sky_File = "a\\"b\\\\c#d.hdr";'
+has q.inc "#declare EnvLight_Sky_File = \".*/a\\\\\"b\\\\\\\\c#d.hdr\";"
 cp q.inc q.before
 checks=$((checks + 1))
 "$ENVLIGHT" pov - $S --sky --sky-image "$(printf 'x\ny.hdr')" -o q.inc >out.txt 2>err.txt
@@ -79,7 +146,8 @@ usage "$ENVLIGHT" pov a.hdr b.hdr
 # POV-Ray parses the generated include with every option (no render: +W8 +H8 -F)
 if command -v povray >/dev/null; then
   src=$(cd "$(dirname "$0")/.." && pwd)
-  for inc in default none hemi soft shadowless sky res order4 median q ground ground0; do
+  for inc in default none hemi soft shadowless sky res order4 median q ground ground0 sh custom \
+             dome_ground ir matte glossy onplane rad; do
     printf '#version 3.7;\nglobal_settings { assumed_gamma 1 }\n#include "%s.inc"\ncamera { location <0,0,-5> look_at 0 }\nsphere { 0, 1 EnvLight_Diffuse_Texture(<1,1,1>) }\n' "$inc" > p_$inc.pov
     checks=$((checks + 1))
     povray +Ip_$inc.pov -F +W8 +H8 -D -P +L"$src/povray_include" >pov.txt 2>&1 ||

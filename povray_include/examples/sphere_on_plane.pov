@@ -1,8 +1,10 @@
-// envlight example: a sphere on a plane lit by an environment.
-//   envlight pov - --shadows soft --sky --scene-radius 10 -o env.inc   (or a .hdr instead of -)
-//   povray +Isphere_on_plane.pov +L.. +W640 +H480 +A0.1 +FH   (HDR: the sun is bright)
-// The generated include places the lights and the sky; objects take the ambient through
-// EnvLight_Diffuse_Texture / EnvLight_Add_Ambient.
+// envlight example: a sphere on a plane lit by an environment (README.md, "POV-Ray").
+//   envlight pov MAP.hdr --scene sphere_on_plane.pov --sky --exposure auto -o env.inc
+//   povray sphere_on_plane.pov +W640 +H480 +A0.1                       (sphere_on_plane.png)
+//   povray sphere_on_plane.pov +W640 +H480 +A0.1 +FH Declare=EnvLight_Exposure=1
+//                                              (sphere_on_plane.hdr, in the map's radiometry)
+// env.inc places the lights and the sky and finds envlight.inc by itself; objects take the
+// ambient (here: the ground's bounce) through EnvLight_Diffuse_Texture / EnvLight_Add_Ambient.
 #version 3.7;
 global_settings { assumed_gamma 1 ambient_light 0 }
 #include "env.inc"

@@ -1,0 +1,31 @@
+/* Which lighting recipe `envlight pov` writes for a scene, and why (pov_recipe.c). */
+#ifndef ENVL_POV_RECIPE_H
+#define ENVL_POV_RECIPE_H
+
+#include "pov_scene.h"
+
+#include <stddef.h>
+
+enum {
+    POV_RECIPE_AUTO,            /* pick one of the three below from the scene */
+    POV_RECIPE_CUSTOM,          /* --method / -n / --ambient / --order given without --recipe */
+    POV_RECIPE_SH,              /* fit 4 + SH ambient: exact for unoccluded normals */
+    POV_RECIPE_DOME,            /* median-cut lights of the sky with shadows (+ ground bounce) */
+    POV_RECIPE_IMAGE_RADIOSITY, /* fit 4 + the residual sky under the scene's radiosity */
+    POV_RECIPE_COUNT
+};
+
+/* "auto", "custom", "sh", "dome", "image-radiosity"; from_name: -1 for anything else
+ * ("custom" is not a name a user gives). */
+int pov_recipe_from_name(const char *name);
+const char *pov_recipe_name(int recipe);
+
+/* The recipe for a scene (NULL: none given) and the shadows asked for (0: shadowless lights);
+ * `why` receives one sentence. */
+int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size);
+
+/* The in-scene error to expect, measured by scripts/scene_bench.py --host pov (a sentence
+ * for the include's header), or NULL when the recipe was not measured. */
+const char *pov_recipe_expected_error(int recipe);
+
+#endif

@@ -1,0 +1,382 @@
+/* The tolerant scene reader behind `envlight pov --scene`: what a POV-Ray scene places and
+ * uses, from the two example scenes and small scenes written here; bad files end with -1 or a
+ * note, never a crash. */
+#include "pov_scene.h"
+#include "check.h"
+
+#include <stdint.h>
+#include <unistd.h>
+
+/* Writes `text` to a scratch file and reads it back; the read must succeed. */
+static pov_scene scene_n(const char *text, size_t n)
+{
+    const char *path = tmp_path("scene.pov");
+    FILE *f = fopen(path, "wb");
+    CHECK(f != NULL);
+    if (f) {
+        CHECK(fwrite(text, 1, n, f) == n);
+        fclose(f);
+    }
+    pov_scene s;
+    CHECK(pov_scene_read(path, &s) == 0);
+    CHECK(memchr(s.note, 0, sizeof s.note) != NULL);
+    return s;
+}
+
+static pov_scene scene(const char *text) { return scene_n(text, strlen(text)); }
+
+static int has(const char *note, const char *part) { return strstr(note, part) != NULL; }
+
+/* sphere_on_plane.pov: a matte sphere, a plane { y, 0 } with EnvLight_Diffuse_Texture(<0.5,
+ * 0.5, 0.5>) and a sphere with a #declare'd texture of specular 0.4; the lights and the sky
+ * come from env.inc, which is not followed, so radiosity and sky are 0. */
+static void test_sphere_on_plane(void)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/povray_include/examples/sphere_on_plane.pov", ENVL_SOURCE_DIR);
+    pov_scene s;
+    CHECK(pov_scene_read(path, &s) == 0);
+    CHECK(s.objects == 3);
+    CHECK(s.casters == 3);
+    CHECK(s.glossy == 1);
+    CHECK(s.ground == 1);
+    CHECK(s.ground_height == 0);
+    CHECK_NEAR(s.ground_albedo, 0.5, 1e-12); /* luminance of grey 0.5: the weights sum to 1 */
+    CHECK(s.radiosity == 0);
+    CHECK(s.sky == 0);
+    CHECK(strcmp(s.note, "") == 0);
+}
+
+/* bench_scene.pov places its objects only inside `#switch (Bench_Pass)`: three cases of three
+ * objects each (two spheres and a plane; none has no_shadow, pass 1 hides two with no_image,
+ * which still casts). A branch counts the objects it places and a conditional adds the most
+ * any branch places, so the scene has 3 objects and 3 casters (one pass's worth), not 9.
+ * Glossy: `specular Bench_Glossy_Specular` is an identifier, so > 0. Ground: case 0's
+ * `plane { y, 0 ...}`; its colour goes through a macro with an identifier, so albedo -1.
+ * Lights, sky and radiosity come from lighting.inc, not followed: 0. */
+static void test_bench_scene(void)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/povray_include/examples/bench_scene.pov", ENVL_SOURCE_DIR);
+    pov_scene s;
+    CHECK(pov_scene_read(path, &s) == 0);
+    CHECK(s.objects == 3);
+    CHECK(s.casters == 3);
+    CHECK(s.glossy == 1);
+    CHECK(s.ground == 1);
+    CHECK(s.ground_height == 0);
+    CHECK(s.ground_albedo == -1);
+    CHECK(s.radiosity == 0);
+    CHECK(s.sky == 0);
+    CHECK(strcmp(s.note, "") == 0);
+}
+
+static void test_glossy(void)
+{
+    pov_scene s = scene("sphere { 0, 1 pigment { rgb 1 } finish { ambient 0 diffuse 0.8 } }\n");
+    CHECK(s.glossy == 0 && s.objects == 1 && s.casters == 1 && s.ground == 0);
+    CHECK(s.ground_albedo == -1 && s.radiosity == 0 && s.sky == 0 && !s.note[0]);
+
+    CHECK(scene("sphere { 0, 1 finish { specular 0 } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 finish { specular 0.0 roughness 0.1 } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 finish { specular 0.4 } }").glossy == 1);
+    CHECK(scene("sphere { 0, 1 finish { specular albedo 0.4 } }").glossy == 1);
+    CHECK(scene("sphere { 0, 1 finish { specular S } }").glossy == 1);        /* identifier */
+    CHECK(scene("sphere { 0, 1 finish { specular 0 * 2 } }").glossy == 1);    /* expression */
+    CHECK(scene("sphere { 0, 1 finish { phong 0 } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 finish { phong 0.0 phong_size 40 } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 finish { phong 1 } }").glossy == 1);
+    CHECK(scene("sphere { 0, 1 finish { phong .5 } }").glossy == 1);
+    /* reflection forms */
+    CHECK(scene("sphere { 0, 1 finish { reflection { 0 } } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 finish { reflection 0 } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 finish { reflection rgb 0 } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 finish { reflection { rgb <0, 0, 0> } } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 finish { reflection color rgb <0, 0, 0> } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 finish { reflection { 0.05 } } }").glossy == 1);
+    CHECK(scene("sphere { 0, 1 finish { reflection 0.2 } }").glossy == 1);
+    CHECK(scene("sphere { 0, 1 finish { reflection rgb <0, 0, 0.1> } }").glossy == 1);
+    CHECK(scene("sphere { 0, 1 finish { reflection { 0, 1 fresnel on } } }").glossy == 1);
+    CHECK(scene("sphere { 0, 1 finish { reflection { 0, 0 falloff 2 } } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 finish { reflection { R } } }").glossy == 1);
+    /* metallic: alone it means 1 */
+    CHECK(scene("sphere { 0, 1 finish { metallic 0 } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 finish { metallic 0.5 } }").glossy == 1);
+    CHECK(scene("sphere { 0, 1 finish { metallic } }").glossy == 1);
+    /* a declared texture or finish still counts, placed or not */
+    CHECK(scene("#declare T = texture { finish { specular 0.5 } };\n"
+                "sphere { 0, 1 pigment { rgb 1 } }\n").glossy == 1);
+    CHECK(scene("#declare F = finish { phong 1 }\n").glossy == 1);
+    /* whole identifiers, case-sensitive; photons' `reflection on` is no finish */
+    CHECK(scene("sphere { 0, 1 finish { Specular 1 SPECULAR 1 specular_x 1 phong_size 9 "
+                "reflection_exponent 2 } }").glossy == 0);
+    CHECK(scene("sphere { 0, 1 photons { target reflection on refraction off } }").glossy == 0);
+}
+
+static void test_ground(void)
+{
+    pov_scene s = scene("plane { y, 0 }");
+    CHECK(s.ground == 1 && s.ground_height == 0 && s.ground_albedo == -1 && s.objects == 1);
+    s = scene("plane { <0, 1, 0>, -1.5 pigment { rgb 0.3 } }");
+    CHECK(s.ground == 1);
+    CHECK_NEAR(s.ground_height, -1.5, 1e-15);
+    CHECK_NEAR(s.ground_albedo, 0.3, 1e-12);
+    s = scene("plane { +y, 2 }");
+    CHECK(s.ground == 1 && s.ground_height == 2);
+    s = scene("plane { <0, 2.5, 0>, H }"); /* a non-literal height reads as 0 */
+    CHECK(s.ground == 1 && s.ground_height == 0);
+    CHECK(scene("plane { -y, 0 }").ground == 0);
+    CHECK(scene("plane { x, 0 }").ground == 0);
+    CHECK(scene("plane { z, 0 }").ground == 0);
+    CHECK(scene("plane { <0, -1, 0>, 0 }").ground == 0);
+    CHECK(scene("plane { <0.1, 1, 0>, 0 }").ground == 0);
+    CHECK(scene("plane { N, 0 }").ground == 0);
+    /* declared, or inside a CSG: not a placed ground */
+    s = scene("#declare Floor = plane { y, 0 }\n");
+    CHECK(s.ground == 0 && s.objects == 0);
+    s = scene("union { plane { y, 0 } sphere { 0, 1 } }");
+    CHECK(s.ground == 0 && s.objects == 1);
+    /* the first plane facing up wins */
+    s = scene("plane { x, 5 } plane { y, -2 pigment { rgb 0.1 } } plane { y, 3 }");
+    CHECK(s.ground == 1 && s.ground_height == -2 && s.objects == 3);
+    CHECK_NEAR(s.ground_albedo, 0.1, 1e-12);
+}
+
+static void test_albedo(void)
+{
+    const double r = 0.2126, g = 0.7152, b = 0.0722;
+    CHECK_NEAR(scene("plane { y, 0 pigment { rgb 0.5 } }").ground_albedo, 0.5, 1e-12);
+    CHECK_NEAR(scene("plane { y, 0 pigment { color rgb <0.2, 0.4, 0.6> } }").ground_albedo,
+               r * 0.2 + g * 0.4 + b * 0.6, 1e-12);
+    CHECK_NEAR(scene("plane { y, 0 pigment { rgb <1, 0, 0> } }").ground_albedo, r, 1e-12);
+    CHECK_NEAR(scene("plane { y, 0 texture { pigment { colour rgb <0, 1, 0> } } }").ground_albedo,
+               g, 1e-12);
+    CHECK_NEAR(scene("plane { y, 0 pigment { rgbf <0, 0, 1, 0.5> } }").ground_albedo, b, 1e-12);
+    CHECK_NEAR(scene("plane { y, 0 EnvLight_Diffuse_Texture(<0.3, 0.3, 0.3>) }").ground_albedo,
+               0.3, 1e-12);
+    CHECK_NEAR(scene("plane { y, 0 EnvLight_Diffuse_Texture(0.5) }").ground_albedo, 0.5, 1e-12);
+    /* the library's other macro: the albedo is its second argument */
+    CHECK_NEAR(scene("plane { y, 0 EnvLight_Add_Ambient(texture { T }, <0.4, 0.4, 0.4>) }")
+                   .ground_albedo, 0.4, 1e-12);
+    /* srgb is gamma-encoded: 0.5 is ((0.5 + 0.055) / 1.055)^2.4 linear */
+    CHECK_NEAR(scene("plane { y, 0 pigment { srgb 0.5 } }").ground_albedo,
+               pow(0.555 / 1.055, 2.4), 1e-12);
+    /* not literals: -1 */
+    CHECK(scene("plane { y, 0 pigment { Grey } }").ground_albedo == -1);
+    CHECK(scene("plane { y, 0 pigment { color Grey } }").ground_albedo == -1);
+    CHECK(scene("plane { y, 0 pigment { checker rgb 1 rgb 0 } }").ground_albedo == -1);
+    CHECK(scene("plane { y, 0 pigment { rgb 0.5 * 2 } }").ground_albedo == -1);
+    CHECK(scene("plane { y, 0 EnvLight_Diffuse_Texture(A) }").ground_albedo == -1);
+    CHECK(scene("plane { y, 0 texture { T } }").ground_albedo == -1);
+    /* only inside the plane's block, only a ground */
+    CHECK(scene("plane { y, 0 } sphere { 0, 1 pigment { rgb 0.5 } }").ground_albedo == -1);
+    CHECK(scene("plane { x, 0 pigment { rgb 0.5 } }").ground_albedo == -1);
+}
+
+static void test_radiosity_and_sky(void)
+{
+    CHECK(scene("global_settings { assumed_gamma 1 radiosity { count 100 } }").radiosity == 1);
+    CHECK(scene("global_settings { assumed_gamma 1 }").radiosity == 0);
+    CHECK(scene("global_settings { EnvLight_Radiosity_Settings() }").radiosity == 1);
+    CHECK(scene("global_settings { EnvLight_Radiosity_Residual_Settings() }").radiosity == 1);
+    /* an object's own radiosity { importance } is no radiosity setting */
+    CHECK(scene("sphere { 0, 1 radiosity { importance 0.5 } }").radiosity == 0);
+
+    CHECK(scene("background { rgb <0.2, 0.3, 0.4> }").sky == 1);
+    CHECK(scene("sky_sphere { pigment { rgb 1 } }").sky == 1);
+    CHECK(scene("#include \"env.inc\"\nEnvLight_Sky()\n").sky == 1);
+    CHECK(scene("#declare F = EnvLight_Sky_File; sphere { 0, 1 }").sky == 0);
+    CHECK(scene("sphere { 0, 1 }").sky == 0);
+}
+
+static void test_shadows_and_declarations(void)
+{
+    pov_scene s = scene("sphere { 0, 1 no_shadow }\nbox { 0, 1 pigment { rgb 1 } no_shadow }\n"
+                        "object { S no_shadow }\n");
+    CHECK(s.objects == 3 && s.casters == 0);
+    s = scene("sphere { 0, 1 no_shadow } box { 0, 1 } cone { 0, 1, y, 0 shadowless }");
+    CHECK(s.objects == 3 && s.casters == 2); /* shadowless is a light's keyword */
+
+    s = scene("#declare S = sphere { 0, 1 }\n"
+              "#declare B = box { 0, 1 };\n"
+              "#local U = union { object { S } object { B } }\n"
+              "#declare R = 1.5;\n"
+              "#declare V = <1, 2, 3>\n"
+              "object { S }\n"
+              "object { U no_shadow }\n"
+              "#declare A = array[2] { sphere { 0, 1 }, box { 0, 1 } }\n"
+              "#declare A[1] = torus { 1, 0.1 }\n"
+              "#declare C = color rgb 1\n"
+              "cylinder { 0, y, 1 }\n");
+    CHECK(s.objects == 3 && s.casters == 2);
+    CHECK(!s.note[0]);
+    /* a declared value that is a conditional ends at its #end */
+    s = scene("#declare O = #if (1) sphere { 0, 1 } #else box { 0, 1 } #end\nobject { O }\n");
+    CHECK(s.objects == 1);
+}
+
+static void test_conditionals_and_macros(void)
+{
+    pov_scene s = scene("#if (A) sphere { 0, 1 } sphere { 1, 1 } #else box { 0, 1 } #end\n"
+                        "torus { 1, 0.1 }\n");
+    CHECK(s.objects == 3 && s.casters == 3);
+    s = scene("#switch (P)\n#case (0) sphere { 0, 1 no_shadow } #break\n"
+              "#case (1) box { 0, 1 } box { 1, 2 } #break\n#else disc { 0, y, 1 }\n#end\n");
+    CHECK(s.objects == 2 && s.casters == 2);
+    s = scene("#ifdef (X) #if (Y) sphere { 0, 1 } #elseif (Z) #else box { 0, 1 } box { 0, 2 } #end"
+              " #end\n");
+    CHECK(s.objects == 2);
+    /* loops count their body once; macro bodies are not placed (no expansion) */
+    s = scene("#declare I = 0;\n#while (I < 10) sphere { I * x, 0.1 } #declare I = I + 1; #end\n");
+    CHECK(s.objects == 1 && !s.note[0]);
+    s = scene("#macro M(R) sphere { 0, R finish { specular 1 } } #end\nM(1)\n");
+    CHECK(s.objects == 0 && s.glossy == 1);
+    s = scene("#macro EnvLight_Sky() #end\n");
+    CHECK(s.sky == 0); /* a macro's name is no call */
+    s = scene("#macro My_Sky() sky_sphere { S } #end\n");
+    CHECK(s.sky == 1); /* a sky_sphere anywhere counts, even in a macro body */
+}
+
+static void test_comments_and_strings(void)
+{
+    pov_scene s = scene("// sphere { 0, 1 finish { specular 1 } } background { }\n"
+                        "/* sky_sphere { } plane { y, 0 } */\n"
+                        "#debug \"sky_sphere { phong 1 \\\" specular 1 } \"\n"
+                        "text { ttf \"a.ttf\" \"sphere { } plane { y, 0 } /*\" 0.1, 0 }\n");
+    CHECK(s.objects == 1 && s.glossy == 0 && s.sky == 0 && s.ground == 0);
+    CHECK(strcmp(s.note, "") == 0);
+    /* nested block comments: the inner close does not end the outer one */
+    s = scene("/* outer /* inner */ sphere { 0, 1 } still the outer */ box { 0, 1 }\n");
+    CHECK(s.objects == 1 && !s.note[0]);
+    /* `//` inside a block comment means nothing */
+    s = scene("/* // */ box { 0, 1 }\n");
+    CHECK(s.objects == 1 && !s.note[0]);
+}
+
+static void test_problems(void)
+{
+    /* a missing file: -1, the note names it */
+    const char *missing = tmp_path("no_such_scene.pov");
+    unlink(missing);
+    pov_scene s;
+    CHECK(pov_scene_read(missing, &s) == -1);
+    CHECK(has(s.note, missing) && has(s.note, "cannot open"));
+    /* a directory: -1 */
+    CHECK(pov_scene_read(ENVL_TEST_TMP, &s) == -1);
+    CHECK(has(s.note, ENVL_TEST_TMP) && has(s.note, "directory"));
+    /* more than 64 MiB (sparse): -1 before reading */
+    const char *big = tmp_path("big.pov");
+    FILE *f = fopen(big, "wb");
+    CHECK(f != NULL);
+    if (f)
+        fclose(f);
+    CHECK(truncate(big, (off_t)POV_SCENE_MAX_BYTES + 1) == 0);
+    CHECK(pov_scene_read(big, &s) == -1);
+    CHECK(has(s.note, big) && has(s.note, "64 MiB"));
+    unlink(big);
+    /* an empty file: read, nothing in it */
+    s = scene("");
+    CHECK(s.objects == 0 && s.casters == 0 && s.glossy == 0 && s.ground == 0);
+    CHECK(s.ground_albedo == -1 && s.radiosity == 0 && s.sky == 0 && !s.note[0]);
+    /* syntax problems: read (0), noted, what came before still counts */
+    s = scene("box { 0, 1 }\nsphere { 0, 1\n");
+    CHECK(s.objects == 2 && s.casters == 2);
+    CHECK(strcmp(s.note, "line 2: '{' never closed") == 0);
+    s = scene("box { 0, 1 }\n}\nsphere { 0, 1 }\n");
+    CHECK(s.objects == 2);
+    CHECK(strcmp(s.note, "line 2: '}' without a matching '{'") == 0);
+    s = scene("sphere { 0, 1 }\n/* never closed\nbox { 0, 1 }\n");
+    CHECK(s.objects == 1);
+    CHECK(strcmp(s.note, "line 2: unterminated /* comment") == 0);
+    s = scene("sphere { 0, 1 }\n#debug \"never closed\nbox { 0, 1 }\n");
+    CHECK(s.objects == 1);
+    CHECK(strcmp(s.note, "line 2: unterminated string") == 0);
+    s = scene("#end\nsphere { 0, 1 }\n#if (1)\n");
+    CHECK(s.objects == 1);
+    CHECK(has(s.note, "line 1: #end without"));
+    /* the first problem is the one kept */
+    s = scene("}\n/* open");
+    CHECK(strcmp(s.note, "line 1: '}' without a matching '{'") == 0);
+}
+
+/* Deep nesting and random bytes: no crash, no recursion, sane fields. */
+static void check_sane(const pov_scene *s)
+{
+    CHECK(s->objects >= 0 && s->casters >= 0 && s->casters <= s->objects);
+    CHECK(s->ground_albedo == -1 || isfinite(s->ground_albedo));
+    CHECK(isfinite(s->ground_height));
+    CHECK(memchr(s->note, 0, sizeof s->note) != NULL);
+}
+
+static void test_hostile(void)
+{
+    size_t n = 1 << 20;
+    char *buf = malloc(n);
+    CHECK(buf != NULL);
+    if (!buf)
+        return;
+    pov_scene s;
+    memset(buf, '{', n);
+    pov_scene_scan(buf, n, &s);
+    CHECK(has(s.note, "never closed"));
+    for (size_t i = 0; i + 4 <= n; i += 4)
+        memcpy(buf + i, "/*  ", 4);
+    pov_scene_scan(buf, n, &s);
+    CHECK(has(s.note, "unterminated /* comment"));
+    for (size_t i = 0; i + 8 <= n; i += 8)
+        memcpy(buf + i, "#if (1) ", 8);
+    pov_scene_scan(buf, n, &s);
+    CHECK(has(s.note, "nested deeper"));
+    check_sane(&s);
+    pov_scene_scan(NULL, 0, &s);
+    CHECK(s.objects == 0 && !s.note[0]);
+
+    /* random bytes, and random POV-ish tokens, each through the file reader too */
+    static const char *const words[] = {
+        "{", "}", "(", ")", "<", ">", ",", ";", "/*", "*/", "//", "\"", "\\", "\n", "#declare ",
+        "#local ", "#if ", "#else ", "#end ", "#switch ", "#case ", "#macro ", "=", "sphere ",
+        "plane ", "y ", "-", "0 ", "0.5 ", "1e400 ", "pigment ", "rgb ", "specular ", "reflection ",
+        "no_shadow ", "global_settings ", "radiosity ", "EnvLight_Diffuse_Texture", "object ",
+        "EnvLight_Add_Ambient", "photons ", "metallic ", "srgb ", "\0", "\xff"};
+    uint64_t state = 0x9E3779B97F4A7C15u;
+    for (int round = 0; round < 400; round++) {
+        size_t len = 0, want = (size_t)(round * 37 % 4000);
+        while (len < want) {
+            state = state * 6364136223846793005u + 1442695040888963407u;
+            if (round % 2) {
+                buf[len++] = (char)(state >> 56);
+            } else {
+                const char *w = words[(state >> 33) % (sizeof words / sizeof words[0])];
+                size_t wl = w[0] ? strlen(w) : 1;
+                if (len + wl > want)
+                    break;
+                memcpy(buf + len, w, wl);
+                len += wl;
+            }
+        }
+        pov_scene_scan(buf, len, &s);
+        check_sane(&s);
+        if (round % 50 == 0) {
+            pov_scene r = scene_n(buf, len);
+            CHECK(r.objects == s.objects && r.casters == s.casters && r.glossy == s.glossy);
+            CHECK(strcmp(r.note, s.note) == 0);
+        }
+    }
+    free(buf);
+}
+
+int main(void)
+{
+    test_sphere_on_plane();
+    test_bench_scene();
+    test_glossy();
+    test_ground();
+    test_albedo();
+    test_radiosity_and_sky();
+    test_shadows_and_declarations();
+    test_conditionals_and_macros();
+    test_comments_and_strings();
+    test_problems();
+    test_hostile();
+    return check_report("test_pov_scene");
+}
