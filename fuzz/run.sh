@@ -13,7 +13,7 @@ CC=clang cmake -S . -B build-fuzz -DENVL_FUZZ=ON -DENVL_SANITIZE=ON -DENVL_TESTS
   -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build build-fuzz -j"$(nproc)" >/dev/null
 corpus=build-fuzz/corpus
-rm -rf "$corpus" build-fuzz/crashes && mkdir -p "$corpus"/{hdr,exr,pfm,any,cli} build-fuzz/crashes
+rm -rf "$corpus" build-fuzz/crashes && mkdir -p "$corpus"/{hdr,exr,pfm,any,cli,pov} build-fuzz/crashes
 data=${ENVL_SHARED_DATA:-../shared/data}
 small() { find "$@" -type f -size -200k 2>/dev/null; }
 for f in $(small "$data/radiance_hdr" "$data/synthetic"); do cp "$f" "$corpus/hdr/"; done
@@ -31,13 +31,15 @@ for f in tests/fuzz_regressions/*; do   # inputs that once crashed (tests/test_f
   case "$f" in *.exr) cp "$f" "$corpus/exr/";; *.hdr|*.pic) cp "$f" "$corpus/hdr/";; *.pfm) cp "$f" "$corpus/pfm/";; esac
 done
 cp "$corpus"/hdr/* "$corpus"/exr/* "$corpus"/pfm/* "$corpus/any/" 2>/dev/null || true
+cp povray_include/examples/*.pov "$corpus/pov/"
 printf -- '--rotate\0000\0--width\00064\0--layout-in\0angular' > "$corpus/cli/a"
 printf -- '--sun-elevation=10\0-n\0004\0--strict' > "$corpus/cli/b"
 status=0
-declare -A ci_runs=([hdr]=60000 [exr]=30000 [pfm]=100000 [any]=30000 [cli]=1000000)
-for t in hdr exr pfm any cli; do
+declare -A ci_runs=([hdr]=60000 [exr]=30000 [pfm]=100000 [any]=30000 [cli]=1000000 [pov]=300000)
+for t in hdr exr pfm any cli pov; do
   name=fuzz_$t
   [ $t = cli ] && name=fuzz_cli_options
+  [ $t = pov ] && name=fuzz_pov_scene
   if [ "$mode" = ci ]; then
     limit=(-seed=1 -runs="${ci_runs[$t]}")
   else

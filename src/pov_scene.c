@@ -452,6 +452,8 @@ static int level(const scan *s) { return s->nframes + s->lost; }
 static void close_branch(scan *s, frame *f)
 {
     int o = s->out->objects - f->base_objects, c = s->out->casters - f->base_casters;
+    if (c > o) /* a statement cut by the branch (broken braces): count it once, not twice */
+        c = o;
     if (o > f->max_objects)
         f->max_objects = o;
     if (c > f->max_casters)
@@ -679,6 +681,8 @@ void pov_scene_scan(const char *text, size_t n, pov_scene *out)
              level(&s));
     while (level(&s) > 0)
         pop(&s);
+    if (out->casters > out->objects) /* the same, outside conditionals */
+        out->casters = out->objects;
 }
 
 /* ---- the file ---- */

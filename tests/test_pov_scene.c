@@ -365,6 +365,22 @@ static void test_hostile(void)
     free(buf);
 }
 
+/* Inputs the fuzzer (fuzz/fuzz_pov_scene.c) once broke, in tests/fuzz_regressions/. */
+static void test_fuzz_regressions(void)
+{
+    /* A mutated bench scene whose object statement starts in one #case and ends (its '}'
+     * lost) in the next: it was counted as an object in one branch and a caster in the
+     * other, 3 objects and 4 casters. */
+    char path[4096];
+    snprintf(path, sizeof path, "%s/tests/fuzz_regressions/pov_scene_statement_across_branches.pov",
+             ENVL_SOURCE_DIR);
+    pov_scene s;
+    CHECK(pov_scene_read(path, &s) == 0);
+    check_sane(&s);
+    CHECK(s.objects == 3 && s.casters == 3);
+    CHECK(has(s.note, "never closed"));
+}
+
 int main(void)
 {
     test_sphere_on_plane();
@@ -378,5 +394,6 @@ int main(void)
     test_comments_and_strings();
     test_problems();
     test_hostile();
+    test_fuzz_regressions();
     return check_report("test_pov_scene");
 }
