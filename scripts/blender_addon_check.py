@@ -14,8 +14,10 @@ SPEC (JSON): {"zip": add-on zip to install (optional: else the add-on must be im
   "settings": {count, method, shadows, world_mode, ...}, "runs": 2,
   "undo": true (Create Lights as one undo step, then undo and redo: needs a window),
   "user_lamp": true, "panorama": PATH.exr (render the world through an equirectangular camera),
-  "render": {...} (see render_sphere), "out": RESULT.json}
-Writes RESULT.json with what the tests check (lamps, powers, panel values, node counts)."""
+  "render": {...} (see render_sphere), "source_pixels": PATH.npy (the Environment Texture's
+  pixels as Blender decoded the file: float32 RGB, row 0 at the top), "out": RESULT.json}
+Writes RESULT.json with what the tests check (lamps, powers, panel values, node counts; the
+Blender version)."""
 import json
 import math
 import os
@@ -97,8 +99,11 @@ def lamps():
                     "collection": [c.name for c in o.users_collection],
                     "type": o.data.type, "energy": o.data.energy, "color": list(o.data.color),
                     "angle": getattr(o.data, "angle", None),
-                    "cast_shadow": bool(o.data.cycles.cast_shadow)
-                    if hasattr(o.data, "cycles") else None,
+                    # Light.use_shadow: EEVEE's flag in 3.x, the only one (also Cycles') in 4.x;
+                    # Cycles' own cycles.cast_shadow exists up to 3.x (None when absent)
+                    "use_shadow": bool(o.data.use_shadow),
+                    "cycles_cast_shadow": bool(o.data.cycles.cast_shadow)
+                    if hasattr(getattr(o.data, "cycles", None), "cast_shadow") else None,
                     "direction": list(d.normalized())})
     return out
 
@@ -226,7 +231,7 @@ def undo_redo():
 
 def main():
     spec = spec_from_argv()
-    result = {"blender": bpy.app.version_string}
+    result = {"blender": bpy.app.version_string, "blender_version": list(bpy.app.version)}
     scene = bpy.context.scene
     for o in list(bpy.data.objects):  # factory startup: cube, camera, light
         bpy.data.objects.remove(o)
@@ -240,6 +245,14 @@ def main():
     result["addon_file"] = mod.__file__
     result["library_path"] = os.path.realpath(pkg.library_path)
     world, env_node = setup_world(spec)
+    if spec.get("source_pixels"):
+        # what the add-on reads: Blender's decode of the file (Blender 4.x decodes RGBE without
+        # Radiance's +0.5, Blender 3.4 and the library with it), for the tests' expected values
+        img = env_node.image
+        buf = np.empty(img.size[0] * img.size[1] * img.channels, np.float32)
+        img.pixels.foreach_get(buf)
+        np.save(spec["source_pixels"],
+                buf.reshape(img.size[1], img.size[0], img.channels)[::-1, :, :3])
     if spec.get("user_lamp", True):
         ld = bpy.data.lights.new("UserLamp", "POINT")
         ud = bpy.data.objects.new("UserLamp", ld)
