@@ -30,11 +30,10 @@ _Y00, _Y1, _Y2, _Y20, _Y22 = 0.282095, 0.488603, 1.092548, 0.315392, 0.546274
 
 
 def shim():
-    """The envlight package: the copy inside the add-on (zip), else one on sys.path."""
-    try:
-        from . import envlight as pkg  # vendored by scripts/blender_addon_zip.py
-    except ImportError:
-        import envlight as pkg
+    """The envlight package: always the add-on's own copy (scripts/blender_addon_zip.py puts
+    the shim and lib/libenvlight.so.1 inside the zip), never an `envlight` on sys.path, which
+    could be another version with another library."""
+    from . import envlight as pkg
     return pkg
 
 
