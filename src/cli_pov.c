@@ -32,6 +32,12 @@
 /* The dome's own (unoccluded) diffuse error it grows until it meets: its lights are a
  * quadrature of the sky, and this keeps that part well below the in-scene errors. */
 #define POV_DOME_ERROR 0.005
+/* The dome under radiosity: its lights are also what each radiosity sample gathers, so their
+ * number sets the cost. Variance cut (whose regions follow the sky's spread, not its energy:
+ * 0.75-1.3 % unoccluded error with 32 lights where median cut has 2.1-3.9 %), 32 lights, or 64
+ * where 32 leave more than POV_DOME_BOUNCE_ERROR: the scene benchmark's choice
+ * (docs/scene_bench_pov.md). */
+#define POV_DOME_BOUNCE_ERROR 0.01
 /* --exposure auto: the value a white surface facing up shows (sRGB ~0.8 in an 8-bit image). */
 #define POV_AUTO_WHITE 0.6
 
@@ -49,11 +55,13 @@ static const char pov_help[] =
     "                    picks the recipe and the ground; a scene it cannot read is a\n"
     "                    warning and the defaults apply\n"
     "  --recipe R        auto (default: from the scene, see the header's reasons), dome\n"
-    "                    (median-cut lights of the sky with shadows, 64-256 by the map, +\n"
-    "                    the ground's bounce), sh (4 fitted lights + SH ambient: exact\n"
-    "                    without occlusion), image-radiosity (4 fitted lights + the residual\n"
-    "                    sky under radiosity); -n/--method/--ambient/--order alone: custom\n"
-    "  -n N              lights (custom default 4; dome: 64, 128 or 256 by its error)\n"
+    "                    (64 median-cut lights of the sky with shadows + radiosity with no\n"
+    "                    sky for the bounces), dome-ambient (the lights, 64-256 by their\n"
+    "                    error, + the ground's bounce as an ambient, no radiosity), sh (4\n"
+    "                    fitted lights + SH ambient: exact without occlusion),\n"
+    "                    image-radiosity (4 fitted lights + the residual sky under\n"
+    "                    radiosity); -n/--method/--ambient/--order alone: custom\n"
+    "  -n N              lights (custom default 4; dome 64; dome-ambient 64-256)\n"
     "  --method M        fit (custom default: lights + SH remainder), median, variance\n"
     "  --order L         SH order of the ambient (fit: of its remainder), 0..8 (default 2);\n"
     "                    fit: -1 fits lights alone (the default with --ambient none)\n"
@@ -343,12 +351,18 @@ static void pov_include_envlight(FILE *f)
 /* The header's account of the recipe: which, why, what the scene gets and what was skipped,
  * and the in-scene error the scene benchmark measured for it. */
 static void pov_header_recipe(FILE *f, int recipe, const char *why, const pov_scene *scene,
-                              const char *ground_from, int sky, int has_ambient, int dome_count)
+                              const char *ground_from, int sky, int has_ambient, int dome_count,
+                              int bounce)
 {
     fprintf(f, "// recipe: %s: %s\n", pov_recipe_name(recipe), why);
+    if (bounce)
+        fputs("//   bounces: radiosity with no sky in it (EnvLight_Bounce_Settings(): recursion "
+              "2, count 50),\n//   the lights' light gathered from the surfaces it reached "
+              "(occluded like the lights)\n", f);
     if (dome_count)
-        fprintf(f, "//   dome of %d lights: the smallest of 64, 128, 256 whose diffuse error "
-                "is within %.1f %%\n", dome_count, 100 * POV_DOME_ERROR);
+        fprintf(f, "//   dome of %d lights: the smallest of %s whose diffuse error is within "
+                "%.1f %%\n", dome_count, bounce ? "32, 64" : "64, 128, 256",
+                100 * (bounce ? POV_DOME_BOUNCE_ERROR : POV_DOME_ERROR));
     if (scene)
         fprintf(f, "// scene: %d object%s (%d casting shadows)%s%s%s\n", scene->objects,
                 scene->objects == 1 ? "" : "s",
@@ -359,19 +373,24 @@ static void pov_header_recipe(FILE *f, int recipe, const char *why, const pov_sc
         fprintf(f, "// ground: albedo from %s\n", ground_from);
     fputs("// skipped:", f);
     int any = 0;
-    if (!ground_from && recipe != POV_RECIPE_IMAGE_RADIOSITY) {
+    if (!ground_from && recipe != POV_RECIPE_IMAGE_RADIOSITY && !bounce) {
         fputs(" the ground's bounce (no ground plane: --ground ALBEDO or a plane in --scene);", f);
         any = 1;
     }
     if (!has_ambient && recipe != POV_RECIPE_IMAGE_RADIOSITY) {
-        fputs(" an ambient (the lights take the whole sky);", f);
+        fputs(bounce ? " an ambient (the lights take the whole sky, radiosity the bounces);"
+                     : " an ambient (the lights take the whole sky);", f);
+        any = 1;
+    }
+    if (recipe == POV_RECIPE_DOME && !bounce) {
+        fputs(" radiosity for bounces (one object: nothing to bounce between);", f);
         any = 1;
     }
     if (!sky) {
         fputs(" the sky image (not asked for: --sky);", f);
         any = 1;
     }
-    if (recipe != POV_RECIPE_IMAGE_RADIOSITY) {
+    if (recipe != POV_RECIPE_IMAGE_RADIOSITY && recipe != POV_RECIPE_DOME) {
         fputs(" radiosity (not needed);", f);
         any = 1;
     }
@@ -427,7 +446,8 @@ int cli_pov(int argc, char **argv)
             method_set = 1;
         } else if ((r = cli_value(argc, argv, &i, "--recipe", &v)) != 0) {
             if (r < 0 || (recipe = pov_recipe_from_name(v)) < 0)
-                return cli_usage("pov", "--recipe takes auto, sh, dome or image-radiosity");
+                return cli_usage("pov", "--recipe takes auto, dome, dome-ambient, sh or "
+                                 "image-radiosity");
         } else if ((r = cli_value(argc, argv, &i, "--scene", &v)) != 0) {
             if (r < 0 || !*v)
                 return cli_usage("pov", "--scene needs the scene's .pov file");
@@ -527,7 +547,7 @@ int cli_pov(int argc, char **argv)
     else
         snprintf(why, sizeof why, "%s", recipe == POV_RECIPE_CUSTOM ? "the options given"
                                                                      : "--recipe");
-    int dome_auto_count = 0;
+    int dome_auto_count = 0, bounce = 0;
     if (recipe == POV_RECIPE_SH || recipe == POV_RECIPE_IMAGE_RADIOSITY) {
         if (!method_set)
             lo.method = ENVL_METHOD_FIT;
@@ -535,6 +555,14 @@ int cli_pov(int argc, char **argv)
             lo.count = 4;
     }
     if (recipe == POV_RECIPE_DOME) {
+        if (!method_set)
+            lo.method = ENVL_METHOD_VARIANCE;
+        dome_auto_count = !count_set;
+        if (!ambient_set) /* the lights take the whole sky, radiosity the bounces */
+            ambient = AMB_NONE;
+        bounce = pov_recipe_bounces(scene);
+    }
+    if (recipe == POV_RECIPE_DOME_AMBIENT) {
         if (!method_set)
             lo.method = ENVL_METHOD_MEDIAN;
         dome_auto_count = !count_set;
@@ -596,7 +624,8 @@ int cli_pov(int argc, char **argv)
     /* A dome over a ground takes its lights from the sky half: the plane would shadow any
      * light below the horizon. */
     cut_map = lit;
-    if (recipe == POV_RECIPE_DOME && grounded) {
+    int dome = recipe == POV_RECIPE_DOME || recipe == POV_RECIPE_DOME_AMBIENT;
+    if (dome && grounded) {
         if (envl_sky_hemisphere_map(map, c.load.threads, &sky_half)) {
             rc = cli_fail();
             goto done;
@@ -605,7 +634,10 @@ int cli_pov(int argc, char **argv)
     }
     const double *ref;
     emit = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
-    if (!emit || envl_envmap_reference_irradiance(lit, &ref)) {
+    /* Under radiosity the bounce is not the include's: its error is the lights' against the
+     * sky they stand for (the sky half over a ground). */
+    envl_envmap *measured = bounce ? cut_map : lit;
+    if (!emit || envl_envmap_reference_irradiance(measured, &ref)) {
         rc = emit ? cli_fail() : (cli_error("pov: out of memory"), CLI_FAIL);
         goto done;
     }
@@ -621,12 +653,14 @@ int cli_pov(int argc, char **argv)
     double hemi_axis[3] = {0, 0, 1}, hemi_sky[3] = {0}, hemi_ground[3] = {0};
     double error = 0;
     /* The dome's size, when not given: the smallest of these whose diffuse error (lights +
-     * ambient against the exact integrator, unoccluded) is within POV_DOME_ERROR. */
-    static const int dome_counts[] = {64, 128, 256};
-    int tries = dome_auto_count ? (int)(sizeof dome_counts / sizeof *dome_counts) : 1;
+     * ambient against the exact integrator, unoccluded) is within the recipe's bound. */
+    static const int ambient_counts[] = {64, 128, 256}, bounce_counts[] = {32, 64};
+    const int *counts = bounce ? bounce_counts : ambient_counts;
+    double bound = bounce ? POV_DOME_BOUNCE_ERROR : POV_DOME_ERROR;
+    int tries = !dome_auto_count ? 1 : bounce ? 2 : 3;
     for (int t = 0; t < tries; t++) {
         if (dome_auto_count)
-            lo.count = dome_counts[t];
+            lo.count = counts[t];
         envl_lights_free(ls);
         envl_sh_free(sh);
         envl_envmap_free(residual);
@@ -692,7 +726,7 @@ int cli_pov(int argc, char **argv)
             }
         }
         error = emitted_error(ls, ambient != AMB_NONE ? &rd : NULL, ref, emit);
-        if (error <= POV_DOME_ERROR)
+        if (error <= bound)
             break;
     }
     if (s.no_light && !c.quiet)
@@ -781,7 +815,7 @@ int cli_pov(int argc, char **argv)
                 amb_order, rd.terms);
     fprintf(f, "; shadows %s\n", shadow_names[shadows]);
     pov_header_recipe(f, recipe, why, scene, ground_from, sky, ambient != AMB_NONE,
-                      dome_auto_count ? (int)s.count : 0);
+                      dome_auto_count ? (int)s.count : 0, bounce);
     if (grounded) {
         fprintf(f, "// ground plane (canonical z = 0, POV-Ray y = 0), albedo %.9g: the lower "
                 "hemisphere\n//   is its radiance albedo * E_up / pi = <%.6g, %.6g, %.6g>; "
@@ -789,8 +823,12 @@ int cli_pov(int argc, char **argv)
                 ground_radiance[0], ground_radiance[1], ground_radiance[2]);
     }
     fprintf(f, "// diffuse error %.4f %% (lights + ambient as written, against the exact "
-            "integrator,\n//   relative RMS luminance over 1024 normals); %.3f s\n",
-            100 * error, seconds);
+            "integrator%s,\n//   relative RMS luminance over 1024 normals, unoccluded); "
+            "%.3f s\n", 100 * error,
+            bounce ? (grounded ? " of the sky half: the bounces are radiosity's"
+                               : ": the bounces are radiosity's")
+                   : "",
+            seconds);
     fputs("//\n"
           "// Frames: the canonical frame is Blender's (right-handed, +Z up); POV-Ray's is\n"
           "// left-handed, +Y up. A canonical vector (x, y, z) is the POV-Ray vector <x, z, y>.\n"
@@ -916,10 +954,12 @@ int cli_pov(int argc, char **argv)
     pov_include_envlight(f);
     if (place) {
         fputs("EnvLight_Place_Lights()\n", f);
-        if (sky)
-            fputs("EnvLight_Sky()\n", f);
+        if (sky) /* under the bounce's radiosity the sky is for the camera only */
+            fputs(bounce ? "EnvLight_Sky_Backdrop()\n" : "EnvLight_Sky()\n", f);
         if (recipe == POV_RECIPE_IMAGE_RADIOSITY)
             fputs("global_settings { EnvLight_Radiosity_Residual_Settings() }\n", f);
+        if (bounce)
+            fputs("global_settings { EnvLight_Bounce_Settings() }\n", f);
     }
     fputs("#end\n", f);
     rc = cli_output_close(&o);

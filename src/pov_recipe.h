@@ -10,12 +10,15 @@ enum {
     POV_RECIPE_AUTO,            /* pick one of the three below from the scene */
     POV_RECIPE_CUSTOM,          /* --method / -n / --ambient / --order given without --recipe */
     POV_RECIPE_SH,              /* fit 4 + SH ambient: exact for unoccluded normals */
-    POV_RECIPE_DOME,            /* median-cut lights of the sky with shadows (+ ground bounce) */
-    POV_RECIPE_IMAGE_RADIOSITY, /* fit 4 + the residual sky under the scene's radiosity */
+    POV_RECIPE_DOME,            /* median-cut lights of the sky with shadows + radiosity for
+                                   the bounces between surfaces (no sky in it) */
+    POV_RECIPE_DOME_AMBIENT,    /* the same lights, the ground's bounce as an ambient instead
+                                   of radiosity (unshadowed) */
+    POV_RECIPE_IMAGE_RADIOSITY, /* fit 4 + the residual sky under radiosity */
     POV_RECIPE_COUNT
 };
 
-/* "auto", "custom", "sh", "dome", "image-radiosity"; from_name: -1 for anything else
+/* "auto", "custom", "sh", "dome", "dome-ambient", "image-radiosity"; from_name: -1 for anything else
  * ("custom" is not a name a user gives). */
 int pov_recipe_from_name(const char *name);
 const char *pov_recipe_name(int recipe);
@@ -23,6 +26,10 @@ const char *pov_recipe_name(int recipe);
 /* The recipe for a scene (NULL: none given) and the shadows asked for (0: shadowless lights);
  * `why` receives one sentence. */
 int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size);
+
+/* Whether a dome's lights need radiosity for the bounces: the scene has more than one object
+ * (or is unknown). */
+int pov_recipe_bounces(const pov_scene *scene);
 
 /* The in-scene error to expect, measured by scripts/scene_bench.py --host pov (a sentence
  * for the include's header), or NULL when the recipe was not measured. */

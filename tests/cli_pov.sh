@@ -10,17 +10,20 @@ for k in "EnvLight_Generated_Inc_Temp" "#declare EnvLight_Count" "EnvLight_Colou
          "EnvLight_Place_Lights()" '#include "envlight.inc"' "POV-Ray vector <x, z, y>"; do
   has default.inc "$k"
 done
-# the default with no scene: a dome of median-cut lights with hard shadows, no ambient (the
-# lights take the whole sky), nothing else; the header says which recipe and why
+# the default with no scene: a dome of 32 or 64 variance-cut lights with hard shadows, no
+# ambient (the lights take the whole sky), radiosity with no sky for the bounces, nothing
+# else; the header says which recipe and why
 has default.inc "^// recipe: dome: no --scene given, shadows assumed"
-has default.inc "^//   dome of \(64\|128\|256\) lights: the smallest of 64, 128, 256"
-has default.inc "lights by median; ambient none; shadows hard"
-has default.inc "^// skipped: the ground's bounce .*; an ambient .*; the sky image .*; radiosity"
+has default.inc "^//   bounces: radiosity with no sky in it (EnvLight_Bounce_Settings()"
+has default.inc "^//   dome of \(32\|64\) lights: the smallest of 32, 64 whose diffuse error is within 1.0 %"
+has default.inc "^// \(32\|64\) lights by variance; ambient none; shadows hard"
+has default.inc "^// skipped: an ambient (the lights take the whole sky, radiosity the bounces); the sky image"
 has default.inc "^// in-scene error to expect (scene benchmark, not this map): "
+has default.inc "^global_settings { EnvLight_Bounce_Settings() }$"
 hasnt default.inc "#declare EnvLight_Ambient"
 hasnt default.inc "EnvLight_Sky_File"
-hasnt default.inc "^EnvLight_Sky()"
-hasnt default.inc "Radiosity"
+hasnt default.inc "^EnvLight_Sky"
+hasnt default.inc "Radiosity_Residual"
 # envlight.inc: from +L when there, else from this build's povray_include/
 has default.inc '^#if (file_exists("envlight.inc"))$'
 has default.inc "^#include \"$(cd "$(dirname "$0")/.." && pwd)/povray_include/envlight.inc\"$"
@@ -32,10 +35,20 @@ has sh.inc "EnvLight_Ambient_Coef"
 run "$ENVLIGHT" pov - $S -n 4 -o custom.inc
 has custom.inc "^// recipe: custom: the options given"
 has custom.inc "EnvLight_Ambient_Coef"
-# a dome over a ground: lights from the sky half, the ground's bounce as an order-1 ambient
-run "$ENVLIGHT" pov - $S --recipe dome -n 32 --ground 0.5 -o dome_ground.inc
-has dome_ground.inc "32 lights by median; ambient sh (the ground's bounce, order 1"
+# a dome over a ground: lights from the sky half, radiosity's bounces; its sky for the camera
+# only (a backdrop radiosity does not see)
+run "$ENVLIGHT" pov - $S --recipe dome -n 32 --ground 0.5 --sky -o dome_ground.inc
+has dome_ground.inc "32 lights by variance; ambient none"
 has dome_ground.inc "^// ground: albedo from --ground"
+has dome_ground.inc "against the exact integrator of the sky half: the bounces are radiosity's"
+has dome_ground.inc "^EnvLight_Sky_Backdrop()$"
+hasnt dome_ground.inc "^EnvLight_Sky()$"
+# the dome without radiosity: the ground's bounce as an order-1 ambient, its size by its error
+run "$ENVLIGHT" pov - $S --recipe dome-ambient --ground 0.5 -o dome_ambient.inc
+has dome_ambient.inc "lights by median; ambient sh (the ground's bounce, order 1"
+has dome_ambient.inc "^//   dome of \(64\|128\|256\) lights: the smallest of 64, 128, 256"
+has dome_ambient.inc "radiosity (not needed)"
+hasnt dome_ambient.inc "Bounce_Settings"
 # image-radiosity: fit 4, the residual sky, the radiosity settings placed; no ambient
 run "$ENVLIGHT" pov - $S --recipe image-radiosity -o ir.inc
 has ir.inc "[1-4] lights by fit (+ SH remainder); ambient none"
@@ -43,6 +56,7 @@ has ir.inc "^global_settings { EnvLight_Radiosity_Residual_Settings() }$"
 has ir.inc "^EnvLight_Sky()$"
 has ir.inc "EnvLight_Sky_File = \"$PWD/ir_sky.hdr\"; // the residual"
 usage "$ENVLIGHT" pov - $S --recipe custom
+has err.txt "recipe takes auto, dome, dome-ambient, sh or image-radiosity"
 usage "$ENVLIGHT" pov - $S --recipe
 usage "$ENVLIGHT" pov - $S --scene
 
@@ -55,6 +69,8 @@ has matte.inc "highlights (no glossy finish in the scene)"
 printf 'sphere { <0,1,0>, 1 pigment { rgb 1 } finish { specular 0.5 } }\n' > glossy.pov
 run "$ENVLIGHT" pov - $S --scene glossy.pov -o glossy.inc
 has glossy.inc "^// recipe: dome: glossy finishes: POV-Ray draws highlights from light sources"
+has glossy.inc "radiosity for bounces (one object: nothing to bounce between)"
+hasnt glossy.inc "Bounce_Settings"
 printf 'sphere { <0,1,0>, 1 pigment { rgb 1 } }\nplane { y, 0 pigment { rgb <0.3, 0.3, 0.3> } }\n' > onplane.pov
 run "$ENVLIGHT" pov - $S --scene onplane.pov -o onplane.inc
 has onplane.inc "^// recipe: dome: objects of the scene shadow others"
@@ -68,8 +84,7 @@ run "$ENVLIGHT" pov - $S --scene onplane.pov --ground 0.7 -o ground07.inc
 has ground07.inc "#declare EnvLight_Ground_Albedo = 0.7;"
 printf 'global_settings { radiosity { count 100 } }\nsphere { <0,1,0>, 1 }\nplane { y, 0 }\n' > rad.pov
 run "$ENVLIGHT" pov - $S --scene rad.pov -o rad.inc
-has rad.inc "^// recipe: image-radiosity: the scene renders radiosity"
-hasnt rad.inc "EnvLight_Ground_Albedo"
+has rad.inc "^// recipe: dome: objects of the scene shadow others.*(the scene's radiosity block, if later, wins)"
 run "$ENVLIGHT" pov - $S --scene onplane.pov --shadows none -o noshadow.inc
 has noshadow.inc "^// recipe: sh: shadowless lights asked for"
 # a scene it cannot read: a warning, the defaults, exit 0
@@ -147,7 +162,7 @@ usage "$ENVLIGHT" pov a.hdr b.hdr
 if command -v povray >/dev/null; then
   src=$(cd "$(dirname "$0")/.." && pwd)
   for inc in default none hemi soft shadowless sky res order4 median q ground ground0 sh custom \
-             dome_ground ir matte glossy onplane rad; do
+             dome_ground dome_ambient ir matte glossy onplane rad; do
     printf '#version 3.7;\nglobal_settings { assumed_gamma 1 }\n#include "%s.inc"\ncamera { location <0,0,-5> look_at 0 }\nsphere { 0, 1 EnvLight_Diffuse_Texture(<1,1,1>) }\n' "$inc" > p_$inc.pov
     checks=$((checks + 1))
     povray +Ip_$inc.pov -F +W8 +H8 -D -P +L"$src/povray_include" >pov.txt 2>&1 ||

@@ -392,9 +392,11 @@ def ground_map(px, albedo):
 GROUND_CASES = [("sky_fit4_ground", "sky", ["-n", "4"], 0.5),
                 ("sky_fit1_ground_white", "sky", ["-n", "1", "--order", "4"], 1.0),
                 ("rooitou_fit4_ground", "rooitou", ["-n", "4"], 0.5),
-                # the dome: lights from the sky half, the ground's bounce as the ambient
-                ("sky_dome_ground", "sky", ["--recipe", "dome"], 0.5),
-                ("rooitou_dome64_ground_white", "rooitou", ["--recipe", "dome", "-n", "64"], 1.0)]
+                # the dome without radiosity: lights from the sky half, the ground's bounce as
+                # the ambient
+                ("sky_dome_ambient_ground", "sky", ["--recipe", "dome-ambient"], 0.5),
+                ("rooitou_dome_ambient64_ground_white", "rooitou",
+                 ["--recipe", "dome-ambient", "-n", "64"], 1.0)]
 
 
 @pytest.mark.parametrize("name,kind,opts,albedo", GROUND_CASES, ids=[c[0] for c in GROUND_CASES])
@@ -616,14 +618,17 @@ def test_dome_occlusion(kind):
     """A black sphere resting on a white plane (albedo 1; --ground 0: a black world below the
     horizon, so nothing bounces and the plane's irradiance at p is exactly
     E(p) = sum over the upper hemisphere of L(d) V(p, d) d_y dw, V: the ray misses the
-    sphere), seen from above. The default include (no --scene: a dome of median-cut lights
-    with hard shadows) must show
+    sphere), seen from above. The default include (no --scene: a dome of 32 or 64
+    variance-cut lights with hard shadows, and a radiosity pass that finds nothing to bounce
+    here: a black sphere, a black sky) must show
       1. per pixel, its own prediction sum_j rgb_j V(p, d_j) max(0, d_j . y) / pi (the
          include's declared lights; V computed here): within half the RGBE step + 1e-5
          relative (pixels where a light ray grazes the sphere within 1e-6 are left out);
-      2. against the exact E(p) / pi from the map's pixels: relative RMS of luminance over
-         the plane's pixels below 2 % (the POV-Ray goal for a matte surface in a scene), and
-         below the old default include's (fit 4 + SH ambient, which cannot be shadowed)."""
+      2. against the exact E(p) / pi from the map's pixels (relative RMS of luminance over
+         the plane's pixels): below the old default include's (fit 4 + SH ambient, which
+         cannot be shadowed); and a dome of 64 lights below 2 % (the POV-Ray goal for a
+         matte surface in a scene). The default's 32 lights draw a coarser shadow: 2.8 % on
+         rooitou_park (README, "Accuracy in a scene")."""
     d = tmpdir("dome_occlusion_" + kind)
     src, exact_path, width = map_for(kind, d)
     px, dirs_c, dw = map_directions(exact_path, width)
@@ -639,7 +644,8 @@ def test_dome_occlusion(kind):
     points = np.stack([x[plane], np.zeros(plane.sum()), z[plane]], 1)
     exact, _ = plane_irradiance(points, dirs, rad)
     errors = {}
-    for name, opts in (("default", ()), ("fit4_sh", ("--recipe", "sh"))):
+    for name, opts in (("default", ()), ("dome64", ("--recipe", "dome", "-n", "64")),
+                       ("fit4_sh", ("--recipe", "sh"))):
         envlight("pov", *src, *opts, "--ground", "0", "-o", "env.inc", "--quiet", cwd=d)
         inc = parse_include(os.path.join(d, "env.inc"))
         render(OCCLUSION_SCENE % {"size": OCCLUSION_SIZE}, d, size=n)
@@ -661,10 +667,10 @@ def test_dome_occlusion(kind):
             assert ambiguous.mean() < 0.01
         errors[name] = math.sqrt(np.mean((lum(rendered) - lum(exact / math.pi)) ** 2)) \
             / lum(exact / math.pi).mean()
-    print("%s: plane error: default (dome) %.3f %%, fit 4 + SH %.3f %%"
-          % (kind, 100 * errors["default"], 100 * errors["fit4_sh"]))
-    assert errors["default"] < 0.02
-    assert errors["default"] < errors["fit4_sh"]
+    print("%s: plane error: default (dome) %.3f %%, dome of 64 %.3f %%, fit 4 + SH %.3f %%"
+          % (kind, 100 * errors["default"], 100 * errors["dome64"], 100 * errors["fit4_sh"]))
+    assert errors["dome64"] < 0.02
+    assert errors["default"] < errors["fit4_sh"] and errors["dome64"] < errors["fit4_sh"]
 
 
 # ---- a scene author's first render (README.md, "POV-Ray") ----
@@ -686,7 +692,8 @@ def test_first_render():
         white surface facing up at 0.6, sRGB 204; the grey floor at ~0.3, sRGB ~150);
       - EnvLight_Exposure scales everything envlight adds (lights, ambient, sky): the HDR
         rendered with Declare=EnvLight_Exposure=1 times the auto exposure equals the render
-        at the auto exposure, pixel by pixel, within both pixels' RGBE half-steps."""
+        at the auto exposure, pixel by pixel, within both pixels' RGBE half-steps (at +Q8,
+        without the dome's radiosity pass, whose adaptive sampling is not scale-free)."""
     blocks = readme_example()
     assert len(blocks) == 1, "README: one ```pov block with the example scene"
     example = os.path.join(SOURCE, "povray_include", "examples", "sphere_on_plane.pov")
@@ -705,8 +712,10 @@ def test_first_render():
     run = os.path.join(root, "render")
     base = [POVRAY, "+I../scene/sphere_on_plane.pov", "+L../scene", "+W96", "+H72", "-D",
             "-P"]
-    for extra in (["+Oscene.png"], ["+Oauto.hdr", "+FH"],
-                  ["+Ounit.hdr", "+FH", "Declare=EnvLight_Exposure=1"]):
+    # The two HDRs at quality 8, which skips radiosity (POV-Ray computes it at +Q9 and up):
+    # its adaptive sampling depends on absolute levels, so only the rest is exactly linear.
+    for extra in (["+Oscene.png"], ["+Oauto.hdr", "+FH", "+Q8"],
+                  ["+Ounit.hdr", "+FH", "+Q8", "Declare=EnvLight_Exposure=1"]):
         r = subprocess.run(base + extra, cwd=run, capture_output=True, text=True)
         assert r.returncode == 0, r.stderr[-2000:]
     stats = subprocess.run(["oiiotool", os.path.join(run, "scene.png"), "--printstats"],

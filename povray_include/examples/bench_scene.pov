@@ -1,15 +1,16 @@
-// envlight benchmark scene (povray_include/examples/bench_scene.py renders it; README.md,
+// envlight scene benchmark, scene (a) (scripts/scene_bench.py --host pov renders it; README.md,
 // "Accuracy against time in POV-Ray"): a matte sphere and a glossy sphere on a grey plane.
-// The lighting comes from "lighting.inc", written by the script for each case; it declares
-//   Bench_Ambient 1: the generated include's SH ambient is added (EnvLight_Add_Ambient)
-//   Bench_Pass    0: the whole scene; 1: only the glossy sphere's highlights (the other
-//                 objects are black and invisible but still cast shadows); 2: an id mask
-//                 (diffuse sphere red, glossy sphere green, plane blue, emission only)
-// and places the lights, the sky and any radiosity settings itself.
+// The lighting comes from "lighting.inc", written by the script for each recipe and for the
+// reference; it places the lights, the sky and any radiosity settings itself. Every object gets
+// its ambient through EnvLight_Add_Ambient(T, Albedo), a no-op when the lighting declares no
+// ambient (the reference, lights-only and radiosity recipes), so one scene serves them all.
+//   Bench_Pass 0: the whole scene; 1: only the glossy sphere's highlights (the other objects
+//              are black and invisible but still cast shadows); 2: an id mask (matte sphere
+//              red, glossy sphere green, plane blue; emission only)
 #version 3.7;
 global_settings { assumed_gamma 1 ambient_light 0 }
 #include "lighting.inc"
-#ifndef (Bench_Ambient) #declare Bench_Ambient = 0; #end
+#include "envlight.inc"
 #ifndef (Bench_Pass) #declare Bench_Pass = 0; #end
 
 camera { location <0, 1.5, -4.2> look_at <0, 0.45, 0> angle 40 }
@@ -23,10 +24,6 @@ camera { location <0, 1.5, -4.2> look_at <0, 0.45, 0> angle 40 }
 
 #macro Bench_Plain(Albedo)
   texture { pigment { rgb Albedo } finish { ambient 0 emission 0 diffuse 1 } }
-#end
-
-#macro Bench_Lit(T, Albedo)
-  #if (Bench_Ambient) EnvLight_Add_Ambient(T, Albedo) #else texture { T } #end
 #end
 
 #macro Bench_Id(C)
@@ -47,9 +44,10 @@ camera { location <0, 1.5, -4.2> look_at <0, 0.45, 0> angle 40 }
 
 #switch (Bench_Pass)
 #case (0)
-  sphere { <-0.65, 0.55, 0>, 0.55 Bench_Lit(Bench_Plain(Bench_Matte_Albedo), Bench_Matte_Albedo) }
-  sphere { <0.65, 0.55, 0>, 0.55 Bench_Lit(Bench_Glossy, Bench_Glossy_Albedo) }
-  plane { y, 0 Bench_Lit(Bench_Plain(Bench_Floor_Albedo), Bench_Floor_Albedo) }
+  sphere { <-0.65, 0.55, 0>, 0.55
+           EnvLight_Add_Ambient(Bench_Plain(Bench_Matte_Albedo), Bench_Matte_Albedo) }
+  sphere { <0.65, 0.55, 0>, 0.55 EnvLight_Add_Ambient(Bench_Glossy, Bench_Glossy_Albedo) }
+  plane { y, 0 EnvLight_Add_Ambient(Bench_Plain(Bench_Floor_Albedo), Bench_Floor_Albedo) }
 #break
 #case (1)
   sphere { <-0.65, 0.55, 0>, 0.55 texture { Bench_Black } no_image }

@@ -1,0 +1,87 @@
+"""scripts/scene_bench.py --host pov --quick end to end (real POV-Ray 3.7): the JSON's shape,
+every number finite, errors >= 0, the reference validated, in well under 60 s."""
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+import pytest
+
+ENVLIGHT = os.environ.get("ENVLIGHT", "")
+LIBRARY = os.environ.get("ENVLIGHT_LIBRARY", "")
+SOURCE = os.environ.get("ENVL_SOURCE_DIR", os.path.join(os.path.dirname(__file__), ".."))
+TMP = os.environ.get("ENVL_TEST_TMP", "/tmp/envl_py_scene_bench")
+SCRIPT = os.path.join(SOURCE, "scripts", "scene_bench.py")
+
+pytestmark = pytest.mark.skipif(not shutil.which("povray") or not ENVLIGHT or not LIBRARY,
+                                reason="needs povray, ENVLIGHT and ENVLIGHT_LIBRARY")
+
+
+def numbers(x, path="$"):
+    """Every number in x with its path (bool excluded)."""
+    if isinstance(x, bool):
+        return
+    if isinstance(x, (int, float)):
+        yield path, x
+    elif isinstance(x, dict):
+        for k, v in x.items():
+            yield from numbers(v, "%s.%s" % (path, k))
+    elif isinstance(x, list):
+        for i, v in enumerate(x):
+            yield from numbers(v, "%s[%d]" % (path, i))
+
+
+def test_help():
+    r = subprocess.run([sys.executable, SCRIPT, "--help"], capture_output=True, text=True,
+                       cwd=SOURCE)
+    assert r.returncode == 0 and "--host" in r.stdout and "--quick" in r.stdout
+
+
+def test_quick():
+    os.makedirs(TMP, exist_ok=True)
+    out = os.path.join(TMP, "quick.json")
+    if os.path.exists(out):
+        os.unlink(out)
+    t0 = time.time()
+    r = subprocess.run([sys.executable, SCRIPT, "--host", "pov", "--quick", "--json", out,
+                        "--envlight", ENVLIGHT, "--library", LIBRARY,
+                        "--tmp", os.path.join(TMP, "work")],
+                       capture_output=True, text=True, cwd=SOURCE)
+    seconds = time.time() - t0
+    print(r.stdout[-4000:])
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert seconds < 60, seconds
+    res = json.load(open(out))
+    assert res["host"] == "pov" and res["host_version"].startswith("POV-Ray")
+    assert len(res["load_average"]) == 3
+    assert list(res["maps"]) == ["sky"]
+    m = res["maps"]["sky"]
+    assert 0 <= m["sun_share"] <= 1
+    ref = m["reference"]
+    assert ref["validated"] and 0 <= ref["validation_error"] <= ref["validation_tolerance"]
+    for scene in ("a", "b"):
+        assert ref["cpu_seconds"][scene] > 0 and ref["seconds"][scene] > 0
+    assert 0 <= ref["highlight"]["a"]["convergence"]
+    runs = res["runs"]
+    assert runs, "no runs"
+    keys = {"map", "scene", "recipe", "picked", "engine", "seconds", "wall_seconds", "error",
+            "errors", "bias", "biases", "speedup", "envlight_seconds"}
+    objects = {"a": {"matte", "glossy", "plane"}, "b": {"object", "overhang", "plane"}}
+    for row in runs:
+        assert keys <= set(row), keys - set(row)
+        assert row["map"] == "sky" and row["scene"] in ("a", "b") and row["engine"] == "povray"
+        assert isinstance(row["picked"], bool)
+        assert set(row["errors"]) == objects[row["scene"]] == set(row["biases"])
+        matte = "matte" if row["scene"] == "a" else "object"
+        assert row["error"] == row["errors"][matte] and row["bias"] == row["biases"][matte]
+        assert all(v >= 0 for v in row["errors"].values())
+        assert row["seconds"] > 0 and row["wall_seconds"] > 0 and row["speedup"] > 0
+    recipes = {(r["scene"], r["recipe"]) for r in runs if not r["picked"]}
+    for scene in ("a", "b"):
+        assert {(scene, "sh"), (scene, "vdome-32"), (scene, "image-radiosity-50")} <= recipes
+    assert sum(r["picked"] for r in runs) in (0, 2)   # `default`: both scenes, or refused
+    for path, v in numbers(res):
+        assert math.isfinite(v), path
