@@ -27,24 +27,29 @@ static pov_scene scene(const char *text) { return scene_n(text, strlen(text)); }
 
 static int has(const char *note, const char *part) { return strstr(note, part) != NULL; }
 
+/* Reads ENVL_SOURCE_DIR/relative and checks every field against `want` (note: empty). */
+static void check_file(const char *relative, pov_scene want)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", ENVL_SOURCE_DIR, relative);
+    pov_scene s;
+    CHECK(pov_scene_read(path, &s) == 0);
+    CHECK(s.objects == want.objects && s.casters == want.casters);
+    CHECK(s.glossy == want.glossy && s.radiosity == want.radiosity && s.sky == want.sky);
+    CHECK(s.ground == want.ground && s.ground_height == want.ground_height);
+    /* a literal albedo is the luminance of the colour; grey 0.5: the weights sum to 1 */
+    CHECK_NEAR(s.ground_albedo, want.ground_albedo, 1e-12);
+    CHECK(strcmp(s.note, "") == 0);
+}
+
 /* sphere_on_plane.pov: a matte sphere, a plane { y, 0 } with EnvLight_Diffuse_Texture(<0.5,
  * 0.5, 0.5>) and a sphere with a #declare'd texture of specular 0.4; the lights and the sky
  * come from env.inc, which is not followed, so radiosity and sky are 0. */
 static void test_sphere_on_plane(void)
 {
-    char path[4096];
-    snprintf(path, sizeof path, "%s/povray_include/examples/sphere_on_plane.pov", ENVL_SOURCE_DIR);
-    pov_scene s;
-    CHECK(pov_scene_read(path, &s) == 0);
-    CHECK(s.objects == 3);
-    CHECK(s.casters == 3);
-    CHECK(s.glossy == 1);
-    CHECK(s.ground == 1);
-    CHECK(s.ground_height == 0);
-    CHECK_NEAR(s.ground_albedo, 0.5, 1e-12); /* luminance of grey 0.5: the weights sum to 1 */
-    CHECK(s.radiosity == 0);
-    CHECK(s.sky == 0);
-    CHECK(strcmp(s.note, "") == 0);
+    check_file("povray_include/examples/sphere_on_plane.pov",
+               (pov_scene){.objects = 3, .casters = 3, .glossy = 1, .ground = 1,
+                           .ground_height = 0, .ground_albedo = 0.5});
 }
 
 /* bench_scene.pov places its objects only inside `#switch (Bench_Pass)`: three cases of three
@@ -56,19 +61,9 @@ static void test_sphere_on_plane(void)
  * Lights, sky and radiosity come from lighting.inc, not followed: 0. */
 static void test_bench_scene(void)
 {
-    char path[4096];
-    snprintf(path, sizeof path, "%s/povray_include/examples/bench_scene.pov", ENVL_SOURCE_DIR);
-    pov_scene s;
-    CHECK(pov_scene_read(path, &s) == 0);
-    CHECK(s.objects == 3);
-    CHECK(s.casters == 3);
-    CHECK(s.glossy == 1);
-    CHECK(s.ground == 1);
-    CHECK(s.ground_height == 0);
-    CHECK(s.ground_albedo == -1);
-    CHECK(s.radiosity == 0);
-    CHECK(s.sky == 0);
-    CHECK(strcmp(s.note, "") == 0);
+    check_file("povray_include/examples/bench_scene.pov",
+               (pov_scene){.objects = 3, .casters = 3, .glossy = 1, .ground = 1,
+                           .ground_height = 0, .ground_albedo = -1});
 }
 
 static void test_glossy(void)
