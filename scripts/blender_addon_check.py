@@ -115,6 +115,29 @@ def latlong_power(pixels_bottom_up, w, h, ch):
     return list((a * sa[:, None, None]).sum(axis=(0, 1)))
 
 
+def core_module():
+    from envlight_addon import core
+    return core
+
+
+def path_to_active_output(tree, node):
+    """Labels/names of the nodes from `node` along output links to the tree's active World
+    Output (depth first), or None when no link path reaches it."""
+    def walk(n, seen):
+        if n.bl_idname == "ShaderNodeOutputWorld" and n.is_active_output:
+            return [n.label or n.name]
+        for o in n.outputs:
+            for link in o.links:
+                m = link.to_node
+                if m.name in seen or not link.is_valid or getattr(link, "is_muted", False):
+                    continue
+                rest = walk(m, seen | {m.name})
+                if rest is not None:
+                    return [n.label or n.name] + rest
+        return None
+    return walk(node, {node.name})
+
+
 def world_state(world):
     tree = world.node_tree
     active = [n.name for n in tree.nodes
@@ -125,6 +148,15 @@ def world_state(world):
            "user_value": "UserValue" in tree.nodes, "active_outputs": active,
            "images": [i.name for i in bpy.data.images],
            "sampling": [world.cycles.sampling_method, world.cycles.sample_map_resolution]}
+    clamp = next((n for n in tree.nodes if n.get("envlight") and
+                  n.label == core_module().NODE_PREFIX + core_module().SH_CLAMP), None)
+    if clamp is not None:
+        # the SH world's clamp at 0: its operation, constant, what feeds it and the nodes from
+        # it to the active World Output (downstream links, first path found)
+        feed = clamp.inputs[0].links[0].from_node.label if clamp.inputs[0].is_linked else None
+        out["sh_clamp"] = {"type": clamp.bl_idname, "operation": clamp.operation,
+                           "constant": list(clamp.inputs[1].default_value),
+                           "input": feed, "path_to_output": path_to_active_output(tree, clamp)}
     if res is not None and res.image is not None:
         img = res.image
         buf = np.empty(img.size[0] * img.size[1] * img.channels, np.float32)
@@ -282,7 +314,10 @@ def main():
                      "panel": {"count": s.result_count, "error_percent": s.result_error,
                                "seconds": s.result_seconds, "power": list(s.result_power),
                                "residual_power": list(s.result_residual_power),
-                               "message": s.result_message}})
+                               "message": s.result_message},
+                     # the SH figures of the dict create_lights returned (doubles, unrounded)
+                     "sh": {k: v for k, v in (core.last_result or {}).items()
+                            if k.startswith("sh_")}})
     result["runs"] = runs
     if spec.get("render_after"):
         result["approx_seconds"] = render_sphere(scene, spec["render_after"], spec)

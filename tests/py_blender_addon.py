@@ -414,6 +414,97 @@ def test_sh_world_evaluates_the_remainder(addon_zip, spot_hdr):
                 want = np.array(envlight.sh_basis(2, rz @ v)) @ rad
                 errs.append(np.abs(px[r, c] - want).max() / np.abs(rad[0]).max())
     assert max(errs) < 2e-3, max(errs)
+    # this remainder's SH stays positive: the clamp is there but changes nothing, no warning
+    check_sh_clamp_node(run)
+    figures = sh_figures_numpy(run["sh"]["sh_coeffs"])
+    assert figures["sh_min"] > 0 and figures["sh_negative_share"] == 0
+    assert run["sh"]["sh_min"] == pytest.approx(figures["sh_min"], rel=1e-9)
+    assert np.allclose(run["sh"]["sh_clamp_power"], figures["sh_clamp_power"], rtol=1e-9, atol=0)
+    assert "negative" not in run["panel"]["message"], run["panel"]["message"]
+
+
+# ---- the SH world never hands Blender negative radiance ----------------------------------------
+
+LUMA = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 (DESIGN.md)
+
+
+def sh2_basis_numpy(d):
+    """Order-2 real SH at unit directions d (N, 3), index l (l + 1) + m, written out here
+    from the formulas (not the library's envl_sh_basis)."""
+    x, y, z = d[:, 0], d[:, 1], d[:, 2]
+    k0, k1 = 0.5 / math.sqrt(math.pi), math.sqrt(3 / (4 * math.pi))
+    k2, k20, k22 = (math.sqrt(15 / (4 * math.pi)), math.sqrt(5 / (16 * math.pi)),
+                    math.sqrt(15 / (16 * math.pi)))
+    return np.stack([np.full_like(x, k0), k1 * y, k1 * z, k1 * x, k2 * x * y, k2 * y * z,
+                     k20 * (3 * z * z - 1), k2 * x * z, k22 * (x * x - y * y)], axis=1)
+
+
+def sh_figures_numpy(coeffs, n=1024):
+    """The add-on's figures, recomputed: min luminance of the SH radiance over the library's
+    n Fibonacci directions, the share of them below 0, sum max(-f, 0) 4 pi / n per channel."""
+    d = np.asarray(envlight.fibonacci_directions(n), dtype=np.float64)
+    assert d.shape == (n, 3) and np.allclose(np.linalg.norm(d, axis=1), 1, atol=1e-12)
+    rad = sh2_basis_numpy(d) @ np.asarray(coeffs, dtype=np.float64)
+    lum = rad @ LUMA
+    clamp = np.maximum(-rad, 0).sum(axis=0) * 4 * math.pi / n
+    return {"sh_min": lum.min(), "sh_negative_share": np.mean(lum < 0), "sh_clamp_power": clamp,
+            "sh_clamp_luminance": clamp @ LUMA}
+
+
+def check_sh_clamp_node(run):
+    """The SH chain ends in a per-channel MAXIMUM with (0, 0, 0), fed by the last SH sum and
+    linked on to the active World Output."""
+    c = run["world"].get("sh_clamp")
+    assert c is not None, "no 'EnvLight SH Clamp' node in the SH world"
+    assert c["type"] == "ShaderNodeVectorMath" and c["operation"] == "MAXIMUM"
+    assert c["constant"] == [0.0, 0.0, 0.0]
+    assert c["input"] == "EnvLight SH sum 8", c["input"]
+    path = c["path_to_output"]
+    assert path is not None, "the clamp is not linked to the active World Output"
+    assert path[0] == "EnvLight SH Clamp" and path[-1] == "EnvLight World Output", path
+    assert "EnvLight Lighting" in path, path
+
+
+@pytest.fixture(scope="module")
+def hemi_hdr():
+    """Upper hemisphere 1, lower 0: after a 4-light fit its order-2 SH remainder rings below 0
+    near the nadir (about -0.25 luminance on 17 % of directions), as real maps do
+    (empty_warehouse_01: -0.36)."""
+    path = os.path.join(TMP, "hemi.hdr")
+    img = np.zeros((64, 128, 3), np.float32)
+    img[:32] = (1.0, 0.8, 0.6)
+    envlight.save_image(path, img)
+    return path
+
+
+def test_sh_world_clamps_negative_radiance(addon_zip, hemi_hdr):
+    spec = {"hdr": hemi_hdr,
+            "settings": {"count": 4, "method": "fit", "world_mode": "SH",
+                         "keep_background": False}}
+    res, log = run_blender("sh_negative", spec, addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["FINISHED"]
+    check_sh_clamp_node(run)
+    sh = run["sh"]
+    # the coefficients are the library's fit remainder on the pixels Blender decoded
+    with envlight.from_pixels(rgbe_decode(res, hemi_hdr)[0], layout="latlong") as env, \
+            env.lights(4, method="fit", order=2) as lr:
+        want = np.asarray(lr.remainder_radiance, dtype=np.float64)
+    assert np.allclose(sh["sh_coeffs"], want, rtol=1e-9, atol=0), (sh["sh_coeffs"], want)
+    # the figures: an independent numpy evaluation of the same coefficients, to 1e-9
+    f = sh_figures_numpy(sh["sh_coeffs"])
+    assert f["sh_min"] < -0.05 and 0 < f["sh_negative_share"] < 0.5, f
+    assert sh["sh_min"] == pytest.approx(f["sh_min"], rel=1e-9)
+    assert sh["sh_negative_share"] == pytest.approx(f["sh_negative_share"], rel=1e-9)
+    assert np.allclose(sh["sh_clamp_power"], f["sh_clamp_power"], rtol=1e-9, atol=0)
+    assert sh["sh_clamp_luminance"] == pytest.approx(f["sh_clamp_luminance"], rel=1e-9)
+    assert f["sh_clamp_luminance"] > 0
+    # the warning, with the figures, in the panel and as the operator's report
+    msg = run["panel"]["message"]
+    for part in ("goes negative", "clamps it to 0", "%.4g" % f["sh_min"],
+                 "%.1f %%" % (100 * f["sh_negative_share"]), "%.4g" % f["sh_clamp_luminance"]):
+        assert part in msg, (part, msg)
+    assert "clamps it to 0" in log and "%.4g" % f["sh_min"] in log, log[-3000:]
 
 
 def test_lights_only_and_sharp_and_no_shadows(addon_zip, spot_hdr):

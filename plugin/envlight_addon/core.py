@@ -27,6 +27,12 @@ SH_MAP_RESOLUTION = 64
 
 # order-2 real SH basis constants (DESIGN.md, Ramamoorthi & Hanrahan 2001)
 _Y00, _Y1, _Y2, _Y20, _Y22 = 0.282095, 0.488603, 1.092548, 0.315392, 0.546274
+# Rec. 709 luminance weights (DESIGN.md, the library's envl_luminance)
+LUMINANCE = (0.2126, 0.7152, 0.0722)
+#: the label (after NODE_PREFIX) of the SH world's clamp at 0, the chain's last node
+SH_CLAMP = "SH Clamp"
+#: the dict the last create_lights returned (for scripts and tests; the panel shows a summary)
+last_result = None
 
 
 def shim():
@@ -354,7 +360,36 @@ def sh_radiance_socket(tree, coeffs, x, y):
             tree.links.new(acc, add.inputs[0])
             tree.links.new(cur, add.inputs[1])
             acc = add.outputs["Vector"]
-    return acc
+    # the order-2 polynomial can go below 0 (ringing of a truncated SH, e.g. -0.36 on
+    # empty_warehouse_01 after a 4-light fit): Blender gets max(radiance, 0) per channel, never
+    # negative light (create_lights reports how much the clamp adds: sh_negative_figures)
+    clamp = _new(tree, "ShaderNodeVectorMath", SH_CLAMP, x + 1100, y)
+    clamp.operation = "MAXIMUM"
+    clamp.inputs[1].default_value = (0.0, 0.0, 0.0)
+    tree.links.new(acc, clamp.inputs[0])
+    return clamp.outputs["Vector"]
+
+
+def sh_negative_figures(coeffs, n=1024):
+    """The order-2 SH radiance sum_c coeffs[c] Y_c(d) over the library's n Fibonacci
+    directions: its minimum Rec. 709 luminance, the share of directions where the luminance is
+    below 0, and what clamping each channel at 0 (as the SH world does) adds to the world's
+    power, sum_d max(-f(d), 0) 4 pi / n per channel (RGB), with its luminance."""
+    import numpy as np
+    pkg = shim()
+    dirs = pkg.fibonacci_directions(n)
+    basis = np.array([pkg.sh_basis(2, d) for d in dirs])
+    c = np.zeros((9, 3))
+    k = min(len(coeffs), 9)
+    c[:k] = np.asarray(coeffs, dtype=np.float64)[:k]
+    rad = basis @ c                                                  # (n, 3)
+    lum = rad @ np.array(LUMINANCE)
+    clamp = np.maximum(-rad, 0.0).sum(axis=0) * (4.0 * math.pi / n)
+    return {"sh_min": float(lum.min()), "sh_negative_share": float(np.mean(lum < 0.0)),
+            "sh_clamp_power": [float(v) for v in clamp],
+            "sh_clamp_luminance": float(clamp @ np.array(LUMINANCE)),
+            "sh_power_luminance": float(np.array(c[0]) @ np.array(LUMINANCE) *
+                                        math.sqrt(4.0 * math.pi))}
 
 
 def build_world(world, mode, original_socket, residual_image, sh_coeffs, mapping_src, strength,
@@ -472,6 +507,7 @@ def create_lights(context, settings, progress=None):
     order = settings.order if method == "fit" and mode in ("RESIDUAL", "SH") else None
     residual = None
     sh_coeffs = None
+    sh_figures = {}
     with env:
         power = env.info()["power"]
         with env.lights(settings.count, method=method, order=order) as res:
@@ -488,6 +524,19 @@ def create_lights(context, settings, progress=None):
                         sh_coeffs = np.asarray(sh.radiance) * strength
                 if mapping_node is not None:
                     sh_coeffs = rotate_sh2(sh_coeffs, rot)
+                sh_figures = sh_negative_figures(sh_coeffs)
+                if sh_figures["sh_min"] < 0.0:
+                    share = sh_figures["sh_power_luminance"]
+                    warnings.append(
+                        "the SH world's radiance goes negative: minimum luminance %.4g, below 0 "
+                        "on %.1f %% of directions; the world clamps it to 0, which adds %.4g "
+                        "(luminance, RGB %s) to the world's power%s"
+                        % (sh_figures["sh_min"], 100.0 * sh_figures["sh_negative_share"],
+                           sh_figures["sh_clamp_luminance"],
+                           "(%s)" % ", ".join("%.4g" % v for v in sh_figures["sh_clamp_power"]),
+                           " (%.2f %% of the SH world's %.4g)"
+                           % (100.0 * sh_figures["sh_clamp_luminance"] / share, share)
+                           if share > 0 else ""))
     step(0.75)
     # ---- 3. replace what a previous run made, then build ----
     remove_created(world)
@@ -514,13 +563,22 @@ def create_lights(context, settings, progress=None):
     elif mode != "LIGHTS":
         warnings.append("the world does not use nodes: world left as it was")
     step(1.0)
-    return {
+    result = {
         "count": len(suns), "diffuse_error": summary["diffuse_error"],
         "seconds": time.perf_counter() - t0, "library_seconds": summary["seconds"],
         "power": [strength * p for p in power],
         "residual_power": [strength * p for p in summary["residual_power"]],
         "warnings": warnings,
     }
+    if sh_coeffs is not None:
+        # the SH world's coefficients (canonical frame, strength included) and, over the
+        # library's 1024 Fibonacci directions, its minimum luminance, the share below 0 and
+        # the power the clamp at 0 adds (sh_negative_figures)
+        result["sh_coeffs"] = np.asarray(sh_coeffs, dtype=np.float64).tolist()
+        result.update(sh_figures)
+    global last_result
+    last_result = result
+    return result
 
 
 def rotate_sh2(coeffs, rot):
