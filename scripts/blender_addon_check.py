@@ -147,7 +147,9 @@ def world_state(world):
     out = {"nodes": len(tree.nodes), "tagged_nodes": sum(1 for n in tree.nodes if n.get("envlight")),
            "user_value": "UserValue" in tree.nodes, "active_outputs": active,
            "images": [i.name for i in bpy.data.images],
-           "sampling": [world.cycles.sampling_method, world.cycles.sample_map_resolution]}
+           "sampling": [world.cycles.sampling_method, world.cycles.sample_map_resolution],
+           # EEVEE-Next's (4.2+) world sun extraction threshold; None: no such property (3.4)
+           "sun_threshold": getattr(world, "sun_threshold", None)}
     clamp = next((n for n in tree.nodes if n.get("envlight") and
                   n.label == core_module().NODE_PREFIX + core_module().SH_CLAMP), None)
     if clamp is not None:
@@ -289,6 +291,12 @@ def main():
         ld = bpy.data.lights.new("UserLamp", "POINT")
         ud = bpy.data.objects.new("UserLamp", ld)
         scene.collection.objects.link(ud)
+    result["world_properties"] = sorted(p.identifier for p in bpy.types.World.bl_rna.properties
+                                        if p.identifier.startswith("sun_")
+                                        or p.identifier.startswith("use_sun"))
+    if spec.get("sun_threshold") is not None and hasattr(world, "sun_threshold"):
+        world.sun_threshold = spec["sun_threshold"]  # the user's own value, for Remove
+    result["world_before"] = {"sun_threshold": getattr(world, "sun_threshold", None)}
     s = world.envlight
     for k, v in spec.get("settings", {}).items():
         setattr(s, k, v)
@@ -317,7 +325,8 @@ def main():
                                "message": s.result_message},
                      # the SH figures of the dict create_lights returned (doubles, unrounded)
                      "sh": {k: v for k, v in (core.last_result or {}).items()
-                            if k.startswith("sh_")}})
+                            if k.startswith("sh_")},
+                     "notes": list((core.last_result or {}).get("notes", []))})
     result["runs"] = runs
     if spec.get("render_after"):
         result["approx_seconds"] = render_sphere(scene, spec["render_after"], spec)

@@ -224,9 +224,11 @@ def spot_run(request, addon_zip, spot_hdr):
     path, _, _ = spot_hdr
     spec = {"hdr": path, "runs": 2, "remove": True,
             "bad_file": os.path.join(TMP, "no-such-file.hdr"),
+            "sun_threshold": USER_SUN_THRESHOLD,
             "settings": {"count": 4, "method": "fit", "world_mode": "RESIDUAL",
                          "shadows": "SOFT"}}
-    res = run_blender("spot_residual", spec, addon_zip)[0]
+    res, log = run_blender("spot_residual", spec, addon_zip)
+    res["log"] = log
     report(request, "Blender %s decodes RGBE (.hdr) pixels as %s"
            % (res["blender"], rgbe_decode(res, path)[1]))
     return res
@@ -294,6 +296,42 @@ def test_remove_restores_the_users_world(spot_run):
     assert after["world"]["sampling"] == spot_run["runs"][0]["world"]["sampling"]
     assert after["world"]["active_outputs"] == ["World Output"]
     assert "EnvLight Residual" not in after["world"]["images"]
+
+
+# the user's EEVEE-Next World.sun_threshold in the spot scenario (not the default 10: Remove must
+# give back the user's own value)
+USER_SUN_THRESHOLD = 7.5
+SUN_NOTE = "EEVEE: world sun extraction off (sun_threshold %g -> 0)"
+
+
+def check_sun_extraction(res, user_value):
+    """EEVEE-Next (4.2+): every run's world has sun_threshold 0 (no sun extracted from the
+    world: its light is in envlight's lamps), the operator reports it, Remove restores
+    `user_value`. Blender 3.4: the property is absent, nothing reported, then a skip."""
+    runs = res["runs"]
+    if "sun_threshold" not in res["world_properties"]:
+        assert res["blender_version"][:2] < [4, 2], res["world_properties"]
+        assert res["world_before"]["sun_threshold"] is None
+        assert all(r["world"]["sun_threshold"] is None and r["notes"] == [] for r in runs)
+        assert res["after_remove"]["world"]["sun_threshold"] is None
+        assert "EEVEE" not in res["log"]
+        pytest.skip("SKIP (this assertion only): Blender %s has no World.sun_threshold "
+                    "(EEVEE-Next's world sun extraction is 4.2+); checked that it is absent "
+                    "and that nothing was changed or reported" % res["blender"])
+    assert res["blender_version"][:2] >= [4, 2]
+    assert {"sun_threshold", "sun_angle", "use_sun_shadow"} <= set(res["world_properties"])
+    assert res["world_before"]["sun_threshold"] == pytest.approx(user_value)
+    note = SUN_NOTE % user_value
+    for r in runs:  # a re-run starts from the user's value again (Remove's restore first)
+        assert r["rc"] == ["FINISHED"]
+        assert r["world"]["sun_threshold"] == 0.0
+        assert r["notes"] == [note], r["notes"]
+    assert res["log"].count("Info: EnvLight: " + note) == len(runs), res["log"][-3000:]
+    assert res["after_remove"]["world"]["sun_threshold"] == pytest.approx(user_value)
+
+
+def test_eevee_world_sun_extraction_off_and_restored(spot_run):
+    check_sun_extraction(spot_run, USER_SUN_THRESHOLD)
 
 
 def test_undo_and_redo_in_a_window(addon_zip, spot_hdr):
@@ -393,9 +431,16 @@ def test_sh_world_evaluates_the_remainder(addon_zip, spot_hdr):
             "remove": True,
             "settings": {"count": 4, "method": "fit", "world_mode": "SH",
                          "keep_background": False}}
-    res, _ = run_blender("sh_world", spec, addon_zip)
+    res, log = run_blender("sh_world", spec, addon_zip)
     run = res["runs"][0]
     assert run["rc"] == ["FINISHED"] and "residual_image" not in run["world"]
+    # EEVEE-Next: the SH world's extraction off too (the user's default 10 back after Remove)
+    if run["world"]["sun_threshold"] is not None:
+        assert run["world"]["sun_threshold"] == 0.0
+        assert run["notes"] == [SUN_NOTE % 10] and ("Info: EnvLight: " + SUN_NOTE % 10) in log
+        assert res["after_remove"]["world"]["sun_threshold"] == pytest.approx(10.0)
+    else:
+        assert run["notes"] == [] and "EEVEE" not in log
     # a smooth world: Cycles' importance map at 64 (the user's settings back after Remove)
     assert run["world"]["sampling"] == ["MANUAL", 64]
     assert res["after_remove"]["world"]["sampling"] == ["AUTOMATIC", 1024]

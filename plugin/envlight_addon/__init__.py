@@ -102,6 +102,8 @@ class ENVLIGHT_OT_create_lights(bpy.types.Operator):
         settings.result_message = "; ".join(result["warnings"])
         for w in result["warnings"]:
             self.report({"WARNING"}, "EnvLight: " + w)
+        for n in result.get("notes", ()):
+            self.report({"INFO"}, "EnvLight: " + n)
         self.report({"INFO"}, "EnvLight: %d lamps, diffuse error %.3f %%, %.2f s"
                     % (result["count"], 100.0 * result["diffuse_error"], result["seconds"]))
         return {"FINISHED"}

@@ -24,6 +24,11 @@ USER_SAMPLING = "envlight_user_sampling"
 # (1024) is evaluated through the SH node tree at every render (measured on a 64 x 64 px sphere:
 # 3.0 s of a 3.1 s render at 16 spp, 0.08 s with 64)
 SH_MAP_RESOLUTION = 64
+# the user's EEVEE-Next (Blender 4.2+) World.sun_threshold while our world is in place: EEVEE
+# turns the world's radiance above it into a sun light, which would count again the light
+# envlight's sun lamps already carry; 0 is the documented "off" ("If non-zero, ...")
+USER_SUN_THRESHOLD = "envlight_user_sun_threshold"
+SUN_THRESHOLD_OFF = 0.0
 
 # order-2 real SH basis constants (DESIGN.md, Ramamoorthi & Hanrahan 2001)
 _Y00, _Y1, _Y2, _Y20, _Y22 = 0.282095, 0.488603, 1.092548, 0.315392, 0.546274
@@ -200,6 +205,7 @@ def remove_created(world):
             del world[USER_OUTPUT]
     if world is not None:
         restore_world_sampling(world)
+        restore_sun_extraction(world)
     for img in [i for i in bpy.data.images if tagged(i) and i.users == 0]:
         bpy.data.images.remove(img)
     return removed
@@ -226,6 +232,28 @@ def restore_world_sampling(world):
         cw.sampling_method = saved["method"]
         cw.sample_map_resolution = int(saved["resolution"])
     del world[USER_SAMPLING]
+
+
+def disable_sun_extraction(world):
+    """EEVEE-Next's world sun extraction off (World.sun_threshold = 0), the user's threshold
+    kept for Remove. Returns what changed for the report, None without the property (< 4.2)."""
+    if not hasattr(world, "sun_threshold"):
+        return None
+    if USER_SUN_THRESHOLD not in world:
+        world[USER_SUN_THRESHOLD] = float(world.sun_threshold)
+    before = world.sun_threshold
+    world.sun_threshold = SUN_THRESHOLD_OFF
+    return "EEVEE: world sun extraction off (sun_threshold %g -> %g)" % (before,
+                                                                        world.sun_threshold)
+
+
+def restore_sun_extraction(world):
+    saved = world.get(USER_SUN_THRESHOLD)
+    if saved is None:
+        return
+    if hasattr(world, "sun_threshold"):
+        world.sun_threshold = float(saved)
+    del world[USER_SUN_THRESHOLD]
 
 
 # ---- lamps ------------------------------------------------------------------------------------
@@ -436,7 +464,7 @@ def build_world(world, mode, original_socket, residual_image, sh_coeffs, mapping
         shader = mix.outputs[0]
     tree.links.new(shader, out.inputs["Surface"])
     out.is_active_output = True
-    return out
+    return out, disable_sun_extraction(world)
 
 
 def residual_to_image(pkg, residual):
@@ -557,9 +585,12 @@ def create_lights(context, settings, progress=None):
         original_socket = bgn.outputs[0]
     suns = create_suns(scene, lights, rot, strength, settings.shadows)
     residual_image = residual_to_image(pkg, residual) if residual is not None else None
+    notes = []
     if world.use_nodes and world.node_tree:
-        build_world(world, mode, original_socket, residual_image, sh_coeffs, mapping_node,
-                    strength, settings.keep_background)
+        _, sun_note = build_world(world, mode, original_socket, residual_image, sh_coeffs,
+                                  mapping_node, strength, settings.keep_background)
+        if sun_note:
+            notes.append(sun_note)
     elif mode != "LIGHTS":
         warnings.append("the world does not use nodes: world left as it was")
     step(1.0)
@@ -569,6 +600,8 @@ def create_lights(context, settings, progress=None):
         "power": [strength * p for p in power],
         "residual_power": [strength * p for p in summary["residual_power"]],
         "warnings": warnings,
+        # what the add-on changed in the world's render settings (reported as INFO)
+        "notes": notes,
     }
     if sh_coeffs is not None:
         # the SH world's coefficients (canonical frame, strength included) and, over the
