@@ -55,13 +55,14 @@ static const char pov_help[] =
     "                    picks the recipe and the ground; a scene it cannot read is a\n"
     "                    warning and the defaults apply\n"
     "  --recipe R        auto (default: from the scene, see the header's reasons), dome\n"
-    "                    (64 median-cut lights of the sky with shadows + radiosity with no\n"
-    "                    sky for the bounces), dome-ambient (the lights, 64-256 by their\n"
-    "                    error, + the ground's bounce as an ambient, no radiosity), sh (4\n"
-    "                    fitted lights + SH ambient: exact without occlusion),\n"
+    "                    (32 or 64 variance-cut lights of the sky, by their error, with\n"
+    "                    shadows + radiosity with no sky for the bounces), dome-ambient\n"
+    "                    (median-cut lights, 64-256 by their error, + the ground's bounce\n"
+    "                    as an ambient, no radiosity), sh (4 fitted lights + SH ambient:\n"
+    "                    exact without occlusion),\n"
     "                    image-radiosity (4 fitted lights + the residual sky under\n"
     "                    radiosity); -n/--method/--ambient/--order alone: custom\n"
-    "  -n N              lights (custom default 4; dome 64; dome-ambient 64-256)\n"
+    "  -n N              lights (custom default 4; dome 32-64; dome-ambient 64-256)\n"
     "  --method M        fit (custom default: lights + SH remainder), median, variance\n"
     "  --order L         SH order of the ambient (fit: of its remainder), 0..8 (default 2);\n"
     "                    fit: -1 fits lights alone (the default with --ambient none)\n"
@@ -816,7 +817,12 @@ int cli_pov(int argc, char **argv)
     fprintf(f, "; shadows %s\n", shadow_names[shadows]);
     pov_header_recipe(f, recipe, why, scene, ground_from, sky, ambient != AMB_NONE,
                       dome_auto_count ? (int)s.count : 0, bounce);
-    if (grounded) {
+    if (grounded && bounce) {
+        fprintf(f, "// ground plane (canonical z = 0, POV-Ray y = 0), albedo %.9g: the lights "
+                "come from the sky\n//   above it; its bounce (albedo * E_up / pi = <%.6g, "
+                "%.6g, %.6g> unoccluded) is radiosity's\n", ground, ground_radiance[0],
+                ground_radiance[1], ground_radiance[2]);
+    } else if (grounded) {
         fprintf(f, "// ground plane (canonical z = 0, POV-Ray y = 0), albedo %.9g: the lower "
                 "hemisphere\n//   is its radiance albedo * E_up / pi = <%.6g, %.6g, %.6g>; "
                 "lights, ambient and\n//   error are those of the map so edited\n", ground,
