@@ -102,7 +102,7 @@ def target_check(result):
     for name in result["maps"]:
         rows = {r["scene"]: r for r in result["runs"] if r["map"] == name and r["picked"]}
         if not rows:
-            out[name] = (None, "no picked row (`--scene` not available)")
+            out[name] = (None, "no picked row (the `default` recipe was not run)")
             continue
         parts, met = [], True
         for scene in sorted(rows):
@@ -373,8 +373,6 @@ def main(argv=None):
         images[name] = imgs
         if args.json:   # progress: the maps so far (the final write replaces it)
             write_atomic(args.json, json.dumps(finite(dict(result, partial=True)), indent=1))
-    if getattr(host, "_SCENE_FLAG", {}).get("refused"):
-        result["notes"].append("`envlight pov --scene` was refused (exit 2): no default rows.")
     result["load_average_end"] = list(os.getloadavg())
     result["total_seconds"] = time.time() - t0
     text = json.dumps(finite(result), indent=1)

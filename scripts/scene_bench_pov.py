@@ -265,29 +265,17 @@ def highlight_pass(d, n, size):
 
 # ---- recipes ----
 
-_SCENE_FLAG = {"refused": None}
-
-
 def run_recipe(d, name, scene, size):
-    """Writes env.inc for the recipe (scene: for `default`), renders; None when `default` is
-    refused. -> (image, wall s, CPU s, envlight seconds, recipe name as reported)."""
+    """Writes env.inc for the recipe (scene: for `default`, what `envlight pov --scene` picks),
+    renders. -> (image, wall s, CPU s, envlight seconds, recipe name as reported)."""
     flags, after = RECIPES[name]
     if flags is None:
-        if _SCENE_FLAG["refused"]:
-            return None
         scene_path = os.path.join(d, "scene_%s.pov" % scene)
         with open(scene_path, "w") as f:
             f.write(open(os.path.join(EXAMPLES, SCENES[scene]["file"])).read())
         with open(os.path.join(d, "lighting.inc"), "w") as f:
             f.write('#include "env.inc"\n')
-        r = subprocess.run([P.ENVLIGHT, "pov", "full.pfm", "--scene", scene_path, "-o",
-                            "env.inc", "--quiet"], cwd=d, capture_output=True, text=True)
-        if r.returncode == 2:
-            _SCENE_FLAG["refused"] = r.stderr.strip().splitlines()[:1]
-            print("NOTE: `envlight pov --scene` refused (exit 2: %s): no `default` rows"
-                  % (_SCENE_FLAG["refused"][0] if _SCENE_FLAG["refused"] else ""))
-            return None
-        assert r.returncode == 0, r.stderr
+        P.envlight("pov", "full.pfm", "--scene", scene_path, "-o", "env.inc", "--quiet", cwd=d)
     else:
         P.envlight("pov", "full.pfm", *flags, "-o", "env.inc", "--quiet", cwd=d)
     text = open(os.path.join(d, "env.inc"), encoding="utf-8", errors="replace").read()
@@ -376,10 +364,7 @@ def run_map(name, path, opts, log=_log):
         log("  (%s) reference: %.2f s wall, %.2f s CPU (radiosity pass %.2f s); load average "
             "%.2f %.2f %.2f" % ((scene, t_ref, c_ref, c_rad) + os.getloadavg()))
         for recipe in opts["recipes"]:
-            out = run_recipe(d, recipe, scene, size)
-            if out is None:
-                continue
-            img, wall, cpu, env_s, reported = out
+            img, wall, cpu, env_s, reported = run_recipe(d, recipe, scene, size)
             errors = {o: float(rel_rms(img[m], refs[o][m])) for o, m in masks.items()}
             biases = {o: bias(img[m], refs[o][m]) for o, m in masks.items()}
             picked = recipe == "default"
