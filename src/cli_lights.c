@@ -6,20 +6,23 @@
 #include <string.h>
 
 static const char lights_help[] =
-    "Usage: envlight lights [FILE] [-n N] [--method median|variance|fit] [--json|--csv]\n"
+    "Usage: envlight lights [FILE] [-n N] [--method median|variance|fit|sun] [--json|--csv]\n"
     "                       [-o OUT] [--residual FILE] [--order L] [input options]\n"
     "Directional lights that stand in for the environment, in the canonical frame (Blender:\n"
     "+Z up). Each light: direction, rgb = irradiance it delivers at normal incidence (the sum\n"
     "of L dw it took), solid angle of its region and angular diameter (radians).\n"
-    "  -n N              number of lights (default 16; fit: 4)\n"
+    "  -n N              number of lights (default 16; fit: 4; sun: at most, 4)\n"
     "  --method M        median (Debevec 2005, default), variance (variance-minimising cut),\n"
-    "                    fit (non-negative least-squares lights + SH remainder)\n"
+    "                    fit (non-negative least-squares lights + SH remainder), sun (the\n"
+    "                    suns split off exactly: pixels above 50x the mean luminance, one\n"
+    "                    light per sun; the residual is the map less exactly their excess)\n"
     "  --order L         fit: SH order of the low-frequency remainder (default 2; -1: none)\n"
     "  --json, --csv     output format (default: a table)\n"
     "  -o OUT            write the output to OUT (atomically) instead of stdout\n"
     "  --residual FILE   save the residual environment (what the lights did not take)\n"
     "Every result states its diffuse error (relative RMS irradiance error over 1024 normals\n"
-    "against the exact integrator) and the seconds it took.\n";
+    "against the exact integrator; sun: of the lights + the residual map) and the seconds it\n"
+    "took.\n";
 
 static void write_json(FILE *f, const envl_info *info, const envl_lights *ls)
 {
@@ -85,8 +88,9 @@ static void write_table(FILE *f, const envl_info *info, const envl_lights *ls)
 {
     envl_lights_summary s;
     envl_lights_get_summary(ls, &s);
-    fprintf(f, "%s: %d lights by %s cut%s, diffuse error %.3f %%, %.3f s\n", info->file,
+    fprintf(f, "%s: %d lights by %s %s%s, diffuse error %.3f %%, %.3f s\n", info->file,
             (int)s.count, envl_method_name(s.method),
+            s.method == ENVL_METHOD_SUN ? "split (+ the residual map)" : "cut",
             s.remainder_order >= 0 ? " + SH remainder" : "", 100 * s.diffuse_error, s.seconds);
     if (s.no_light)
         fprintf(f, "no light: the environment is black\n");
@@ -129,7 +133,7 @@ int cli_lights(int argc, char **argv)
             lo.count = (int32_t)n;
         } else if ((r = cli_value(argc, argv, &i, "--method", &v)) != 0) {
             if (r < 0 || (lo.method = envl_method_from_name(v)) < 0)
-                return cli_usage("lights", "--method takes median, variance or fit");
+                return cli_usage("lights", "--method takes median, variance, fit or sun");
         } else if ((r = cli_value(argc, argv, &i, "--order", &v)) != 0) {
             if (r < 0 || cli_parse_int(v, -1, 8, &n))
                 return cli_usage("lights", "--order takes -1..8");

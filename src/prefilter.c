@@ -29,6 +29,7 @@
  */
 #include "internal.h"
 #include "envmap_impl.h"
+#include "sun_split.h"
 
 #include <errno.h>
 #include <math.h>
@@ -489,114 +490,47 @@ static void image_energy(const float *px, int32_t w, int32_t h, double e[3])
 }
 
 /* ---- bright pixels as point lobes ----
- * A sun (0.5 degrees, 1e5 times the sky) is far below what any sample pattern resolves. So
- * before sampling, pixels brighter than T = SPLIT_K x the map's mean luminance (at most
- * SPLIT_MAX of them: T is raised to the luminance of the next brightest pixel if needed) are
- * split: the residual keeps the pixel scaled to luminance T, and the excess
- * E_j = L_j (1 - T / Y_j) omega_j (per channel) becomes a point lobe at the pixel's centre
- * direction l_j. The residual is filtered as any map (its own pyramid, not the map's cached
- * one) and the lobes are added analytically:
+ * Before sampling, the bright pixels are split off the map (sun_split.c): the residual keeps
+ * each pixel above T (SPLIT_K x the map's mean luminance, or raised) scaled to luminance T, and
+ * the excess E_j (per channel) is a point lobe at the pixel's centre direction l_j. The
+ * residual is filtered as any map (its own pyramid, not the map's cached one) and the lobes are
+ * added analytically:
  *   P(R) += sum_j E_j w(R.l_j) / N(alpha),  w(u) = u / q^2,  q = ((1 + u) / 2)(a^2 - 1) + 1,
  * (D(h) R.l up to a constant, as the reference sums it), N(alpha) = integral of w over the
  * sphere = 2 pi int_0^1 u / (A + B u)^2 du = (2 pi / B^2)(ln(a^2 / A) + A / a^2 - 1) with
  * A = (1 + a^2) / 2, B = (a^2 - 1) / 2 (pi at a = 1). Lobes closer than SPLIT_CLUSTER alpha
  * (same cell of a lat-long grid that fine) are merged at their energy-weighted centroid; where
  * an output texel is wider than 2 alpha the lobe is averaged over the texel (supersampled).
- * Both parts are energy-scaled separately (the residual like any level; the lobes to sum E). */
-#define SPLIT_K 50.0
-#define SPLIT_MAX 4096
+ * Both parts are energy-scaled separately (the residual like any level; the lobes to sum E).
+ * With options.sun_lights the groups of split pixels that are suns become lights
+ * (envl__sun_split_lights) and are not baked. */
 #define SPLIT_CLUSTER 0.1
 
-typedef struct lobe {
-    double d[3], e[3];
-    int32_t r, c;
-    int32_t taken;            /* a sun light took it (options.sun_lights): not baked */
-} lobe;
+typedef envl_sun_lobe lobe;
 
 typedef struct split {
-    int32_t n;                /* lobes; 0: nothing was split (use the map itself) */
-    lobe *lobes;              /* row-major order */
-    float *res;               /* the residual, W x H */
-    float *mip;               /* its pyramid, levels 1 .. levels - 1 */
+    envl_sun_split sun;       /* the lobes and the residual (sun_split.c) */
+    float *mip;               /* the residual's pyramid, levels 1 .. levels - 1 */
     int32_t levels, mw[40], mh[40];
     size_t off[40];
-    double threshold;
 } split;
 
 static void split_free(split *s)
 {
-    free(s->lobes);
-    free(s->res);
+    envl__sun_split_free(&s->sun);
     free(s->mip);
     memset(s, 0, sizeof *s);
 }
 
-static int cmp_desc(const void *a, const void *b)
-{
-    float x = *(const float *)a, y = *(const float *)b;
-    return x > y ? -1 : x < y;
-}
-
-/* The map's power in luminance, sum of Y dw (luminance is linear in rgb). */
-static double map_power(const envl_envmap *m)
-{
-    return envl__lum(m->info.power[0], m->info.power[1], m->info.power[2]);
-}
-
+/* The map's split and, when anything was split, the pyramid of its residual. */
 static envl_result make_split(const envl_envmap *m, split *s)
 {
     memset(s, 0, sizeof *s);
-    int32_t w = m->width, h = m->height;
-    double T = SPLIT_K * map_power(m) / (4 * ENVL_PI);
-    if (!(T > 0) || !isfinite(T))
-        return ENVL_OK;
-    size_t npx = (size_t)w * h, count = 0;
-    for (size_t i = 0; i < npx; i++)
-        count += envl__lum(m->px[3 * i], m->px[3 * i + 1], m->px[3 * i + 2]) > T;
-    if (count == 0)
-        return ENVL_OK;
-    if (count > SPLIT_MAX) {
-        float *y = malloc(sizeof(float) * count);
-        if (!y)
-            return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
-        size_t k = 0;
-        for (size_t i = 0; i < npx; i++) {
-            double l = envl__lum(m->px[3 * i], m->px[3 * i + 1], m->px[3 * i + 2]);
-            if (l > T)
-                y[k++] = (float)l;
-        }
-        qsort(y, count, sizeof(float), cmp_desc);
-        T = y[SPLIT_MAX];
-        free(y);
-    }
-    s->threshold = T;
-    s->res = malloc(sizeof(float) * 3 * npx);
-    s->lobes = malloc(sizeof(lobe) * (count < SPLIT_MAX ? count : SPLIT_MAX));
-    if (!s->res || !s->lobes) {
-        split_free(s);
-        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
-    }
-    memcpy(s->res, m->px, sizeof(float) * 3 * npx);
-    for (int32_t r = 0; r < h && s->n < SPLIT_MAX; r++)
-        for (int32_t c = 0; c < w && s->n < SPLIT_MAX; c++) {
-            float *p = s->res + 3 * ((size_t)r * w + c);
-            double y = envl__lum(p[0], p[1], p[2]);
-            if (!(y > T))
-                continue;
-            lobe *l = s->lobes + s->n++;
-            double f = T / y;
-            for (int k = 0; k < 3; k++) {
-                double keep = p[k] * f;
-                l->e[k] = (p[k] - keep) * m->row_omega[r];
-                p[k] = (float)keep;
-            }
-            l->d[0] = m->row_cos[r] * m->col_cos[c];
-            l->d[1] = m->row_cos[r] * m->col_sin[c];
-            l->d[2] = m->row_sin[r];
-            l->r = r, l->c = c;
-            l->taken = 0;
-        }
-    envl_result rc = build_pyramid(s->res, w, h, &s->mip, &s->levels, s->mw, s->mh, s->off);
+    envl_result rc = envl__sun_split_make(m, &s->sun);
+    if (rc || s->sun.n == 0)
+        return rc;
+    rc = build_pyramid(s->sun.res, m->width, m->height, &s->mip, &s->levels, s->mw, s->mh,
+                       s->off);
     if (rc)
         split_free(s);
     return rc;
@@ -662,8 +596,8 @@ static int cmp_key(const void *a, const void *b)
 }
 
 /* The lobes' part of a level (w x h, alpha), energy-scaled per channel to sum E. */
-static envl_result add_lobes(const split *s, int32_t mh, double alpha, int32_t w, int32_t h,
-                             int32_t threads, float *px)
+static envl_result add_lobes(const envl_sun_split *s, int32_t mh, double alpha, int32_t w,
+                             int32_t h, int32_t threads, float *px)
 {
     /* merge lobes in cells of f x f map pixels, f = the largest power of 2 with
      * f pi / H <= SPLIT_CLUSTER alpha */
@@ -713,111 +647,6 @@ static envl_result add_lobes(const split *s, int32_t mh, double alpha, int32_t w
             px[3 * i + q] += (float)(lp[3 * i + q] * sc);
     }
     free(k), free(cl), free(lp);
-    return ENVL_OK;
-}
-
-/* ---- the split-off lobes as lights (options.sun_lights) ----
- * An 8-connected group of split pixels (columns wrap; a pole row is one group) becomes a light
- * when it is a sun: rgb = sum E_j, direction = the luminance-weighted centroid of the l_j, and
- * the solid angle of the uniform disc with the same spread, 4 pi mean(1 - cos t) over the
- * group's pixels, each pixel counted as its own disc (mean(1 - cos t) = omega_j / 4 pi), as
- * lights.c sizes fit lights. A sun: that disc at most SUN_MAX_ANGLE across, the group's pixels
- * filling at least 1 / SUN_MIN_FILL of it (a window frame or a ring of lamps is no disc), and
- * at least SUN_MIN_SHARE of the map's power (no light for a glint). The other groups stay point
- * lobes baked into the levels. */
-#define SUN_MAX_ANGLE (5.0 * ENVL_PI / 180)
-#define SUN_MIN_FILL 2.0
-#define SUN_MIN_SHARE 0.01
-static int lobes_touch(const lobe *a, const lobe *b, int32_t w, int32_t h)
-{
-    int32_t dr = abs(a->r - b->r), dc = abs(a->c - b->c);
-    if (dr > 1)
-        return 0;
-    if (dr == 0 && (a->r == 0 || a->r == h - 1))
-        return 1;
-    return dc <= 1 || dc == w - 1;
-}
-
-static int32_t find_root(int32_t *parent, int32_t i)
-{
-    while (parent[i] != i)
-        i = parent[i] = parent[parent[i]];
-    return i;
-}
-
-static envl_result split_lights(const envl_envmap *m, split *s, envl_light **out,
-                                int32_t *count)
-{
-    *out = NULL;
-    *count = 0;
-    if (s->n == 0)
-        return ENVL_OK;
-    int32_t *parent = malloc(sizeof(int32_t) * s->n), *group = malloc(sizeof(int32_t) * s->n);
-    /* per group: e[3], sum y d[3], sum y, sum y (1 - cos t) (pixels as discs: omega / 4 pi
-     * each, then the distance to the centroid), solid angle of its pixels */
-    double *acc = calloc((size_t)s->n, 9 * sizeof(double));
-    envl_light *l = calloc((size_t)s->n, sizeof(envl_light));
-    if (!parent || !group || !acc || !l) {
-        free(parent), free(group), free(acc), free(l);
-        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
-    }
-    for (int32_t i = 0; i < s->n; i++)
-        parent[i] = i;
-    /* lobes are in row-major order: only the rows r and r + 1 can touch */
-    for (int32_t i = 0; i < s->n; i++)
-        for (int32_t j = i + 1; j < s->n && s->lobes[j].r <= s->lobes[i].r + 1; j++)
-            if (lobes_touch(s->lobes + i, s->lobes + j, m->width, m->height))
-                parent[find_root(parent, j)] = find_root(parent, i);
-    int32_t n = 0;
-    for (int32_t i = 0; i < s->n; i++)
-        if (find_root(parent, i) == i)
-            group[i] = n++;
-    for (int32_t i = 0; i < s->n; i++) {
-        group[i] = group[find_root(parent, i)];
-        const lobe *b = s->lobes + i;
-        double *a = acc + 9 * group[i], y = envl__lum(b->e[0], b->e[1], b->e[2]);
-        double om = m->row_omega[b->r];
-        for (int k = 0; k < 3; k++)
-            a[k] += b->e[k], a[3 + k] += y * b->d[k];
-        a[6] += y;
-        a[7] += y * om / (4 * ENVL_PI);
-        a[8] += om;
-    }
-    for (int32_t g = 0; g < n; g++) { /* the direction first, then the spread about it */
-        const double *a = acc + 9 * g;
-        double nd = sqrt(a[3] * a[3] + a[4] * a[4] + a[5] * a[5]);
-        for (int k = 0; k < 3; k++)
-            l[g].direction[k] = nd > 0 ? a[3 + k] / nd : 0;
-    }
-    for (int32_t i = 0; i < s->n; i++) {
-        const lobe *b = s->lobes + i;
-        const double *dir = l[group[i]].direction;
-        acc[9 * group[i] + 7] += envl__lum(b->e[0], b->e[1], b->e[2]) *
-                                 (1 - (b->d[0] * dir[0] + b->d[1] * dir[1] + b->d[2] * dir[2]));
-    }
-    int32_t nl = 0, *light = parent; /* group -> light, or -1 (parent is no longer needed) */
-    for (int32_t g = 0; g < n; g++) {
-        const double *a = acc + 9 * g;
-        envl_light li = l[g];
-        li.solid_angle = a[6] > 0 ? fmin(4 * ENVL_PI, 4 * ENVL_PI * a[7] / a[6]) : 0;
-        for (int k = 0; k < 3; k++)
-            li.rgb[k] = a[k];
-        envl__light_set_angle(&li);
-        int keep = li.angle <= SUN_MAX_ANGLE && li.solid_angle <= SUN_MIN_FILL * a[8] &&
-                   a[6] >= SUN_MIN_SHARE * map_power(m);
-        light[g] = keep ? nl : -1;
-        if (keep)
-            l[nl++] = li;
-    }
-    for (int32_t i = 0; i < s->n; i++)
-        s->lobes[i].taken = light[group[i]] >= 0;
-    free(parent), free(group), free(acc);
-    if (nl == 0) {
-        free(l);
-        l = NULL;
-    }
-    *out = l;
-    *count = nl;
     return ENVL_OK;
 }
 
@@ -898,7 +727,7 @@ static envl_result specular_level(envl_envmap *m, const resolved *o, double roug
             return rc;
         sp = &own;
     }
-    int use_split = !o->unfiltered && sp->n > 0;
+    int use_split = !o->unfiltered && sp->sun.n > 0;
     if (!o->unfiltered && !use_split && (rc = envl_envmap_mips(m, NULL))) {
         split_free(&own);
         return rc;
@@ -940,7 +769,7 @@ static envl_result specular_level(envl_envmap *m, const resolved *o, double roug
     }
     for (int32_t k = 0, off = 0; k < nlev; k++) {
         if (use_split) {
-            lv[k].px = k == 0 ? sp->res : sp->mip + sp->off[k];
+            lv[k].px = k == 0 ? sp->sun.res : sp->mip + sp->off[k];
             lv[k].w = sp->mw[k];
             lv[k].h = sp->mh[k];
         } else {
@@ -963,7 +792,7 @@ static envl_result specular_level(envl_envmap *m, const resolved *o, double roug
     free(taps);
     free(s);
     double ein[3], eout[3];
-    image_energy(use_split ? sp->res : m->px, m->width, m->height, ein);
+    image_energy(use_split ? sp->sun.res : m->px, m->width, m->height, ein);
     image_energy(px, width, h, eout);
     double yin = envl__lum(ein[0], ein[1], ein[2]), yout = envl__lum(eout[0], eout[1], eout[2]);
     if (yout > 0 && yin > 0)
@@ -976,7 +805,7 @@ static envl_result specular_level(envl_envmap *m, const resolved *o, double roug
             px[3 * i + k] = (float)(px[3 * i + k] * f);
     }
     if (use_split)
-        rc = add_lobes(sp, m->height, st->alpha, width, h, o->threads, px);
+        rc = add_lobes(&sp->sun, m->height, st->alpha, width, h, o->threads, px);
     split_free(&own);
     if (rc) {
         free(px);
@@ -1313,7 +1142,7 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
         free(want);
         goto fail;
     }
-    if (p->opt.sun_lights && (rc = split_lights(m, &sp, &p->sun, &p->n_sun))) {
+    if (p->opt.sun_lights && (rc = envl__sun_split_lights(m, &sp.sun, &p->sun, &p->n_sun))) {
         split_free(&sp);
         free(want);
         goto fail;
@@ -1330,10 +1159,11 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
                 rc = envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
             } else {
                 memcpy(px, m->px, sizeof(float) * 3 * npx);
-                for (int32_t i = 0; i < sp.n; i++)
-                    if (sp.lobes[i].taken) {
-                        size_t at = 3 * ((size_t)sp.lobes[i].r * m->width + sp.lobes[i].c);
-                        memcpy(px + at, sp.res + at, sizeof(float) * 3);
+                for (int32_t i = 0; i < sp.sun.n; i++)
+                    if (sp.sun.lobes[i].taken) {
+                        const lobe *b = sp.sun.lobes + i;
+                        size_t at = 3 * ((size_t)b->r * m->width + b->c);
+                        memcpy(px + at, sp.sun.res + at, sizeof(float) * 3);
                     }
                 envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = p->opt.threads};
                 rc = envl_envmap_from_pixels(px, m->width, m->height, 3, &lo, &residual);
@@ -1688,6 +1518,8 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
     if (!rgbm && strcmp(fmt, "exr") && strcmp(fmt, "hdr") && strcmp(fmt, "pfm"))
         return envl__fail(ENVL_ERR_ARGUMENT, "export: unknown format '%s' (exr, hdr, pfm, "
                           "rgbm-png)", fmt);
+    if (envl__format_built(dir, rgbm ? "png" : fmt)) /* refused before anything is written */
+        return ENVL_ERR_UNSUPPORTED;
     if (o->layout < 0 || o->layout >= ENVL_EXPORT_COUNT)
         return envl__fail(ENVL_ERR_ARGUMENT, "export: unknown layout %d", (int)o->layout);
     if (o->layout == ENVL_EXPORT_ATLAS && p->n_levels == 0)

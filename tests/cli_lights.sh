@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # envlight lights: the JSON and CSV contract of DESIGN.md, energy bookkeeping through the
-# saved residual, usage errors.
+# saved residual, the sun method, usage errors.
 . "$(dirname "$0")/clitest.sh"
 
 for method in median variance fit; do
@@ -45,6 +45,29 @@ run "$ENVLIGHT" lights - --sky-width 256 -n 16 --method fit --order 4 --json
 checks=$((checks + 1))
 python3 -c 'import json; d = json.load(open("out.txt")); assert d["remainder"]["order"] == 4 and len(d["remainder"]["irradiance"]) == 25' ||
   { fails=$((fails + 1)); echo "FAIL: --order 4"; }
+# the sun method on the built-in sky: its one sun as a light, the residual the map less what
+# the light took (the saved residual's power agrees), no remainder; the table names it
+run "$ENVLIGHT" lights - --method sun --json -o l_sun.json --residual res_sun.pfm
+run "$ENVLIGHT" info res_sun.pfm --json --quiet
+cp out.txt info_sun.json
+checks=$((checks + 1))
+python3 - <<'PY2' || { fails=$((fails + 1)); echo "FAIL: lights --method sun --json"; }
+import json, math
+d = json.load(open("l_sun.json"))
+assert d["method"] == "sun" and d["count"] == 1 and len(d["lights"]) == 1, d
+l = d["lights"][0]
+el = math.radians(35)
+dot = l["direction"][0] * math.cos(el) + l["direction"][2] * math.sin(el)
+assert math.degrees(math.acos(min(1.0, dot))) < 0.3, l
+assert "remainder" not in d and not d["no_light"]
+res = json.load(open("info_sun.json"))["power"]
+for k in range(3):
+    assert abs(l["rgb"][k] + d["residual_power"][k] - d["power"][k]) <= 1e-8 * d["power"][k]
+    assert abs(res[k] - d["residual_power"][k]) <= 1e-6 * d["power"][k], (res, d)
+assert 0 <= d["error"]["diffuse"] < 1e-3
+PY2
+run "$ENVLIGHT" lights - --sky-width 256 --method sun
+has out.txt "1 lights by sun split"
 
 usage "$ENVLIGHT" lights --method nope
 usage "$ENVLIGHT" lights -n 0

@@ -1,5 +1,6 @@
 /* Lights: energy bookkeeping, analytic hard cases (constant, one bright pixel, seam, pole,
- * black, tiny maps), determinism across thread counts, and a huge map for SAT precision. */
+ * black, tiny maps), determinism across thread counts, a huge map for SAT precision, and the
+ * sun method (the built-in sky's sun, no sun, two suns and the count). */
 #include "envmap_impl.h"
 #include "check.h"
 
@@ -72,6 +73,8 @@ static void test_constant(void)
         check_energy(ls, m);
         if (method == ENVL_METHOD_FIT)
             CHECK(s.diffuse_error < 1e-6);
+        else if (method == ENVL_METHOD_SUN)
+            CHECK(s.count == 0); /* no sun (test_sun_none) */
         else
             CHECK_REL(s.lights_power[0], 4 * PI * 2.0, 1e-12); /* cuts take everything */
         envl_lights_free(ls);
@@ -121,7 +124,16 @@ static void test_one_bright_pixel(void)
          * point light's by O(h^2) (h: the pixel's angular size), which the fit may give to the
          * remainder: there, h^2. */
         double tol = method == ENVL_METHOD_FIT ? pixel_angle * pixel_angle : 1e-6;
-        CHECK_NEAR(l.rgb[1] - 1e-3 * l.solid_angle, spot, tol * spot);
+        if (method == ENVL_METHOD_SUN) {
+            /* the sun takes the pixel's excess over the threshold T = 50 x the mean luminance,
+             * and its solid angle is the pixel's */
+            double T = 50.0 * envl_luminance(s.power[0], s.power[1], s.power[2]) / (4 * PI);
+            CHECK(s.count == 1);
+            CHECK_REL(l.rgb[1], (1e6 - T) * envl_envmap_solid_angle(m, r0), 1e-9);
+            CHECK_REL(l.solid_angle, envl_envmap_solid_angle(m, r0), 1e-12);
+        } else {
+            CHECK_NEAR(l.rgb[1] - 1e-3 * l.solid_angle, spot, tol * spot);
+        }
         check_energy(ls, m);
         envl_lights_free(ls);
     }
@@ -215,7 +227,7 @@ static void test_tiny(void)
             envl_lights_options o = {.method = method, .count = n};
             CHECK_OK(envl_lights_compute(m, &o, &ls));
             int count = envl_lights_count(ls);
-            if (method != ENVL_METHOD_FIT)
+            if (method != ENVL_METHOD_FIT && method != ENVL_METHOD_SUN)
                 CHECK(count == (w * h < n ? w * h : n)); /* one light per pixel at most */
             check_energy(ls, m);
             envl_lights_free(ls);
@@ -462,6 +474,279 @@ static void test_region_table(void)
     free(px);
 }
 
+/* ---- sun: the map's suns split off exactly ---- */
+
+static int cmp_float_desc(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return x > y ? -1 : x < y;
+}
+
+/* The split's threshold, computed here from its definition: 50 x the mean luminance, raised to
+ * the luminance of the 4097th brightest pixel when more than 4096 are above it. */
+static double split_threshold(const envl_envmap *m)
+{
+    envl_info info;
+    envl_envmap_info(m, &info);
+    double T = 50.0 * envl_luminance(info.power[0], info.power[1], info.power[2]) / (4 * PI);
+    const float *px = envl_envmap_pixels(m);
+    size_t n = (size_t)envl_envmap_width(m) * envl_envmap_height(m), count = 0;
+    float *y = malloc(sizeof(float) * n);
+    for (size_t i = 0; i < n; i++) {
+        double l = envl_luminance(px[3 * i], px[3 * i + 1], px[3 * i + 2]);
+        if (l > T)
+            y[count++] = (float)l;
+    }
+    if (count > 4096) {
+        qsort(y, count, sizeof(float), cmp_float_desc);
+        T = y[4096];
+    }
+    free(y);
+    return T;
+}
+
+/* Lights + residual = the map, per channel to 1e-9: the summary's bookkeeping, and the sum of
+ * the lights' rgb plus the residual map's own integral (the residual's float pixels round
+ * only the few split pixels, at the threshold). */
+static void check_sun_energy(const envl_lights *ls, const envl_envmap *m)
+{
+    envl_lights_summary s;
+    CHECK_OK(envl_lights_get_summary(ls, &s));
+    CHECK(s.method == ENVL_METHOD_SUN && s.remainder_order == -1);
+    CHECK(envl_lights_remainder(ls, NULL) == NULL);
+    for (int k = 0; k < 3; k++) {
+        double lights = 0;
+        for (int i = 0; i < s.count; i++) {
+            envl_light l;
+            envl_lights_get(ls, i, &l);
+            lights += l.rgb[k];
+        }
+        CHECK_REL(lights, s.lights_power[k], 1e-12);
+        CHECK_REL(s.lights_power[k] + s.residual_power[k], s.power[k], 1e-9);
+        CHECK_REL(lights + residual_power(ls, m, k), s.power[k], 1e-9);
+    }
+}
+
+static double max_luminance(const float *px, size_t n)
+{
+    double y = 0;
+    for (size_t i = 0; i < n; i++)
+        y = fmax(y, envl_luminance(px[3 * i], px[3 * i + 1], px[3 * i + 2]));
+    return y;
+}
+
+static double angle_between(const double a[3], const double b[3])
+{
+    double d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    return acos(fmax(-1.0, fmin(1.0, d)));
+}
+
+/* The built-in sky (a 0.53-degree sun): exactly one sun light, within 0.3 degrees of the sky's
+ * sun and about its size, carrying what the residual lost; the residual has no pixel above
+ * the split's threshold; the error (lights + the residual's exact irradiance) is small. */
+static void test_sun_sky(void)
+{
+    const double el_deg = 35, az_deg = 30;
+    envl_sky_options so = {.sun_elevation_degrees = el_deg, .sun_elevation_is_set = 1,
+                           .sun_azimuth_degrees = az_deg};
+    envl_envmap *m;
+    CHECK_OK(envl_envmap_sky(&so, &m));
+    double el = el_deg * PI / 180, az = az_deg * PI / 180;
+    double sun[3] = {cos(el) * cos(az), cos(el) * sin(az), sin(el)};
+    envl_lights *ls;
+    envl_lights_options o = {.method = ENVL_METHOD_SUN};
+    CHECK_OK(envl_lights_compute(m, &o, &ls));
+    envl_lights_summary s;
+    CHECK_OK(envl_lights_get_summary(ls, &s));
+    CHECK(s.count == 1 && envl_lights_count(ls) == 1);
+    envl_light l;
+    CHECK_OK(envl_lights_get(ls, 0, &l));
+    printf("sun method, built-in sky: %d light, %.4f degrees off the sun, angle %.3f degrees, "
+           "rgb %.5g %.5g %.5g, diffuse error %.3g\n", (int)s.count,
+           angle_between(l.direction, sun) * 180 / PI, l.angle * 180 / PI, l.rgb[0], l.rgb[1],
+           l.rgb[2], s.diffuse_error);
+    CHECK(angle_between(l.direction, sun) <= 0.3 * PI / 180);
+    /* the disc of the same spread as the sun's pixels: the sun, blurred by pixels of 0.35
+     * degrees */
+    CHECK(l.angle > 0.2 * PI / 180 && l.angle < 1.5 * PI / 180);
+    /* its rectangle holds the sun's pixel */
+    double u = 0.5 - atan2(sun[1], sun[0]) / (2 * PI), v = 0.5 - el / PI;
+    int cx = (int)(u * envl_envmap_width(m)), cy = (int)(v * envl_envmap_height(m));
+    CHECK(l.rect[0] <= cx && cx < l.rect[2] && l.rect[1] <= cy && cy < l.rect[3]);
+    check_sun_energy(ls, m);
+    /* the sun holds most of the sky's light (irradiance 12 of the sun disc) */
+    CHECK(envl_luminance(l.rgb[0], l.rgb[1], l.rgb[2]) > 11.0);
+    double T = split_threshold(m);
+    size_t n = (size_t)envl_envmap_width(m) * envl_envmap_height(m);
+    CHECK(max_luminance(envl_lights_residual(ls), n) <= T * (1 + 1e-6));
+    CHECK(max_luminance(envl_envmap_pixels(m), n) > T);
+    CHECK(s.diffuse_error >= 0 && s.diffuse_error < 1e-3);
+    envl_lights_free(ls);
+    envl_envmap_free(m);
+}
+
+/* No sun: a constant map (nothing above the threshold), and a bright patch 20 degrees wide (a
+ * window, no sun: too wide): no light, the residual is the map bit for bit, zero error (the
+ * residual's irradiance is the map's); not "no light" (the map is not black). */
+static void test_sun_none(void)
+{
+    const int w = 256, h = 128;
+    for (int t = 0; t < 2; t++) {
+        float *px = filled(w, h, 2.0f);
+        if (t == 1)
+            for (int r = 40; r < 54; r++)
+                for (int c = 100; c < 114; c++)
+                    for (int k = 0; k < 3; k++)
+                        px[3 * (r * w + c) + k] = 5000.0f;
+        envl_envmap *m = map_of(px, w, h, 0);
+        CHECK(t == 0 || max_luminance(px, (size_t)w * h) > split_threshold(m));
+        envl_lights *ls;
+        envl_lights_options o = {.method = ENVL_METHOD_SUN};
+        CHECK_OK(envl_lights_compute(m, &o, &ls));
+        envl_lights_summary s;
+        CHECK_OK(envl_lights_get_summary(ls, &s));
+        CHECK(s.count == 0 && envl_lights_count(ls) == 0 && s.no_light == 0);
+        CHECK(memcmp(envl_lights_residual(ls), envl_envmap_pixels(m),
+                     sizeof(float) * 3 * w * h) == 0);
+        CHECK(s.lights_power[0] == 0 && s.lights_power[1] == 0 && s.lights_power[2] == 0);
+        CHECK(s.diffuse_error == 0.0);
+        check_sun_energy(ls, m);
+        envl_lights_free(ls);
+        envl_envmap_free(m);
+        free(px);
+    }
+}
+
+/* Paints a disc of radius rho about d with radiance v. */
+static void paint_disc(float *px, const envl_envmap *m, const double d[3], double rho, float v)
+{
+    int w = envl_envmap_width(m), h = envl_envmap_height(m);
+    for (int r = 0; r < h; r++)
+        for (int c = 0; c < w; c++) {
+            double e[3];
+            envl_envmap_direction(m, c, r, e);
+            if (e[0] * d[0] + e[1] * d[1] + e[2] * d[2] >= cos(rho))
+                for (int k = 0; k < 3; k++)
+                    px[3 * ((size_t)r * w + c) + k] = v;
+        }
+}
+
+static void dir_of(double el_deg, double az_deg, double d[3])
+{
+    double el = el_deg * PI / 180, az = az_deg * PI / 180;
+    d[0] = cos(el) * cos(az), d[1] = cos(el) * sin(az), d[2] = sin(el);
+}
+
+/* Two suns (3-degree discs, 1e4 and 5e3 over a sky of 0.1), the brighter on the seam: both as
+ * lights, brightest first; count = 1 keeps the brighter, and the residual keeps the other's
+ * pixels at their full value while the kept sun's are at the threshold. */
+static void test_sun_count(void)
+{
+    const int w = 512, h = 256;
+    const double rho = 1.5 * PI / 180;
+    double a[3], b[3];
+    dir_of(30, 180, a);   /* on the seam: its pixels at both ends of the rows */
+    dir_of(20, -70, b);
+    float *px = filled(w, h, 0.1f);
+    envl_envmap *m0 = map_of(px, w, h, 0);
+    paint_disc(px, m0, a, rho, 1e4f);
+    paint_disc(px, m0, b, rho, 5e3f);
+    envl_envmap_free(m0);
+    envl_envmap *m = map_of(px, w, h, 0);
+    double T = split_threshold(m);
+    size_t n = (size_t)w * h;
+    envl_lights *ls;
+    envl_lights_options o = {.method = ENVL_METHOD_SUN};
+    CHECK_OK(envl_lights_compute(m, &o, &ls));
+    CHECK(envl_lights_count(ls) == 2);
+    if (envl_lights_count(ls) == 2) {
+        envl_light la, lb;
+        envl_lights_get(ls, 0, &la);
+        envl_lights_get(ls, 1, &lb);
+        CHECK(angle_between(la.direction, a) < 0.2 * PI / 180);
+        CHECK(angle_between(lb.direction, b) < 0.2 * PI / 180);
+        /* each holds its disc's excess over the threshold, (v - T) omega a pixel */
+        double ea = 0, eb = 0;
+        for (int r = 0; r < h; r++)
+            for (int c = 0; c < w; c++) {
+                double d[3];
+                envl_envmap_direction(m, c, r, d);
+                if (angle_between(d, a) <= rho)
+                    ea += (1e4 - T) * envl_envmap_solid_angle(m, r);
+                else if (angle_between(d, b) <= rho)
+                    eb += (5e3 - T) * envl_envmap_solid_angle(m, r);
+            }
+        CHECK_REL(la.rgb[1], ea, 1e-9);
+        CHECK_REL(lb.rgb[1], eb, 1e-9);
+        /* the sun on the seam: its rectangle wraps (x1 past the width) and is narrow */
+        CHECK(la.rect[0] < w && la.rect[2] > w && la.rect[2] - la.rect[0] < 16);
+        CHECK(lb.rect[2] <= w && lb.rect[2] - lb.rect[0] < 16);
+    }
+    check_sun_energy(ls, m);
+    CHECK(max_luminance(envl_lights_residual(ls), n) <= T * (1 + 1e-6));
+    envl_lights_free(ls);
+
+    o.count = 1;
+    CHECK_OK(envl_lights_compute(m, &o, &ls));
+    envl_lights_summary s;
+    CHECK_OK(envl_lights_get_summary(ls, &s));
+    CHECK(s.count == 1);
+    envl_light l;
+    CHECK_OK(envl_lights_get(ls, 0, &l));
+    CHECK(angle_between(l.direction, a) < 0.2 * PI / 180);
+    check_sun_energy(ls, m);
+    const float *res = envl_lights_residual(ls), *map = envl_envmap_pixels(m);
+    int in_a = 0, in_b = 0, b_kept = 1, a_cut = 1, others_kept = 1;
+    for (int r = 0; r < h; r++)
+        for (int c = 0; c < w; c++) {
+            size_t i = (size_t)r * w + c;
+            double d[3];
+            envl_envmap_direction(m, c, r, d);
+            int same = memcmp(res + 3 * i, map + 3 * i, sizeof(float) * 3) == 0;
+            double y = envl_luminance(res[3 * i], res[3 * i + 1], res[3 * i + 2]);
+            if (angle_between(d, b) <= rho) {
+                in_b++;
+                b_kept &= same && map[3 * i + 1] == 5e3f;
+            } else if (angle_between(d, a) <= rho) {
+                in_a++;
+                a_cut &= fabs(y - T) <= 1e-6 * T;
+            } else {
+                others_kept &= same;
+            }
+        }
+    CHECK(in_a > 10 && in_b > 10);
+    CHECK(b_kept);
+    CHECK(a_cut);
+    CHECK(others_kept);
+    /* what the light holds is what the residual lost at the kept sun's pixels */
+    double lost = 0;
+    for (int r = 0; r < h; r++) {
+        double row = 0;
+        for (int c = 0; c < w; c++) {
+            size_t i = (size_t)r * w + c;
+            row += (double)map[3 * i + 1] - res[3 * i + 1];
+        }
+        lost += row * envl_envmap_solid_angle(m, r);
+    }
+    CHECK_REL(l.rgb[1], lost, 1e-9);
+    /* The error is the lights' (points for 3-degree discs) against what they took: the
+     * residual's irradiance is exact, so the sun left in it adds none. */
+    envl_lights_summary s2;
+    envl_lights *both;
+    o.count = 2;
+    CHECK_OK(envl_lights_compute(m, &o, &both));
+    CHECK_OK(envl_lights_get_summary(both, &s2));
+    CHECK(s2.count == 2);
+    CHECK(s.diffuse_error > 0 && s.diffuse_error < 2e-3);
+    CHECK(s2.diffuse_error > 0 && s2.diffuse_error < 2e-3);
+    printf("sun method, two suns: error %.3g with both, %.3g with the brighter only\n",
+           s2.diffuse_error, s.diffuse_error);
+    envl_lights_free(both);
+    envl_lights_free(ls);
+    envl_envmap_free(m);
+    free(px);
+}
+
 int main(void)
 {
     test_constant();
@@ -475,5 +760,8 @@ int main(void)
     test_fit_light_size();
     test_fit_lights_alone();
     test_region_table();
+    test_sun_sky();
+    test_sun_none();
+    test_sun_count();
     return check_report("test_lights");
 }
