@@ -19,7 +19,6 @@
  * C[0][0] = (sky + ground) / 2, C[0][1] = (sky - ground) / 2.
  */
 #include "cli.h"
-#include "ground.h"
 #include "pov_recipe.h"
 
 #include <math.h>
@@ -445,7 +444,10 @@ int cli_pov(int argc, char **argv)
             lo.count = (int32_t)n;
             count_set = 1;
         } else if ((r = cli_value(argc, argv, &i, "--method", &v)) != 0) {
-            if (r < 0 || (lo.method = envl_method_from_name(v)) < 0)
+            /* sun: the suns alone (the rest is a residual map, which an include carries only
+             * as the image-radiosity recipe's sky): not a light set for POV-Ray on its own */
+            if (r < 0 || (lo.method = envl_method_from_name(v)) < 0 ||
+                lo.method == ENVL_METHOD_SUN)
                 return cli_usage("pov", "--method takes fit, median or variance");
             method_set = 1;
         } else if ((r = cli_value(argc, argv, &i, "--recipe", &v)) != 0) {

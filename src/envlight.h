@@ -120,6 +120,18 @@ ENVL_API envl_result envl_envmap_from_pixels(const float *pixels, int32_t width,
                                              envl_envmap **out);
 ENVL_API void envl_envmap_free(envl_envmap *map);
 
+/* The environment as a scene on a ground plane sees it (ground.c). A copy of `map` whose lower
+ * hemisphere (canonical z < 0) is the uniform radiance albedo * E_up / pi of a Lambertian plane
+ * at z = 0, E_up the map's exact irradiance at the normal +Z; ground_rgb (may be NULL)
+ * receives that radiance. albedo within [0, 1]. The copy is a canonical lat-long map from
+ * memory (rotation already applied); release with envl_envmap_free. */
+ENVL_API envl_result envl_ground_plane_map(const envl_envmap *map, double albedo,
+                                           int32_t threads, envl_envmap **out,
+                                           double ground_rgb[3]);
+/* A copy of `map` with its lower hemisphere black: the sky a scene on a ground plane sees. */
+ENVL_API envl_result envl_sky_hemisphere_map(const envl_envmap *map, int32_t threads,
+                                             envl_envmap **out);
+
 ENVL_API envl_result envl_envmap_info(const envl_envmap *map, envl_info *out);
 ENVL_API int32_t envl_envmap_width(const envl_envmap *map);
 ENVL_API int32_t envl_envmap_height(const envl_envmap *map);
@@ -200,14 +212,25 @@ ENVL_API void envl_envmap_drop_caches(envl_envmap *map, int32_t which);
 #define ENVL_METHOD_MEDIAN 0    /* Debevec 2005 median cut on a double summed-area table */
 #define ENVL_METHOD_VARIANCE 1  /* variance-minimising cut (after Viriyothai & Debevec 2009) */
 #define ENVL_METHOD_FIT 2       /* fitted lights (non-negative) + low-order SH remainder */
-#define ENVL_METHOD_COUNT 3
-ENVL_API const char *envl_method_name(int32_t method); /* "median", "variance", "fit" */
+/* The map's suns, split off exactly: the pixels above 50x the mean luminance (at most 4096:
+ * else the threshold is raised; the prefiltered maps' split, as options.sun_lights), one
+ * light per 8-connected group that is a sun (at most 5 degrees across, compact, >= 1 % of
+ * the power); rgb = the sum of the group's excess L dw above the threshold, direction = its
+ * luminance-weighted centroid, solid_angle = the uniform disc of the same spread. count: the
+ * most suns kept, the brightest (default 4). The residual is the map less exactly what the
+ * lights took (their pixels at the threshold; other bright groups and the suns beyond count
+ * keep their full value), no remainder; a map without a sun gives no light and the map as
+ * residual. Its diffuse_error is that of the lights plus the residual's exact irradiance (the
+ * residual stays an environment map); envl_lights_irradiance gives the lights' part. */
+#define ENVL_METHOD_SUN 3
+#define ENVL_METHOD_COUNT 4
+ENVL_API const char *envl_method_name(int32_t method); /* "median", "variance", "fit", "sun" */
 ENVL_API int32_t envl_method_from_name(const char *name); /* -1 if unknown */
 
 #define ENVL_REMAINDER_NONE (-1)
 typedef struct envl_lights_options {
     int32_t method;           /* ENVL_METHOD_*; default median */
-    int32_t count;            /* number of lights; default 16 (fit: 4) */
+    int32_t count;            /* number of lights; default 16 (fit: 4; sun: at most, 4) */
     int32_t remainder_bands;  /* fit: SH bands of the remainder (order + 1), 1..9; default 3
                                  (order 2); ENVL_REMAINDER_NONE for lights only */
 } envl_lights_options;
@@ -227,7 +250,8 @@ typedef struct envl_lights_summary {
     double lights_power[3];   /* sum of the lights' rgb */
     double residual_power[3]; /* what the lights did not take; lights + residual = power */
     int32_t remainder_order;  /* fit with remainder: its order, else -1 */
-    double diffuse_error;     /* DESIGN.md's measure against the exact integrator */
+    double diffuse_error;     /* DESIGN.md's measure against the exact integrator (sun: of
+                                 the lights + the residual's exact irradiance) */
     double seconds;           /* time to compute the lights (the error measure excluded) */
     int32_t no_light;         /* 1: the map is black; there are no lights */
 } envl_lights_summary;

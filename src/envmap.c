@@ -226,6 +226,8 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
             envl__fail_prefix(rc, file);
             goto fail;
         }
+        m->width = ll.width; /* before envl__image_free clears ll */
+        m->height = ll.height;
         if (o->rotate_degrees != 0.0) {
             rc = envl__latlong_resample(ll.px, ll.width, ll.height, ll.width, ll.height,
                                         o->rotate_degrees, &m->px);
@@ -235,8 +237,6 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
         } else {
             m->px = ll.px;
         }
-        m->width = ll.width;
-        m->height = ll.height;
     }
     envl__image_free(img);
     rc = build_tables(m);

@@ -14,7 +14,7 @@
  * an odd height) gets the mix of both by the solid-angle share on each side, so the map's power
  * stays exact. Left out: the scene's own objects (their shadows on the plane, occlusion near a
  * contact point) and the plane's finite size. */
-#include "ground.h"
+#include "envlight.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -407,6 +407,20 @@ class Envmap(_Handle):
         o.format = format.encode() if format else None
         _check(lib.envl_envmap_save(self._handle(), str(path).encode(), byref(o)))
 
+    def ground_plane(self, albedo):
+        """The map as a scene on a ground plane (canonical z = 0) of this albedo sees it: a new
+        Envmap whose lower hemisphere is the plane's radiance albedo E_up / pi (E_up: the exact
+        irradiance at +Z), and that radiance (rgb). -> (Envmap, [r, g, b])"""
+        h, rgb = c_void_p(), (c_double * 3)()
+        _check(lib.envl_ground_plane_map(self._handle(), float(albedo), 0, byref(h), rgb))
+        return Envmap(h), list(rgb)
+
+    def sky_hemisphere(self):
+        """A new Envmap with the lower hemisphere black (the sky over a ground plane)."""
+        h = c_void_p()
+        _check(lib.envl_sky_hemisphere_map(self._handle(), 0, byref(h)))
+        return Envmap(h)
+
     def to_layout(self, layout, size=0):
         """The map rendered into another layout -> (height, width, 3) array (or flat list)."""
         p = ctypes.POINTER(c_float)()
@@ -421,9 +435,10 @@ class Envmap(_Handle):
     def lights(self, n=0, method="fit", order=2):
         """Directional lights standing in for the map.
 
-        n: number of lights (0 = the library's default: 16, fit 4); method: 'median',
-        'variance' or 'fit'; order: fit's SH remainder order (0..8), None for lights only
-        (ignored by the cuts). Returns a LightsResult (a context manager)."""
+        n: number of lights (0 = the library's default: 16, fit 4; sun: at most n, 4); method:
+        'median', 'variance', 'fit' or 'sun' (the suns split off exactly; the residual is the
+        map less their excess); order: fit's SH remainder order (0..8), None for lights only
+        (ignored by the cuts and sun). Returns a LightsResult (a context manager)."""
         o = _lib.LightsOptions()
         o.method = _enum(method, lib.envl_method_from_name, lib.envl_method_name, "method")
         o.count = int(n or 0)
@@ -469,7 +484,7 @@ class Envmap(_Handle):
         sun as lights, left out of the irradiance map and glossy levels); mirror: the
         roughness-0 level; irradiance: an irradiance map; diffuse: SH irradiance of sh_order;
         brdf: the split-sum table; shadows: that many lights for shadows (shadows_method
-        'median'|'variance'|'fit'); measure: also the glossy / diffuse errors (slow).
+        'median'|'variance'|'fit'|'sun'); measure: also the glossy / diffuse errors (slow).
         Returns Products (a context manager)."""
         req = _lib.Request()
         rough = [float(r) for r in (roughness or [])]

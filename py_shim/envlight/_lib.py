@@ -277,6 +277,8 @@ FUNCTIONS = {
     "envl_envmap_from_pixels": (_R, [_pf, c_int32, c_int32, c_int32, POINTER(LoadOptions),
                                      POINTER(_map)]),
     "envl_envmap_free": (None, [_map]),
+    "envl_ground_plane_map": (_R, [_map, c_double, c_int32, POINTER(_map), _pd]),
+    "envl_sky_hemisphere_map": (_R, [_map, c_int32, POINTER(_map)]),
     "envl_envmap_info": (_R, [_map, POINTER(Info)]),
     "envl_envmap_width": (c_int32, [_map]),
     "envl_envmap_height": (c_int32, [_map]),
