@@ -5,10 +5,12 @@ as envlight_addon/envlight) + the library (envlight_addon/lib/libenvlight.so.1).
     python3 scripts/blender_addon_zip.py [--build-dir build] [--library SO] [-o OUT.zip]
                                          [--blender CMD | --no-blender]
 
-The library: --library SO, else <build-dir>/libenvlight.so. It is not self-contained (issue
-14): it links the system's OpenEXR core, libpng and zlib (Debian 12 ships no static,
-position-independent builds of them), so the script prints a note naming what `ldd` lists
-beyond the C runtime; Blender's machine must provide those libraries.
+The library: --library SO, else <build-dir>/addon-lib/libenvlight.so when it exists (CMake's
+envlight_addon target: the library built without OpenEXR and libpng, so `ldd` lists only the
+C runtime; issue 14), else <build-dir>/libenvlight.so. A library that links more (the full
+build links the system's OpenEXR core, libpng and zlib; Debian 12 ships no static,
+position-independent builds of them) gets a note naming what `ldd` lists beyond the C
+runtime; Blender's machine must then provide those libraries.
 
 With a Blender >= 4.2 (--blender CMD, else $ENVL_BLENDER4, else scripts/blender4.sh's
 /var/cache/envlight/trixie-root/run-blender when it exists and runs), the zip is made by
@@ -49,6 +51,13 @@ def non_runtime_deps(lib):
         return []
     names = [line.split()[0] for line in out.splitlines() if line.strip()]
     return [n for n in names if not C_RUNTIME.match(os.path.basename(n))]
+
+
+def default_library(build_dir):
+    """<build-dir>/addon-lib/libenvlight.so (no OpenEXR, no libpng) when built, else the
+    full <build-dir>/libenvlight.so."""
+    minimal = os.path.join(build_dir, "addon-lib", "libenvlight.so")
+    return minimal if os.path.exists(minimal) else os.path.join(build_dir, "libenvlight.so")
 
 
 def blender_version(cmd):
@@ -144,15 +153,15 @@ def write_zip(files, tmp_zip):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build-dir", default=os.path.join(ROOT, "build"))
-    ap.add_argument("--library", help="libenvlight.so to ship (default: <build-dir>/"
-                    "libenvlight.so)")
+    ap.add_argument("--library", help="libenvlight.so to ship (default: <build-dir>/addon-lib/"
+                    "libenvlight.so, the self-contained build, else <build-dir>/libenvlight.so)")
     ap.add_argument("-o", "--output")
     ap.add_argument("--blender", help="Blender >= 4.2 command to build and validate with "
                     "(default: $ENVL_BLENDER4, else %s when present)" % DEFAULT_BLENDER4)
     ap.add_argument("--no-blender", action="store_true",
                     help="write the zip directly, no extension build/validate")
     a = ap.parse_args(argv)
-    lib = a.library or os.path.join(a.build_dir, "libenvlight.so")
+    lib = a.library or default_library(a.build_dir)
     if not os.path.exists(lib):
         sys.exit("blender_addon_zip: %s not found: build the library first" % lib)
     extra = non_runtime_deps(lib)

@@ -10,12 +10,32 @@
 
 static const char *extension_format(const char *path);
 
+envl_result envl__format_built(const char *what, const char *format)
+{
+#ifdef ENVL_NO_OPENEXR
+    if (!strcmp(format, "exr"))
+        return envl__fail(ENVL_ERR_UNSUPPORTED, "%s: this libenvlight was built without OpenEXR "
+                          "(the Blender add-on's build); use .hdr or .pfm", what);
+#endif
+#ifdef ENVL_NO_PNG
+    if (!strcmp(format, "png"))
+        return envl__fail(ENVL_ERR_UNSUPPORTED, "%s: this libenvlight was built without libpng "
+                          "(the Blender add-on's build); use .hdr or .pfm", what);
+#endif
+    (void)what, (void)format;
+    return ENVL_OK;
+}
+
 envl_result envl__read_image_memory(const uint8_t *data, size_t size, const char *name,
                                     const envl_limits *lim, envl_image *out)
 {
     memset(out, 0, sizeof *out);
     if (size >= 4 && data[0] == 0x76 && data[1] == 0x2f && data[2] == 0x31 && data[3] == 0x01)
+#ifdef ENVL_NO_OPENEXR
+        return envl__format_built(name ? name : "(memory)", "exr");
+#else
         return envl__read_exr(data, size, name, lim, out);
+#endif
     if (size >= 2 && data[0] == 'P' && (data[1] == 'F' || data[1] == 'f'))
         return envl__read_pfm(data, size, name, lim, out);
     /* Content decides; but a file named .exr or .pfm whose first bytes are not that format's
@@ -72,17 +92,21 @@ envl_result envl_image_save(const char *path, const float *rgb, int32_t width, i
         return envl__fail(ENVL_ERR_ARGUMENT,
                           "%s: cannot tell the format from the name (use .hdr, .exr or .pfm)",
                           path);
-    int32_t pixel_type = options ? options->pixel_type : ENVL_PIXEL_FLOAT;
     if (strcmp(fmt, "hdr") && strcmp(fmt, "exr") && strcmp(fmt, "pfm"))
         return envl__fail(ENVL_ERR_ARGUMENT, "%s: unknown format '%s'", path, fmt);
     char *tmp;
-    envl_result rc = envl__atomic_begin(path, &tmp);
+    envl_result rc = envl__format_built(path, fmt);
+    if (!rc)
+        rc = envl__atomic_begin(path, &tmp);
     if (rc)
         return rc;
     if (!strcmp(fmt, "hdr"))
         rc = envl__write_hdr(tmp, rgb, width, height);
+#ifndef ENVL_NO_OPENEXR
     else if (!strcmp(fmt, "exr"))
-        rc = envl__write_exr(tmp, rgb, width, height, pixel_type);
+        rc = envl__write_exr(tmp, rgb, width, height,
+                             options ? options->pixel_type : ENVL_PIXEL_FLOAT);
+#endif
     else
         rc = envl__write_pfm(tmp, rgb, width, height);
     if (rc) {

@@ -68,6 +68,11 @@ envl_result envl__image_alloc(envl_image *img, int32_t w, int32_t h, const envl_
                               const char *what);
 void envl__image_free(envl_image *img);
 
+/* ENVL_ERR_UNSUPPORTED, the message naming `what`, when this build lacks the format "exr" or
+ * "png" (CMake ENVL_OPENEXR / ENVL_PNG OFF, and always the Blender add-on's copy of the library:
+ * then exr.c is not compiled and png.c keeps only its RGBM code); ENVL_OK otherwise. */
+envl_result envl__format_built(const char *what, const char *format);
+
 /* ---- readers: whole file in memory, `name` only for messages (hdr.c, exr.c, pfm.c) ---- */
 envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
                            const envl_limits *lim, envl_image *out);

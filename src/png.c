@@ -3,7 +3,9 @@
 #include "internal.h"
 
 #include <math.h>
+#ifndef ENVL_NO_PNG
 #include <png.h>
+#endif
 #include <setjmp.h>
 #include <stdlib.h>
 #include <string.h>
@@ -38,6 +40,14 @@ void envl_rgbm_decode(const uint8_t in[4], double range, float rgb[3])
         rgb[k] = (float)(range * (in[k] / 255.0) * (in[3] / 255.0));
 }
 
+#ifdef ENVL_NO_PNG
+/* Built without libpng: the encoders below refuse (envl__format_built says why). */
+static envl_result png_write(const char *path, const uint8_t *px, int32_t w, int32_t h,
+                             int channels, int srgb)
+{
+    return envl__format_built(path, "png");
+}
+#else
 typedef struct membuf {
     uint8_t *data;
     size_t size, cap;
@@ -120,6 +130,8 @@ static envl_result png_write(const char *path, const uint8_t *px, int32_t w, int
     return rc;
 }
 
+#endif /* ENVL_NO_PNG */
+
 static envl_result check_args(const char *path, const float *rgb, int32_t w, int32_t h)
 {
     if (!path || !rgb || w <= 0 || h <= 0 || w > (1 << 20) || h > (1 << 20) ||
@@ -173,6 +185,9 @@ envl_result envl_png_save_srgb(const char *path, const float *rgb, int32_t w, in
 envl_result envl__png_read(const char *path, int32_t *w, int32_t *h, int32_t *channels,
                            uint8_t **px)
 {
+#ifdef ENVL_NO_PNG
+    return envl__format_built(path, "png");
+#else
     png_image img;
     memset(&img, 0, sizeof img);
     img.version = PNG_IMAGE_VERSION;
@@ -194,4 +209,5 @@ envl_result envl__png_read(const char *path, int32_t *w, int32_t *h, int32_t *ch
     *channels = ch;
     *px = p;
     return ENVL_OK;
+#endif
 }
