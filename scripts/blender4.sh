@@ -36,7 +36,10 @@ set -euo pipefail
 exec 3>&1 1>&2 # stdout is for the last line only (fd 3)
 
 SUITE=trixie
-PACKAGES="blender xvfb xauth python3-numpy"
+# libegl1 + libegl-mesa0: EEVEE-Next renders in `blender -b` through EGL on Mesa's software
+# rasteriser (llvmpipe, OpenGL 4.5; no X server needed); without them it aborts with "Couldn't
+# open libEGL.so.1"
+PACKAGES="blender xvfb xauth python3-numpy libegl1 libegl-mesa0"
 CONFIG="suite=$SUITE packages=$PACKAGES"
 CACHE=${ENVL_CACHE:-/var/cache/envlight}
 ROOT=$CACHE/$SUITE-root

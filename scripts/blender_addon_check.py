@@ -29,7 +29,7 @@ import mathutils
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from blender_scene import add_white_sphere_and_camera, run_main  # noqa: E402
+from blender_scene import add_white_sphere_and_camera, node_material, run_main  # noqa: E402
 
 
 def spec_from_argv():
@@ -104,7 +104,11 @@ def lamps():
                     "use_shadow": bool(o.data.use_shadow),
                     "cycles_cast_shadow": bool(o.data.cycles.cast_shadow)
                     if hasattr(getattr(o.data, "cycles", None), "cast_shadow") else None,
-                    "direction": list(d.normalized())})
+                    "direction": list(d.normalized()),
+                    # Cycles: does the lamp light glossy reflections (3.0+)
+                    "visible_glossy": getattr(o, "visible_glossy", None),
+                    # the library light's solid angle (the add-on's custom property)
+                    "solid_angle": o.get("envlight_solid_angle")})
     return out
 
 
@@ -149,7 +153,8 @@ def world_state(world):
            "images": [i.name for i in bpy.data.images],
            "sampling": [world.cycles.sampling_method, world.cycles.sample_map_resolution],
            # EEVEE-Next's (4.2+) world sun extraction threshold; None: no such property (3.4)
-           "sun_threshold": getattr(world, "sun_threshold", None)}
+           "sun_threshold": getattr(world, "sun_threshold", None),
+           "labels": sorted(n.label for n in tree.nodes if n.get("envlight"))}
     clamp = next((n for n in tree.nodes if n.get("envlight") and
                   n.label == core_module().NODE_PREFIX + core_module().SH_CLAMP), None)
     if clamp is not None:
@@ -168,6 +173,35 @@ def world_state(world):
                                  "power": latlong_power(buf, img.size[0], img.size[1],
                                                         img.channels)}
     return out
+
+
+def add_objects(scene, objects):
+    """The spec's "objects": [{"kind": "sphere"|"plane"|"cube", "name", "location", "size",
+    "material": {"type": "diffuse"|"principled", "color": [r, g, b], "roughness",
+    "metallic"}}]: a scene for Create Lights to read."""
+    for spec in objects:
+        kind, loc, size = spec["kind"], spec.get("location", (0, 0, 0)), spec.get("size", 1.0)
+        if kind == "sphere":
+            bpy.ops.mesh.primitive_uv_sphere_add(radius=size, location=loc)
+        elif kind == "plane":
+            bpy.ops.mesh.primitive_plane_add(size=size, location=loc)
+        else:
+            bpy.ops.mesh.primitive_cube_add(size=size, location=loc)
+        o = bpy.context.active_object
+        o.name = spec["name"]
+        ms = spec.get("material")
+        if ms:
+            col = list(ms.get("color", (0.8, 0.8, 0.8)))
+            if ms["type"] == "diffuse":
+                m = node_material(spec["name"] + "Material", color=col)
+            else:
+                m = bpy.data.materials.new(spec["name"] + "Material")
+                m.use_nodes = True
+                pb = m.node_tree.nodes["Principled BSDF"]
+                pb.inputs["Base Color"].default_value = col + [1.0]
+                pb.inputs["Roughness"].default_value = ms.get("roughness", 0.5)
+                pb.inputs["Metallic"].default_value = ms.get("metallic", 0.0)
+            o.data.materials.append(m)
 
 
 def setup_render(scene, spec):
@@ -297,6 +331,9 @@ def main():
     if spec.get("sun_threshold") is not None and hasattr(world, "sun_threshold"):
         world.sun_threshold = spec["sun_threshold"]  # the user's own value, for Remove
     result["world_before"] = {"sun_threshold": getattr(world, "sun_threshold", None)}
+    add_objects(scene, spec.get("objects", []))
+    if spec.get("engine"):
+        scene.render.engine = spec["engine"]
     s = world.envlight
     for k, v in spec.get("settings", {}).items():
         setattr(s, k, v)
@@ -313,6 +350,7 @@ def main():
         scene = bpy.context.scene  # undo rebuilt the data: fresh references
         world = scene.world
         s = world.envlight
+    result["world_state_before"] = world_state(world)
     runs = []
     for i in range(spec.get("runs", 1)):
         t = time.perf_counter()
@@ -326,7 +364,12 @@ def main():
                      # the SH figures of the dict create_lights returned (doubles, unrounded)
                      "sh": {k: v for k, v in (core.last_result or {}).items()
                             if k.startswith("sh_")},
-                     "notes": list((core.last_result or {}).get("notes", []))})
+                     "notes": list((core.last_result or {}).get("notes", [])),
+                     # the plan Create Lights made from the scene (or the panel)
+                     "plan": {k: (core.last_result or {}).get(k) for k in (
+                         "recipe", "reasons", "skipped", "ground_object", "ground_albedo")},
+                     "panel_recipe": s.result_recipe,
+                     "panel_skipped": s.result_skipped})
     result["runs"] = runs
     if spec.get("render_after"):
         result["approx_seconds"] = render_sphere(scene, spec["render_after"], spec)
@@ -355,14 +398,14 @@ def main():
     print("ENVLIGHT_CHECK_DONE", spec["out"])
 
 
-def main_in_window():
-    """Timer callback: main() inside the first window's context, then Blender ends with main's
-    status (os._exit: sys.exit from a timer would only be reported)."""
+def main_in_window(entry=None):
+    """Timer callback: `entry` (default main()) inside the first window's context, then Blender
+    ends with its status (os._exit: sys.exit from a timer would only be reported)."""
     status = 1
     try:
         win = bpy.context.window_manager.windows[0]
         with bpy.context.temp_override(window=win, screen=win.screen):
-            main()
+            (entry or main)()
         status = 0
     except Exception:
         import traceback
@@ -372,7 +415,8 @@ def main_in_window():
     os._exit(status)
 
 
-if bpy.app.background:
-    run_main(main)
-else:
-    bpy.app.timers.register(main_in_window, first_interval=0.5)
+if __name__ == "__main__":  # blender --python runs it as __main__; other scripts import it
+    if bpy.app.background:
+        run_main(main)
+    else:
+        bpy.app.timers.register(main_in_window, first_interval=0.5)

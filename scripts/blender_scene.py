@@ -1,6 +1,6 @@
 """Pieces shared by the scripts that run inside Blender (blender_addon_check.py,
-blender_bench.py): a white diffuse unit sphere at the origin seen by an orthographic camera
-on -Y, and the way a script ends."""
+blender_hard_cases.py, scene_bench_blender.py): one-node materials, a white diffuse unit sphere at
+the origin seen by an orthographic camera on -Y, and the way a script ends."""
 import math
 import sys
 import traceback
@@ -19,6 +19,20 @@ def run_main(main):
     sys.exit(0)
 
 
+def node_material(name, shader="ShaderNodeBsdfDiffuse", color=(1, 1, 1)):
+    """A material whose surface is one shader node (Diffuse BSDF, Emission...) of `color`."""
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        if n.bl_idname != "ShaderNodeOutputMaterial":
+            nt.nodes.remove(n)
+    node = nt.nodes.new(shader)
+    node.inputs["Color"].default_value = tuple(color)[:3] + (1,)
+    nt.links.new(node.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+    return mat
+
+
 def add_white_sphere_and_camera(scene, name):
     """Adds the sphere (object `name`Sphere, material `name`White) and the camera (`name`Cam),
     and makes it the scene's camera."""
@@ -26,16 +40,7 @@ def add_white_sphere_and_camera(scene, name):
     sph = bpy.context.active_object
     sph.name = name + "Sphere"
     bpy.ops.object.shade_smooth()
-    mat = bpy.data.materials.new(name + "White")
-    mat.use_nodes = True
-    nt = mat.node_tree
-    for n in list(nt.nodes):
-        if n.bl_idname != "ShaderNodeOutputMaterial":
-            nt.nodes.remove(n)
-    diff = nt.nodes.new("ShaderNodeBsdfDiffuse")
-    diff.inputs["Color"].default_value = (1, 1, 1, 1)
-    nt.links.new(diff.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
-    sph.data.materials.append(mat)
+    sph.data.materials.append(node_material(name + "White"))
     cam = bpy.data.cameras.new(name + "Cam")
     cam.type = "ORTHO"
     cam.ortho_scale = 2.2

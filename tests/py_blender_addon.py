@@ -89,7 +89,9 @@ def euler_xyz(deg):
 
 @pytest.fixture(scope="module")
 def addon_zip():
-    lib = os.environ.get("ENVLIGHT_LIBRARY") or os.path.join(BUILD, "libenvlight.so")
+    # the add-on's own library (built without OpenEXR / libpng) as users get it
+    lib = os.environ.get("ENVL_ADDON_LIBRARY") or os.environ.get("ENVLIGHT_LIBRARY") or \
+        os.path.join(BUILD, "libenvlight.so")
     out = os.path.join(TMP, "envlight_addon.zip")
     subprocess.run([sys.executable, os.path.join(SRC, "scripts", "blender_addon_zip.py"),
                     "--library", lib, "-o", out], check=True, capture_output=True)
@@ -108,10 +110,11 @@ def spot_hdr():
     return path, info, np.array(d)
 
 
-def run_blender(name, spec, zip_path, window=False):
-    """One fresh Blender: own user-scripts/config folders, the environment's ENVLIGHT_LIBRARY
-    removed so the add-on must use the library inside its zip. window: Blender with a window
-    on a virtual X server (xvfb-run, Debian's xvfb) instead of -b."""
+def run_blender(name, spec, zip_path, window=False, script=CHECK):
+    """One fresh Blender running `script` (blender_addon_check.py; tests/py_blender_hard_cases.py
+    passes its own) on `spec`: own user-scripts/config folders, the environment's
+    ENVLIGHT_LIBRARY removed so the add-on must use the library inside its zip. window: Blender
+    with a window on a virtual X server (xvfb-run, Debian's xvfb) instead of -b."""
     folder = os.path.join(TMP, name)
     shutil.rmtree(folder, ignore_errors=True)
     os.makedirs(folder)
@@ -122,7 +125,7 @@ def run_blender(name, spec, zip_path, window=False):
     env = {k: v for k, v in os.environ.items() if k not in ("ENVLIGHT_LIBRARY", "PYTHONPATH")}
     env.update(BLENDER_USER_SCRIPTS=os.path.join(folder, "scripts"),
                BLENDER_USER_CONFIG=os.path.join(folder, "config"))
-    cmd = [BLENDER, "-b", "--factory-startup", "--python", CHECK, "--",
+    cmd = [BLENDER, "-b", "--factory-startup", "--python", script, "--",
            os.path.join(folder, "spec.json")]
     if window:
         cmd = [XVFB_RUN, "-a", "-s", "-screen 0 1280x800x24"] + [c for c in cmd if c != "-b"]
@@ -201,7 +204,12 @@ def strongest(run):
 
 
 def lamps_power(run):
-    return np.sum([np.array(l["color"]) * l["energy"] for l in suns(run)], axis=0)
+    """The power the lamps carry: a sun's energy is its irradiance at normal incidence, the
+    light's rgb (1 - w / 4 pi) for a light of solid angle w (the add-on's create_suns; the
+    library's lights point along their first moment, lights.c), so rgb = energy color /
+    (1 - w / 4 pi)."""
+    return np.sum([np.array(l["color"]) * l["energy"] / (1 - l["solid_angle"] / (4 * math.pi))
+                   for l in suns(run)], axis=0)
 
 
 def panorama_spot(path):
@@ -225,7 +233,7 @@ def spot_run(request, addon_zip, spot_hdr):
     spec = {"hdr": path, "runs": 2, "remove": True,
             "bad_file": os.path.join(TMP, "no-such-file.hdr"),
             "sun_threshold": USER_SUN_THRESHOLD,
-            "settings": {"count": 4, "method": "fit", "world_mode": "RESIDUAL",
+            "settings": {"read_scene": False, "suns": False, "count": 4, "method": "fit", "world_mode": "RESIDUAL",
                          "shadows": "SOFT"}}
     res, log = run_blender("spot_residual", spec, addon_zip)
     res["log"] = log
@@ -341,7 +349,7 @@ def test_undo_and_redo_in_a_window(addon_zip, spot_hdr):
         pytest.skip("SKIP: xvfb-run is not installed (Debian package xvfb)")
     path, _, _ = spot_hdr
     spec = {"hdr": path, "runs": 0, "undo": True,
-            "settings": {"count": 4, "method": "fit", "world_mode": "RESIDUAL"}}
+            "settings": {"read_scene": False, "suns": False, "count": 4, "method": "fit", "world_mode": "RESIDUAL"}}
     res, _ = run_blender("undo", spec, addon_zip, window=True)
     u = res["undo"]
     assert u["undo_poll"] and u["rc"] == ["FINISHED"]
@@ -379,7 +387,7 @@ def test_mapping_rotation_is_honoured(addon_zip, spot_hdr, name, mapping, group)
     path, _, d = spot_hdr
     pano = os.path.join(TMP, name + "_pano.exr")
     spec = {"hdr": path, "group": group, "mapping": mapping, "panorama_before": pano,
-            "settings": {"count": 4, "method": "fit", "world_mode": "RESIDUAL"}}
+            "settings": {"read_scene": False, "suns": False, "count": 4, "method": "fit", "world_mode": "RESIDUAL"}}
     res, _ = run_blender(name, spec, addon_zip)
     run = res["runs"][0]
     m = euler_xyz(mapping["rotation"])
@@ -403,7 +411,7 @@ def test_rooitou_park(addon_zip):
     if not os.path.exists(path):
         pytest.skip("SKIP: %s absent" % path)
     spec = {"hdr": path, "mapping": {"type": "POINT", "rotation": [0, 0, -60]},
-            "settings": {"count": 4, "method": "fit", "world_mode": "RESIDUAL"}}
+            "settings": {"read_scene": False, "suns": False, "count": 4, "method": "fit", "world_mode": "RESIDUAL"}}
     res, _ = run_blender("rooitou", spec, addon_zip)
     run = res["runs"][0]
     # the expected values from the pixels Blender decoded (see rgbe_decode)
@@ -429,7 +437,7 @@ def test_sh_world_evaluates_the_remainder(addon_zip, spot_hdr):
     pano = os.path.join(TMP, "sh_pano.exr")
     spec = {"hdr": path, "mapping": {"type": "POINT", "rotation": [0, 0, 30]}, "panorama": pano,
             "remove": True,
-            "settings": {"count": 4, "method": "fit", "world_mode": "SH",
+            "settings": {"read_scene": False, "suns": False, "count": 4, "method": "fit", "world_mode": "SH",
                          "keep_background": False}}
     res, log = run_blender("sh_world", spec, addon_zip)
     run = res["runs"][0]
@@ -441,8 +449,8 @@ def test_sh_world_evaluates_the_remainder(addon_zip, spot_hdr):
         assert res["after_remove"]["world"]["sun_threshold"] == pytest.approx(10.0)
     else:
         assert run["notes"] == [] and "EEVEE" not in log
-    # a smooth world: Cycles' importance map at 64 (the user's settings back after Remove)
-    assert run["world"]["sampling"] == ["MANUAL", 64]
+    # a smooth world: Cycles does not light-sample it (the user's settings back after Remove)
+    assert run["world"]["sampling"] == ["NONE", 1024]
     assert res["after_remove"]["world"]["sampling"] == ["AUTOMATIC", 1024]
     # the world the panorama camera sees is the remainder's radiance, turned by the mapping
     with envlight.load(path) as env, env.lights(4, method="fit") as lr:
@@ -524,7 +532,7 @@ def hemi_hdr():
 
 def test_sh_world_clamps_negative_radiance(addon_zip, hemi_hdr):
     spec = {"hdr": hemi_hdr,
-            "settings": {"count": 4, "method": "fit", "world_mode": "SH",
+            "settings": {"read_scene": False, "suns": False, "count": 4, "method": "fit", "world_mode": "SH",
                          "keep_background": False}}
     res, log = run_blender("sh_negative", spec, addon_zip)
     run = res["runs"][0]
@@ -555,7 +563,7 @@ def test_sh_world_clamps_negative_radiance(addon_zip, hemi_hdr):
 def test_lights_only_and_sharp_and_no_shadows(addon_zip, spot_hdr):
     path, _, _ = spot_hdr
     spec = {"hdr": path, "runs": 1,
-            "settings": {"count": 4, "method": "median", "world_mode": "LIGHTS",
+            "settings": {"read_scene": False, "suns": False, "count": 4, "method": "median", "world_mode": "LIGHTS",
                          "shadows": "SHARP"}}
     res, _ = run_blender("lights_only", spec, addon_zip)
     run = res["runs"][0]
@@ -615,7 +623,7 @@ def test_cycles_render_matches_the_hdr_world(addon_zip, mode):
     spec = {"hdr": hdr, "reference_render": ref, "reference_render_2": ref2, "pack": True,
             "render_after": approx, "render_after_2": approx2, "user_lamp": False,
             "render": {"samples": 128, "size": 64, "bounces": 1},
-            "settings": {"count": 4, "method": "fit", "world_mode": mode, "shadows": "SOFT"}}
+            "settings": {"read_scene": False, "suns": False, "count": 4, "method": "fit", "world_mode": mode, "shadows": "SOFT"}}
     res, _ = run_blender("render_" + mode.lower(), spec, addon_zip)
     run = res["runs"][0]
     diffuse_error = run["panel"]["error_percent"] / 100
@@ -633,3 +641,100 @@ def test_cycles_render_matches_the_hdr_world(addon_zip, mode):
     # 1.25: the RMS over n blocks has a relative spread of about 1 / sqrt(2 n) = 6 %
     bound = math.sqrt((2 * diffuse_error) ** 2 + noise ** 2 + noise_approx ** 2) * 1.25
     assert err < bound, (err, bound, diffuse_error, noise, noise_approx)
+
+
+# ---- reading the scene (issue 14) -------------------------------------------------------------
+
+GROUND_OBJ = {"kind": "plane", "name": "Floor", "size": 20, "location": [0, 0, 0],
+              "material": {"type": "diffuse", "color": [0.3, 0.3, 0.3]}}
+MATTE_OBJ = {"kind": "sphere", "name": "Ball", "size": 1, "location": [0, 0, 1],
+             "material": {"type": "diffuse", "color": [0.8, 0.8, 0.8]}}
+GLOSSY_OBJ = {"kind": "sphere", "name": "Chrome", "size": 1, "location": [2.5, 0, 1],
+              "material": {"type": "principled", "roughness": 0.2, "metallic": 1.0}}
+
+
+def test_reads_a_matte_scene_on_a_ground(addon_zip, spot_hdr):
+    """A matte sphere on a plane: the ground is found (its diffuse colour 0.3 is the albedo),
+    the SH world is fitted to the sky half and is 0 below the horizon and not light-sampled, the
+    lamps light glossy reflections (nothing else does), and what is skipped says so."""
+    path, _, _ = spot_hdr
+    res, log = run_blender("scene_matte_ground", {"hdr": path, "engine": "CYCLES",
+                                                  "objects": [GROUND_OBJ, MATTE_OBJ]},
+                           addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["FINISHED"]
+    plan = run["plan"]
+    assert plan["recipe"] == "sh-ground" and run["panel_recipe"] == "sh-ground"
+    assert plan["ground_object"] == "Floor" and plan["ground_albedo"] == pytest.approx(0.3,
+                                                                                      abs=1e-6)
+    assert any("no glossy surface" in s for s in plan["skipped"])
+    assert "EnvLight: recipe sh-ground" in log and "EnvLight: skipped:" in log
+    labels = run["world"]["labels"]
+    assert "EnvLight SH Sky Only" in labels and "EnvLight Residual" not in labels
+    assert run["world"]["sampling"] == ["NONE", 1024]
+    suns = [l for l in run["lamps"] if l["tagged"]]
+    assert suns and all(l["visible_glossy"] in (True, None) for l in suns)
+
+
+def test_reads_a_glossy_scene(addon_zip, spot_hdr):
+    """A metallic sphere (roughness 0.2) beside it: the suns as lamps (the spot is one), every
+    other ray sees the map less them (the residual image; only camera rays the map itself), no
+    fitted lamp, no SH world, no ground treatment; the lamps and the residual hold the map's
+    power."""
+    path, info, _ = spot_hdr
+    res, _ = run_blender("scene_glossy", {"hdr": path, "engine": "CYCLES",
+                                          "objects": [GROUND_OBJ, MATTE_OBJ, GLOSSY_OBJ]},
+                         addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["FINISHED"] and run["plan"]["recipe"] == "sun-residual"
+    assert any("Chrome" in r for r in run["plan"]["reasons"])
+    assert run["plan"]["ground_object"] is None
+    assert any(s.startswith("ground treatment: the world is the map") for s in
+               run["plan"]["skipped"])
+    labels = run["world"]["labels"]
+    assert "EnvLight Residual" in labels and "EnvLight Camera or Glossy" not in labels
+    assert not any("SH" in l for l in labels)
+    suns = [l for l in run["lamps"] if l["tagged"]]
+    assert len(suns) == 1 and suns[0]["visible_glossy"] in (True, None)
+    total = lamps_power(run) + np.array(run["world"]["residual_image"]["power"])
+    assert np.allclose(total, blender_info(res, path)["power"], rtol=1e-5)
+
+
+def test_reads_an_eevee_scene(addon_zip, spot_hdr):
+    """EEVEE lights diffuse and glossy from one capture of the world: every ray but the
+    camera's sees the residual image (no ray-type split), over a ground with its lower half the
+    ground's bounce."""
+    path, _, _ = spot_hdr
+    engine = "BLENDER_EEVEE_NEXT" if BLENDER_VERSION >= "4.2" else "BLENDER_EEVEE"
+    res, _ = run_blender("scene_eevee", {"hdr": path, "engine": engine,
+                                         "objects": [GROUND_OBJ, MATTE_OBJ]}, addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["FINISHED"] and run["plan"]["recipe"] == "eevee-residual-ground"
+    labels = run["world"]["labels"]
+    assert "EnvLight Residual" in labels and "EnvLight Camera or Glossy" not in labels
+    suns = [l for l in run["lamps"] if l["tagged"]]
+    assert len(suns) >= 2 and all(l["visible_glossy"] in (True, None) for l in suns)
+
+
+def test_a_lone_object_gets_no_ground_treatment(addon_zip, spot_hdr):
+    path, _, _ = spot_hdr
+    res, _ = run_blender("scene_lone", {"hdr": path, "engine": "CYCLES",
+                                        "objects": [MATTE_OBJ]}, addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["FINISHED"] and run["plan"]["recipe"] == "sh"
+    assert run["plan"]["ground_object"] is None
+    assert any(s.startswith("ground treatment") for s in run["plan"]["skipped"])
+    assert "EnvLight SH Sky Only" not in run["world"]["labels"]
+
+
+def test_workbench_computes_nothing_and_changes_nothing(addon_zip, spot_hdr):
+    """Workbench draws neither lamps nor the world's light: nothing computed, a warning that
+    says so, no lamp, the world as it was."""
+    path, _, _ = spot_hdr
+    res, log = run_blender("scene_workbench", {"hdr": path, "objects": [GROUND_OBJ, MATTE_OBJ],
+                                               "engine": "BLENDER_WORKBENCH"}, addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["CANCELLED"]
+    assert not [l for l in run["lamps"] if l["tagged"]]
+    assert run["world"] == res["world_state_before"]
+    assert "Workbench" in run["panel"]["message"] and "nothing computed" in log

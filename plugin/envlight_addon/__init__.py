@@ -40,7 +40,19 @@ MODES = [
 ]
 
 
+GROUND = [
+    ("AUTO", "Auto", "Look for a ground in the scene: a large flat object under the others "
+     "(its material's colour is the albedo)"),
+    ("ON", "Albedo", "The scene stands on a ground plane (z = 0) of the albedo below"),
+    ("NONE", "None", "No ground treatment: the map's lower half lights the scene as it is"),
+]
+
+
 class EnvLightSettings(bpy.types.PropertyGroup):
+    read_scene: BoolProperty(
+        name="Read Scene", default=True,
+        description="Choose the world, the lamps' shadows and the ground treatment from the "
+        "scene (render engine, materials, shadow casters, a ground); off: the settings below")
     source: EnumProperty(name="Source", items=[
         ("WORLD", "World Texture", "The image of the world's Environment Texture (also inside "
          "a node group), with its Mapping rotation"),
@@ -56,6 +68,17 @@ class EnvLightSettings(bpy.types.PropertyGroup):
     world_mode: EnumProperty(name="World", items=MODES, default="RESIDUAL")
     keep_background: BoolProperty(name="Keep Background", default=True,
                                   description="SH world: camera rays still see the HDR")
+    glossy_hdr: BoolProperty(
+        name="Glossy Rays See HDR", default=False,
+        description="SH world: glossy rays see the HDR itself (the lamps then light no "
+        "glossy reflection) instead of the smooth SH world")
+    suns: BoolProperty(
+        name="Sun Lamps", default=True,
+        description="Split the map's suns off first as lamps of their own size (sharp "
+        "shadows, exact highlights); the other lamps and the world take the rest")
+    ground_mode: EnumProperty(name="Ground", items=GROUND, default="AUTO")
+    ground_albedo: FloatProperty(name="Ground Albedo", default=0.5, min=0.0, max=1.0,
+                                 subtype="FACTOR")
     # results, shown by the panel
     has_result: BoolProperty(default=False)
     result_count: IntProperty(name="Lamps")
@@ -64,6 +87,10 @@ class EnvLightSettings(bpy.types.PropertyGroup):
     result_power: FloatVectorProperty(name="Power", size=3)
     result_residual_power: FloatVectorProperty(name="Residual Power", size=3)
     result_message: StringProperty()
+    result_recipe: StringProperty(name="Recipe")
+    result_reasons: StringProperty()
+    result_skipped: StringProperty()
+    result_expected: StringProperty()
 
 
 class ENVLIGHT_OT_create_lights(bpy.types.Operator):
@@ -84,6 +111,10 @@ class ENVLIGHT_OT_create_lights(bpy.types.Operator):
         try:
             result = core.create_lights(context, settings,
                                         progress=lambda v: wm.progress_update(int(v * 100)))
+        except core.NothingToDo as e:
+            self.report({"WARNING"}, "EnvLight: nothing computed: %s" % e)
+            settings.result_message = "nothing computed: %s" % e
+            return {"CANCELLED"}
         except ImportError as e:
             self.report({"ERROR"}, "EnvLight: the envlight library cannot be loaded: %s" % e)
             return {"CANCELLED"}
@@ -100,12 +131,22 @@ class ENVLIGHT_OT_create_lights(bpy.types.Operator):
         settings.result_power = result["power"]
         settings.result_residual_power = result["residual_power"]
         settings.result_message = "; ".join(result["warnings"])
+        settings.result_recipe = result["recipe"]
+        settings.result_reasons = "; ".join(result["reasons"])
+        settings.result_skipped = "; ".join(result["skipped"])
+        settings.result_expected = result.get("expected") or ""
         for w in result["warnings"]:
             self.report({"WARNING"}, "EnvLight: " + w)
         for n in result.get("notes", ()):
             self.report({"INFO"}, "EnvLight: " + n)
-        self.report({"INFO"}, "EnvLight: %d lamps, diffuse error %.3f %%, %.2f s"
+        self.report({"INFO"}, "EnvLight: recipe %s: %s" % (result["recipe"],
+                                                          "; ".join(result["reasons"])))
+        if result["skipped"]:
+            self.report({"INFO"}, "EnvLight: skipped: " + "; ".join(result["skipped"]))
+        self.report({"INFO"}, "EnvLight: %d lamps, diffuse error %.3f %% (unoccluded), %.2f s"
                     % (result["count"], 100.0 * result["diffuse_error"], result["seconds"]))
+        if result.get("expected"):
+            self.report({"INFO"}, "EnvLight: " + result["expected"])
         return {"FINISHED"}
 
 
@@ -150,12 +191,21 @@ class WORLD_PT_envlight(bpy.types.Panel):
                 layout.label(text="No Environment Texture with an image", icon="ERROR")
             else:
                 layout.label(text=src.node.image.name, icon="IMAGE_DATA")
-        layout.prop(s, "count")
-        layout.prop(s, "method")
+        layout.prop(s, "read_scene")
+        col = layout.column()
+        col.active = not s.read_scene
+        col.prop(s, "count")
+        col.prop(s, "method")
         if s.method == "fit":
-            layout.prop(s, "order")
-        layout.prop(s, "shadows")
-        layout.prop(s, "world_mode")
+            col.prop(s, "order")
+        col.prop(s, "suns")
+        col.prop(s, "shadows")
+        col.prop(s, "world_mode")
+        if s.world_mode == "SH":
+            col.prop(s, "glossy_hdr")
+        col.prop(s, "ground_mode")
+        if s.ground_mode == "ON":
+            col.prop(s, "ground_albedo")
         if s.world_mode == "SH":
             layout.prop(s, "keep_background")
         row = layout.row(align=True)
@@ -163,7 +213,17 @@ class WORLD_PT_envlight(bpy.types.Panel):
         row.operator(ENVLIGHT_OT_remove.bl_idname, text="", icon="TRASH")
         if s.has_result:
             box = layout.box()
-            box.label(text="%d lamps, diffuse error %.3f %%" % (s.result_count, s.result_error))
+            box.label(text="recipe: %s" % s.result_recipe)
+            for part in s.result_reasons.split("; "):
+                if part:
+                    box.label(text=part)
+            for part in s.result_skipped.split("; "):
+                if part:
+                    box.label(text="skipped: " + part, icon="REMOVE")
+            box.label(text="%d lamps, diffuse error %.3f %% (unoccluded)"
+                      % (s.result_count, s.result_error))
+            if s.result_expected:
+                box.label(text=s.result_expected)
             box.label(text="time %.2f s" % s.result_seconds)
             if s.result_message:
                 box.label(text=s.result_message, icon="INFO")

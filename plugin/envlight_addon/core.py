@@ -7,11 +7,12 @@ lamps or nodes.
 """
 import math
 import os
-import tempfile
 import time
 
 import bpy
 import mathutils
+
+from . import scene as scene_reader
 
 TAG = "envlight"
 COLLECTION = "EnvLight"
@@ -20,15 +21,19 @@ NODE_PREFIX = "EnvLight "
 USER_OUTPUT = "envlight_user_output"
 # the user's Cycles world sampling settings while the SH world is in place
 USER_SAMPLING = "envlight_user_sampling"
-# the SH world is an order-2 polynomial: a 64 x 32 importance map holds it. Cycles' default map
-# (1024) is evaluated through the SH node tree at every render (measured on a 64 x 64 px sphere:
-# 3.0 s of a 3.1 s render at 16 spp, 0.08 s with 64)
-SH_MAP_RESOLUTION = 64
+# the SH world is not light-sampled by Cycles (world sampling None): measured on kiara_1_dawn,
+# a matte sphere on a ground (scripts/scene_bench.py --host blender), noise 3.7 % -> 2.4 % at 64
+# samples and 0.75 -> 0.50 s per render against an importance map of 64 (Cycles' default
+# 1024-wide map, evaluated through the SH node tree at every render, cost 3.0 s of a 3.1 s
+# render)
+SH_SAMPLING = "NONE"
 # the user's EEVEE-Next (Blender 4.2+) World.sun_threshold while our world is in place: EEVEE
 # turns the world's radiance above it into a sun light, which would count again the light
 # envlight's sun lamps already carry; 0 is the documented "off" ("If non-zero, ...")
 USER_SUN_THRESHOLD = "envlight_user_sun_threshold"
 SUN_THRESHOLD_OFF = 0.0
+#: the most suns split off as lamps of their own (envlight's lights method "sun")
+MAX_SUNS = 4
 
 # order-2 real SH basis constants (DESIGN.md, Ramamoorthi & Hanrahan 2001)
 _Y00, _Y1, _Y2, _Y20, _Y22 = 0.282095, 0.488603, 1.092548, 0.315392, 0.546274
@@ -166,17 +171,148 @@ def mapping_matrix(mapping):
     return m if mapping.vector_type == "TEXTURE" else m.inverted()
 
 
-def image_pixels(image):
-    """Blender's float pixels (RGBA, row 0 at the bottom) -> numpy (flat), width, height,
-    channels, for envlight.from_pixels(..., flip=True)."""
+#: the Environment Texture's projection -> the library's layout of its image
+PROJECTION_LAYOUTS = {"EQUIRECTANGULAR": "latlong", "MIRROR_BALL": "mirrorball"}
+#: colour spaces whose 8-bit pixels are used as they are (linear or data); "sRGB" is decoded
+_LINEAR_SPACES = ("Linear", "Linear Rec.709", "Non-Color", "Raw")
+
+
+def source_layout(node):
+    """The library's layout for the Environment Texture's projection (RuntimeError if none)."""
+    proj = getattr(node, "projection", "EQUIRECTANGULAR")
+    if proj not in PROJECTION_LAYOUTS:
+        raise RuntimeError("projection '%s' is not supported (Equirectangular and Mirror Ball "
+                           "are)" % proj)
+    return PROJECTION_LAYOUTS[proj]
+
+
+def _image_file(image):
+    try:
+        return bpy.path.abspath(image.filepath, library=image.library)
+    except (AttributeError, TypeError, ValueError):
+        return image.filepath
+
+
+def image_pixels(image, warnings=None):
+    """Blender's pixels (RGBA, row 0 at the bottom) -> numpy float32 (flat, linear), width,
+    height, channels, for envlight.from_pixels(..., flip=True). An 8-bit image's pixels are
+    its stored values (Image.pixels does not colour-manage them): sRGB ones are decoded to
+    linear here, as Cycles does. RuntimeError naming the image and what is wrong when there
+    are no pixels (missing or unreadable file, render result, UDIM); notes in `warnings`."""
     import numpy as np
+    if image.source == "VIEWER":
+        raise RuntimeError("image '%s' is a render result or viewer: not an environment"
+                           % image.name)
+    if image.source == "TILED":
+        raise RuntimeError("image '%s' is a UDIM tiled image: not an environment" % image.name)
     w, h = image.size
     if w == 0 or h == 0:
-        raise RuntimeError("image '%s' has no pixels (file missing?)" % image.name)
+        path = _image_file(image)
+        if image.packed_file is None and image.source in ("FILE", "SEQUENCE", "MOVIE"):
+            if not path or not os.path.isfile(path):
+                raise RuntimeError("image '%s': its file '%s' is missing"
+                                   % (image.name, image.filepath))
+            raise RuntimeError("image '%s': Blender cannot read its file '%s' (not an image, "
+                               "or damaged)" % (image.name, image.filepath))
+        raise RuntimeError("image '%s' has no pixels (%s%s)" % (
+            image.name, image.source.lower(), ", packed data unreadable"
+            if image.packed_file is not None else ""))
     ch = image.channels
-    buf = np.empty(w * h * ch, dtype=np.float32)
+    n = len(image.pixels)
+    if ch not in (1, 3, 4) or n != w * h * ch:
+        raise RuntimeError("image '%s': %d values for %d x %d pixels of %d channels: cannot be "
+                           "read" % (image.name, n, w, h, ch))
+    buf = np.empty(n, dtype=np.float32)
     image.pixels.foreach_get(buf)
+    if not image.is_float:
+        space = image.colorspace_settings.name
+        notes = warnings if warnings is not None else []
+        notes.append("image '%s' is 8-bit (low dynamic range): light brighter than white is "
+                     "clipped, so the lamps are weaker than the real light" % image.name)
+        if space == "sRGB":
+            rgb = buf.reshape(-1, ch)[:, :3] if ch == 4 else buf
+            rgb[...] = np.where(rgb <= 0.04045, rgb / 12.92,
+                                ((rgb + 0.055) / 1.055) ** 2.4)
+        elif space not in _LINEAR_SPACES:
+            notes.append("image '%s': colour space '%s' is not decoded: its 8-bit values are "
+                         "read as linear" % (image.name, space))
     return buf, w, h, ch
+
+
+def envmap_of_pixels(pkg, buf, w, h, ch, layout, warnings=None, name="image"):
+    """The library's envmap of Blender pixels (bottom-up) in the frame the Environment
+    Texture looks them up in, and the library's info() of the pixels as read (the counts of
+    NaN/Inf and negative pixels it set to 0 or the largest value).
+
+    Lat-long: Blender's equirectangular frame is the library's canonical one. Mirror ball:
+    Blender (Cycles' direction_to_mirrorball) photographs the ball looking along +Y with the
+    image's right = +X and up = +Z (the centre sees -Y), the library along +X with right = -Y
+    (layout.c): Blender's direction = Rz(+90 degrees) the library's. The library's lat-long of
+    the ball is turned by that quarter turn exactly (a shift by a quarter of its width, a
+    multiple of 4). Blender stretches the ball over the whole image: a non-square one is
+    resampled (nearest) to a square first."""
+    import numpy as np
+    if layout == "latlong":
+        env = pkg.from_pixels(buf, w, h, ch, flip=True, layout="latlong")
+        return env, env.info()
+    if w != h:
+        n = max(w, h)
+        rows = ((np.arange(n) + 0.5) * h / n).astype(np.int64)
+        cols = ((np.arange(n) + 0.5) * w / n).astype(np.int64)
+        buf = np.ascontiguousarray(buf.reshape(h, w, ch)[rows][:, cols]).ravel()
+        if warnings is not None:
+            warnings.append("mirror ball %s is %d x %d, not square: Blender stretches the "
+                            "ball over the image; read resampled to %d x %d"
+                            % (name, w, h, n, n))
+        w = h = n
+    width = 4 * ((w + 1) // 2)  # 2 x the ball's diameter, a multiple of 4
+    with pkg.from_pixels(buf, w, h, ch, flip=True, layout="mirrorball",
+                         map_width=width) as ball:
+        stats = ball.info()
+        ll = ball.pixels()
+    ll = np.ascontiguousarray(np.roll(ll, -(ll.shape[1] // 4), axis=1))
+    return pkg.from_pixels(ll, layout="latlong"), stats
+
+
+def read_source(pkg, world):
+    """Create Lights' first step for Source: World Texture: the world's Environment Texture
+    (with its Mapping and strength: inspect_source) and the library's envmap of its image, in
+    the texture's lookup frame. Nothing in the scene changes. RuntimeError naming the world,
+    the node or image and what is wrong: no nodes, no Environment Texture, no image, missing
+    or unreadable file, no pixels, an unsupported projection, an image without light."""
+    if not world.use_nodes or not world.node_tree:
+        raise RuntimeError("the world '%s' does not use nodes: there is no Environment Texture "
+                           "to read (Use Nodes and an Environment Texture, or Source: File)"
+                           % world.name)
+    src = find_environment_texture(world)
+    if src is None:
+        raise RuntimeError("no Environment Texture in the world '%s' (add one with an HDR "
+                           "image, or use Source: File)" % world.name)
+    where = "world '%s', Environment Texture '%s'" % (world.name, src.node.name)
+    image = src.node.image
+    if image is None:
+        raise RuntimeError("%s: no image in the texture" % where)
+    inspect_source(src)
+    try:
+        layout = source_layout(src.node)
+        buf, w, h, ch = image_pixels(image, src.warnings)
+    except RuntimeError as e:
+        raise RuntimeError("%s: %s" % (where, e)) from None
+    what = "image '%s'" % image.name
+    try:
+        env, stats = envmap_of_pixels(pkg, buf, w, h, ch, layout, src.warnings, what)
+    except pkg.Error as e:
+        raise RuntimeError("%s: the library cannot use %s: %s" % (where, what, e)) from None
+    if stats["nonfinite_pixels"] or stats["negative_pixels"]:
+        src.warnings.append("%s: %d pixels with NaN or infinite values and %d negative ones, "
+                            "read as 0 (infinite: as the largest finite value)"
+                            % (what, stats["nonfinite_pixels"], stats["negative_pixels"]))
+    if not max(env.info()["power"]) > 0.0:
+        env.close()
+        raise RuntimeError("%s: %s has no light (every pixel is black%s)" % (
+            where, what, ", NaN or negative" if stats["nonfinite_pixels"] or
+            stats["negative_pixels"] else ""))
+    return env, src
 
 
 # ---- removing what we made ---------------------------------------------------------------------
@@ -211,16 +347,16 @@ def remove_created(world):
     return removed
 
 
-def set_world_sampling(world, resolution):
-    """Cycles' world importance map at `resolution`, the user's settings kept for Remove."""
+def set_world_sampling(world, method):
+    """Cycles' world light sampling `method` (NONE: no light sampling), the user's settings
+    kept for Remove."""
     cw = getattr(world, "cycles", None)
     if cw is None or not hasattr(cw, "sample_map_resolution"):
         return
     if USER_SAMPLING not in world:
         world[USER_SAMPLING] = {"method": cw.sampling_method,
                                 "resolution": cw.sample_map_resolution}
-    cw.sampling_method = "MANUAL"
-    cw.sample_map_resolution = resolution
+    cw.sampling_method = method
 
 
 def restore_world_sampling(world):
@@ -263,10 +399,13 @@ def sun_rotation(direction):
     return mathutils.Vector(direction).to_track_quat("Z", "Y").to_euler()
 
 
-def create_suns(scene, lights, rot, strength, shadows):
-    """Sun lamps in the EnvLight collection: energy * color = strength * rgb (DESIGN.md; energy
-    = the largest channel, so colour <= 1), angle from the light's angle (soft), 0 (sharp), or
-    no shadows (none)."""
+def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLight Light"):
+    """Sun lamps in the EnvLight collection: energy * color = strength * rgb * (1 - w / 4 pi)
+    (energy = the largest channel, so colour <= 1), w = the light's solid angle: a Blender sun
+    is given by its irradiance at normal incidence, which for a disc of solid angle w holding
+    the power rgb is rgb (1 - w / 4 pi), the light's first moment (lights.c). Angle from the
+    light's angle (soft), 0 (sharp), or no shadows (none). glossy False: the lamps light no
+    glossy reflection (Object.visible_glossy, Cycles), where glossy rays see the map itself."""
     coll = next((c for c in bpy.data.collections if tagged(c) and c.name.startswith(COLLECTION)),
                 None)
     if coll is None:
@@ -276,11 +415,11 @@ def create_suns(scene, lights, rot, strength, shadows):
         scene.collection.children.link(coll)
     made = []
     for i, light in enumerate(lights):
-        rgb = [strength * c for c in light.rgb]
+        rgb = [strength * c * (1.0 - light.solid_angle / (4.0 * math.pi)) for c in light.rgb]
         energy = max(rgb)
         if energy <= 0:
             continue
-        data = bpy.data.lights.new("EnvLight Sun %d" % (i + 1), "SUN")
+        data = bpy.data.lights.new("%s %d" % (name, i + 1), "SUN")
         data[TAG] = True
         data.energy = energy
         data.color = [c / energy for c in rgb]
@@ -292,6 +431,8 @@ def create_suns(scene, lights, rot, strength, shadows):
             data.cycles.cast_shadow = cast
         obj = bpy.data.objects.new(data.name, data)
         obj[TAG] = True
+        if hasattr(obj, "visible_glossy"):
+            obj.visible_glossy = glossy
         obj["envlight_index"] = i
         obj["envlight_rgb"] = rgb
         obj["envlight_solid_angle"] = light.solid_angle
@@ -330,10 +471,12 @@ def _direction_socket(tree, mapping_src, x, y):
     return out
 
 
-def sh_radiance_socket(tree, coeffs, x, y):
+def sh_radiance_socket(tree, coeffs, x, y, sky_only=False):
     """A node chain evaluating the order-2 SH radiance sum_c coeffs[c] Y_c(d) as an RGB
     vector, d = the ray direction in the canonical frame: a polynomial in x, y, z (vector math
-    SCALE of each coefficient colour by its basis term, then ADD)."""
+    SCALE of each coefficient colour by its basis term, then ADD). sky_only: 0 below the
+    horizon (z < 0), where a ground hides the world: Cycles then spends no light sample there
+    (measured on kiara_1_dawn over a plane: the ground's noise 6.7 % -> see README)."""
     tc = _new(tree, "ShaderNodeTexCoord", "SH Direction", x, y)
     norm = _new(tree, "ShaderNodeVectorMath", "SH Normalize", x + 160, y)
     norm.operation = "NORMALIZE"
@@ -395,7 +538,17 @@ def sh_radiance_socket(tree, coeffs, x, y):
     clamp.operation = "MAXIMUM"
     clamp.inputs[1].default_value = (0.0, 0.0, 0.0)
     tree.links.new(acc, clamp.inputs[0])
-    return clamp.outputs["Vector"]
+    if not sky_only:
+        return clamp.outputs["Vector"]
+    up = _new(tree, "ShaderNodeMath", "SH Sky Only", x + 1100, y - 150)
+    up.operation = "GREATER_THAN"
+    tree.links.new(Z, up.inputs[0])
+    up.inputs[1].default_value = 0.0
+    step = _new(tree, "ShaderNodeVectorMath", "SH Sky Step", x + 1250, y)
+    step.operation = "SCALE"
+    tree.links.new(clamp.outputs["Vector"], step.inputs[0])
+    tree.links.new(up.outputs[0], step.inputs["Scale"])
+    return step.outputs["Vector"]
 
 
 def sh_negative_figures(coeffs, n=1024):
@@ -421,10 +574,20 @@ def sh_negative_figures(coeffs, n=1024):
 
 
 def build_world(world, mode, original_socket, residual_image, sh_coeffs, mapping_src, strength,
-                keep_background):
+                keep_background, glossy_hdr=False, sky_only=False, glossy_image=None,
+                camera_only=False):
     """Our own World Output, made active (the user's nodes are left as they were):
        residual: camera and glossy rays see `original_socket`, other rays the residual image;
-       sh: other rays see the SH radiance (camera rays the original if keep_background);
+       sh: other rays see the SH radiance (camera rays the original if keep_background; with
+           glossy_hdr, glossy rays the original too). Cycles does not light-sample the SH
+           world (SH_SAMPLING): a smooth world is found as well by the surfaces' own (cosine)
+           sampling, without shadow rays, and a shadow ray could not tell a glossy from a
+           diffuse bounce (light sampling would weigh the SH world where a glossy bounce sees
+           the original);
+       glossy_image: what glossy rays see instead of the original (the map less the suns,
+           whose lamps draw them), in the residual and lights worlds and with glossy_hdr;
+       camera_only: only camera rays see the original, all others the lighting world (EEVEE,
+           which shades its one world capture as a glossy ray);
        lights: other rays see black (camera and glossy rays the original)."""
     tree = world.node_tree
     user_out = _active_output(tree)
@@ -443,20 +606,36 @@ def build_world(world, mode, original_socket, residual_image, sh_coeffs, mapping
         tree.links.new(env.outputs["Color"], lighting.inputs["Color"])
     elif mode == "SH":
         lighting.inputs["Strength"].default_value = 1.0  # the coefficients include it
-        set_world_sampling(world, SH_MAP_RESOLUTION)
-        tree.links.new(sh_radiance_socket(tree, sh_coeffs, x0, y0 - 400), lighting.inputs["Color"])
+        set_world_sampling(world, SH_SAMPLING)
+        tree.links.new(sh_radiance_socket(tree, sh_coeffs, x0, y0 - 400, sky_only),
+                       lighting.inputs["Color"])
     else:
         lighting.inputs["Color"].default_value = (0, 0, 0, 1)
     shader = lighting.outputs[0]
-    if original_socket is not None and (keep_background or mode != "SH"):
+    if original_socket is not None and (keep_background or mode != "SH" or glossy_hdr):
         lp = _new(tree, "ShaderNodeLightPath", "Light Path", x0 + 800, y0 + 300)
         fac = lp.outputs["Is Camera Ray"]
-        if mode != "SH":
+        if (mode != "SH" or glossy_hdr) and not camera_only:
             mx = _new(tree, "ShaderNodeMath", "Camera or Glossy", x0 + 1000, y0 + 300)
             mx.operation = "MAXIMUM"
             tree.links.new(lp.outputs["Is Camera Ray"], mx.inputs[0])
             tree.links.new(lp.outputs["Is Glossy Ray"], mx.inputs[1])
             fac = mx.outputs[0]
+        if glossy_image is not None and (mode != "SH" or glossy_hdr) and not camera_only:
+            # camera rays the original, glossy rays the map less the suns
+            env = _new(tree, "ShaderNodeTexEnvironment", "Glossy", x0 + 800, y0 + 600)
+            env.image = glossy_image
+            env.interpolation = "Linear"
+            tree.links.new(_direction_socket(tree, mapping_src, x0 + 300, y0 + 600),
+                           env.inputs["Vector"])
+            gbg = _new(tree, "ShaderNodeBackground", "Glossy Background", x0 + 1000, y0 + 600)
+            gbg.inputs["Strength"].default_value = strength
+            tree.links.new(env.outputs["Color"], gbg.inputs["Color"])
+            cam = _new(tree, "ShaderNodeMixShader", "Camera Mix", x0 + 1150, y0 + 450)
+            tree.links.new(lp.outputs["Is Camera Ray"], cam.inputs["Fac"])
+            tree.links.new(gbg.outputs[0], cam.inputs[1])
+            tree.links.new(original_socket, cam.inputs[2])
+            original_socket = cam.outputs[0]
         mix = _new(tree, "ShaderNodeMixShader", "Mix", x0 + 1300, y0)
         tree.links.new(fac, mix.inputs["Fac"])
         tree.links.new(shader, mix.inputs[1])
@@ -467,24 +646,66 @@ def build_world(world, mode, original_socket, residual_image, sh_coeffs, mapping
     return out, disable_sun_extraction(world)
 
 
-def residual_to_image(pkg, residual):
-    """The residual (numpy, row 0 at the top) as a packed float Blender image: written as EXR
-    by the library, loaded and packed (so the .blend carries it), the temporary file removed."""
-    fd, path = tempfile.mkstemp(suffix=".exr", prefix="envlight_residual_")
-    os.close(fd)
-    try:
-        pkg.save_image(path, residual)
-        img = bpy.data.images.load(path)
-        img.pack()
-        img.name = "EnvLight Residual"
-        img[TAG] = True
-        img.filepath = "//EnvLight Residual.exr"
-    finally:
-        try:
-            os.remove(path)
-        except OSError:
-            pass
+def pixels_to_image(residual, name):
+    """A lat-long map (numpy, row 0 at the top) as a float Blender image made in memory and
+    packed as OpenEXR by Blender (the .blend carries it; no file, and no OpenEXR in the
+    add-on's library)."""
+    import numpy as np
+    h, w = residual.shape[:2]
+    img = bpy.data.images.new(name, w, h, alpha=False, float_buffer=True)
+    img[TAG] = True
+    rgba = np.ones((h, w, 4), dtype=np.float32)
+    rgba[..., :3] = residual[::-1]
+    img.pixels.foreach_set(rgba.ravel())
+    img.file_format = "OPEN_EXR"
+    img.pack()
     return img
+
+
+def fit_rest(pkg, env, rest, plan, method, order, strength, step):
+    """The plan's lamps (method, count) and world from `rest` (the map, or the map less its
+    suns): -> (lights, summary, residual image or None, SH coefficients or None). Over a
+    ground, Cycles traces the ground's bounce itself, so the lamps and the world take the sky
+    half only (Envmap.sky_hemisphere; the SH fitted to the sky half, sky_sh2); EEVEE gathers
+    little of it, so its world keeps the ground's bounce as the map's lower half
+    (Envmap.ground_plane, as envlight pov --ground). Closes `rest` unless it is `env`."""
+    import numpy as np
+    mode = plan.world_mode
+    residual = sh_coeffs = None
+    used = rest
+    if plan.ground_albedo is not None and plan.camera_only:
+        used, _ = rest.ground_plane(plan.ground_albedo)
+    elif plan.ground_albedo is not None:
+        used = rest.sky_hemisphere()
+    try:
+        with used.lights(plan.count, method=method, order=order) as res:
+            step(0.6)
+            lights = list(res.lights)
+            summary = dict(res.summary)
+            if mode == "RESIDUAL" or (mode == "SH" and plan.ground_albedo is not None):
+                residual = res.residual
+            if mode == "SH" and plan.ground_albedo is not None and not plan.camera_only:
+                # the ground hides the lower half: the SH that best fits the sky half
+                sh_coeffs = sky_sh2(residual) * strength
+            elif mode == "SH":
+                if res.remainder is not None:
+                    sh_coeffs = np.asarray(res.remainder_radiance) * strength
+                else:
+                    with pkg.from_pixels(res.residual) as rmap, rmap.sh(2) as sh:
+                        sh_coeffs = np.asarray(sh.radiance) * strength
+    finally:
+        for m in {id(used): used, id(rest): rest}.values():
+            if m is not env:
+                m.close()
+    return lights, summary, residual, sh_coeffs
+
+
+class NothingToDo(Exception):
+    """Create Lights has nothing to compute for this scene (its plan says why)."""
+
+    def __init__(self, plan):
+        super().__init__("; ".join(plan.skipped) or "nothing to compute")
+        self.plan = plan
 
 
 # ---- the whole button --------------------------------------------------------------------------
@@ -504,21 +725,18 @@ def create_lights(context, settings, progress=None):
     t0 = time.perf_counter()
     step = progress or (lambda v: None)
     warnings = []
-    mode = settings.world_mode
-    method = settings.method
+    plan = (scene_reader.read_scene(scene) if settings.read_scene
+            else scene_reader.plan_from_settings(settings, scene))
+    mode = plan.world_mode
+    method = plan.method
     rot = mathutils.Matrix.Identity(3)
     mapping_node = None
     strength = 1.0
     # ---- 1. read the source (nothing in the scene changes) ----
     if settings.source == "WORLD":
-        src = find_environment_texture(world)
-        if src is None or src.node.image is None:
-            raise RuntimeError("no Environment Texture with an image in the world '%s'"
-                               % world.name)
-        inspect_source(src)
+        # the image in the texture's lookup frame (lat-long or mirror ball), checked
+        env, src = read_source(pkg, world)
         warnings += src.warnings
-        buf, w, h, ch = image_pixels(src.node.image)
-        env = pkg.from_pixels(buf, w, h, ch, flip=True, layout="latlong")
         rot = mapping_matrix(src.mapping)
         mapping_node = src.mapping
         strength = src.strength
@@ -529,42 +747,66 @@ def create_lights(context, settings, progress=None):
         path = bpy.path.abspath(settings.filepath)
         env = pkg.load(path)
     step(0.2)
-    # ---- 2. compute only what the mode needs: the fit remainder for the residual and SH
-    # worlds (lights-only: the lights take everything), the residual image only for the
-    # residual world, SH of the residual only for an SH world after a cut ----
+    if not plan.compute:
+        raise NothingToDo(plan)
+    # ---- 2. compute only what the plan needs: the fit remainder for the residual and SH
+    # worlds (lights-only: the lights take everything), the residual image for the residual
+    # world and the sky-only SH fit over a ground, SH of the residual only for an SH world
+    # after a cut. Over a ground, everything from the map as the scene sees it: its lower half
+    # the ground's bounce (envlight.Envmap.ground_plane), so no light is put where the ground
+    # hides it ----
     order = settings.order if method == "fit" and mode in ("RESIDUAL", "SH") else None
     residual = None
     sh_coeffs = None
     sh_figures = {}
+    if plan.ground_albedo is not None and abs(rot[2][2] - 1.0) > 1e-6:
+        warnings.append("the Mapping node tilts the world: no ground treatment")
+        plan.ground_albedo = None
+    sun_lights, glossy_pixels, sun_summary = [], None, None
     with env:
         power = env.info()["power"]
-        with env.lights(settings.count, method=method, order=order) as res:
-            step(0.6)
-            lights = list(res.lights)
-            summary = dict(res.summary)
-            if mode == "RESIDUAL":
-                residual = res.residual
-            elif mode == "SH":
-                if res.remainder is not None:
-                    sh_coeffs = np.asarray(res.remainder_radiance) * strength
-                else:
-                    with pkg.from_pixels(res.residual) as rmap, rmap.sh(2) as sh:
-                        sh_coeffs = np.asarray(sh.radiance) * strength
-                if mapping_node is not None:
-                    sh_coeffs = rotate_sh2(sh_coeffs, rot)
-                sh_figures = sh_negative_figures(sh_coeffs)
-                if sh_figures["sh_min"] < 0.0:
-                    share = sh_figures["sh_power_luminance"]
-                    warnings.append(
-                        "the SH world's radiance goes negative: minimum luminance %.4g, below 0 "
-                        "on %.1f %% of directions; the world clamps it to 0, which adds %.4g "
-                        "(luminance, RGB %s) to the world's power%s"
-                        % (sh_figures["sh_min"], 100.0 * sh_figures["sh_negative_share"],
-                           sh_figures["sh_clamp_luminance"],
-                           "(%s)" % ", ".join("%.4g" % v for v in sh_figures["sh_clamp_power"]),
-                           " (%.2f %% of the SH world's %.4g)"
-                           % (100.0 * sh_figures["sh_clamp_luminance"] / share, share)
-                           if share > 0 else ""))
+        rest = env
+        if plan.suns:
+            # the suns first, as lamps of their own size (sharp shadows, exact highlights):
+            # the rest of the plan works on the map less exactly what they took
+            with env.lights(MAX_SUNS, method="sun") as sres:
+                sun_lights = list(sres.lights)
+                sun_summary = dict(sres.summary)
+                if sun_lights:
+                    glossy_pixels = sres.residual
+                    rest = pkg.from_pixels(glossy_pixels, layout="latlong")
+        if plan.count == 0:
+            # the suns alone: every other ray sees the map less them, exactly
+            lights, summary = [], sun_summary
+            residual = glossy_pixels if glossy_pixels is not None else env.pixels()
+            if rest is not env:
+                rest.close()
+        else:
+            lights, summary, residual, sh_coeffs = fit_rest(pkg, env, rest, plan, method,
+                                                            order, strength, step)
+    if plan.suns and sun_lights:
+        plan.reasons.append("%d sun%s as lamps of %s own size (%s degrees)" % (
+            len(sun_lights), "s" if len(sun_lights) > 1 else "",
+            "their" if len(sun_lights) > 1 else "its",
+            ", ".join("%.2f" % math.degrees(l.angle) for l in sun_lights)))
+    elif plan.suns:
+        plan.skipped.append("sun lamps: the map has no sun (no bright disc under 5 degrees)")
+    if sh_coeffs is not None:
+        if mapping_node is not None:
+            sh_coeffs = rotate_sh2(sh_coeffs, rot)
+        sh_figures = sh_negative_figures(sh_coeffs)
+        if sh_figures["sh_min"] < 0.0:
+            share = sh_figures["sh_power_luminance"]
+            warnings.append(
+                "the SH world's radiance goes negative: minimum luminance %.4g, below 0 "
+                "on %.1f %% of directions; the world clamps it to 0, which adds %.4g "
+                "(luminance, RGB %s) to the world's power%s"
+                % (sh_figures["sh_min"], 100.0 * sh_figures["sh_negative_share"],
+                   sh_figures["sh_clamp_luminance"],
+                   "(%s)" % ", ".join("%.4g" % v for v in sh_figures["sh_clamp_power"]),
+                   " (%.2f %% of the SH world's %.4g)"
+                   % (100.0 * sh_figures["sh_clamp_luminance"] / share, share)
+                   if share > 0 else ""))
     step(0.75)
     # ---- 3. replace what a previous run made, then build ----
     remove_created(world)
@@ -583,12 +825,24 @@ def create_lights(context, settings, progress=None):
         bgn = _new(tree, "ShaderNodeBackground", "Source Background", 600, -200)
         tree.links.new(tex.outputs["Color"], bgn.inputs["Color"])
         original_socket = bgn.outputs[0]
-    suns = create_suns(scene, lights, rot, strength, settings.shadows)
-    residual_image = residual_to_image(pkg, residual) if residual is not None else None
+    # glossy rays see the map (less the suns, which their lamps draw) in the residual and
+    # lights-only worlds and in an SH world for glossy surfaces: the fitted lamps' light is in
+    # it, so those lamps light no glossy reflection (Cycles: the lamp's glossy visibility off)
+    glossy_hdr = (mode != "SH" or plan.glossy_hdr) and not plan.camera_only
+    suns = create_suns(scene, sun_lights, rot, strength, plan.shadows, glossy=True,
+                       name="EnvLight Sun")
+    suns += create_suns(scene, lights, rot, strength, plan.shadows, glossy=not glossy_hdr)
+    glossy_image = None
+    if glossy_pixels is not None and glossy_hdr:
+        glossy_image = pixels_to_image(glossy_pixels, "EnvLight Glossy")
+    residual_image = pixels_to_image(residual, "EnvLight Residual") \
+        if mode == "RESIDUAL" else None
     notes = []
     if world.use_nodes and world.node_tree:
         _, sun_note = build_world(world, mode, original_socket, residual_image, sh_coeffs,
-                                  mapping_node, strength, settings.keep_background)
+                                  mapping_node, strength, settings.keep_background,
+                                  plan.glossy_hdr, plan.ground_albedo is not None,
+                                  glossy_image, plan.camera_only)
         if sun_note:
             notes.append(sun_note)
     elif mode != "LIGHTS":
@@ -600,6 +854,10 @@ def create_lights(context, settings, progress=None):
         "power": [strength * p for p in power],
         "residual_power": [strength * p for p in summary["residual_power"]],
         "warnings": warnings,
+        # the plan: what was computed and why, what was skipped and why
+        "recipe": plan.recipe, "reasons": list(plan.reasons), "skipped": list(plan.skipped),
+        "expected": plan.expected(),
+        "ground_albedo": plan.ground_albedo, "ground_object": plan.ground_object,
         # what the add-on changed in the world's render settings (reported as INFO)
         "notes": notes,
     }
@@ -612,6 +870,35 @@ def create_lights(context, settings, progress=None):
     global last_result
     last_result = result
     return result
+
+
+def sky_sh2(residual, rows=32):
+    """Order-2 SH coefficients (9 x RGB) fitting the lat-long `residual` (row 0 at the top)
+    over the upper hemisphere only, by least squares weighted by solid angle: a ground hides
+    the lower half, so the 9 coefficients spend nothing on it (the world is 0 there, see
+    sh_radiance_socket's sky_only). The map is averaged to 2 `rows` x 4 `rows` pixels first
+    (order 2 varies slowly; the Gram matrix over a hemisphere is well conditioned at order
+    2); directions and solid angles are the library's (Envmap.direction, solid_angle)."""
+    import numpy as np
+    pkg = shim()
+    h, w = residual.shape[:2]
+    ry, rx = max(1, h // (2 * rows)), max(1, w // (4 * rows))
+    hh, ww = h // ry, w // rx
+    small = residual[: hh * ry, : ww * rx].astype(np.float64).reshape(
+        hh, ry, ww, rx, 3).mean(axis=(1, 3))
+    dirs, wts, vals = [], [], []
+    with pkg.from_pixels(small.astype(np.float32), layout="latlong") as m:
+        for r in range(hh):
+            for c in range(ww):
+                d = m.direction(c, r)
+                if d[2] > 0:
+                    dirs.append(d)
+                    wts.append(m.solid_angle(r))
+                    vals.append(small[r, c])
+    basis = np.array([pkg.sh_basis(2, d) for d in dirs])
+    sw = np.sqrt(np.array(wts))[:, None]
+    coeffs, *_ = np.linalg.lstsq(basis * sw, np.array(vals) * sw, rcond=None)
+    return coeffs
 
 
 def rotate_sh2(coeffs, rot):

@@ -1,0 +1,297 @@
+"""Reading the scene: what Create Lights computes for it and what it leaves out.
+
+The render engine, the materials in use (any glossy surface, the roughness range), what casts
+shadows, and a ground (a large flat horizontal object under the others) decide the request;
+every choice comes with its reason, and what is skipped is said with why. Nothing here changes
+the scene.
+"""
+import bpy
+import mathutils
+
+#: a surface is glossy when its roughness is below this (Principled BSDF, Glossy BSDF) or it
+#: is metallic above GLOSSY_METALLIC: its reflection shows the environment, not only its
+#: irradiance. Principled's default roughness is 0.5 (a broad dielectric sheen).
+GLOSSY_ROUGHNESS = 0.4
+GLOSSY_METALLIC = 0.5
+#: a ground: flat (height below GROUND_FLAT of its width), horizontal (the normal of its
+#: largest face within 10 degrees of +Z), at least GROUND_WIDE x the other objects' extent,
+#: and its top at most GROUND_BELOW (in the other objects' heights) above their lowest point
+GROUND_FLAT = 0.01
+GROUND_WIDE = 3.0
+GROUND_BELOW = 0.05
+#: the ground's albedo when its material has no readable colour (Blender's default 0.8)
+DEFAULT_ALBEDO = 0.8
+LUMINANCE = (0.2126, 0.7152, 0.0722)
+
+#: the in-scene error to expect per recipe: the median over the maps of the scene benchmark
+#: (scripts/scene_bench.py --host blender, docs/scene_bench_blender.md) of the converged error
+#: against a path-traced reference, relative RMS over the objects' pixels, and its worst map;
+#: a figure of the benchmark's scenes, not of the user's map
+EXPECTED_ERROR = {}
+
+ENGINES = {"CYCLES": "Cycles", "BLENDER_EEVEE_NEXT": "EEVEE", "BLENDER_EEVEE": "EEVEE",
+           "BLENDER_WORKBENCH": "Workbench"}
+
+
+class Plan:
+    """What Create Lights will do for a scene (the add-on's request) and why."""
+
+    def __init__(self):
+        self.engine = "CYCLES"
+        self.world_mode = "SH"
+        self.method = "fit"
+        self.count = 4
+        self.shadows = "SOFT"
+        self.ground_albedo = None      # None: no ground treatment
+        self.ground_object = None
+        self.glossy = False
+        self.glossy_hdr = False        # glossy rays see the map itself (SH world)
+        self.suns = True               # the suns split off first as lamps of their own
+        self.camera_only = False       # only camera rays see the map (EEVEE: no ray split)
+        self.compute = True            # False: nothing to compute for this engine
+        self.reasons = []              # what was chosen and why
+        self.skipped = []              # what was left out and why
+        self.recipe = ""
+
+    def summary(self):
+        return "; ".join(self.reasons)
+
+    def expected(self):
+        """'in-scene error to expect ...' for the report, or None without a figure."""
+        fig = EXPECTED_ERROR.get(self.recipe)
+        if fig is None:
+            return None
+        return ("in-scene error to expect: %.1f %% (median over the benchmark's maps, worst "
+                "%.1f %%; scene benchmark, not this map)" % (100 * fig[0], 100 * fig[1]))
+
+
+def _ours(obj):
+    try:
+        return bool(obj.get("envlight"))
+    except (AttributeError, TypeError):
+        return False
+
+
+def _visible_meshes(scene):
+    out = []
+    for o in scene.objects:
+        if o.type not in ("MESH", "CURVE", "SURFACE", "META", "FONT") or _ours(o):
+            continue
+        if o.hide_render:
+            continue
+        out.append(o)
+    return out
+
+
+def _world_box(o):
+    pts = [o.matrix_world @ mathutils.Vector(c) for c in o.bound_box]
+    lo = mathutils.Vector((min(p.x for p in pts), min(p.y for p in pts), min(p.z for p in pts)))
+    hi = mathutils.Vector((max(p.x for p in pts), max(p.y for p in pts), max(p.z for p in pts)))
+    return lo, hi
+
+
+def _casts_shadow(o):
+    if hasattr(o, "visible_shadow"):
+        return bool(o.visible_shadow)
+    vis = getattr(o, "cycles_visibility", None)
+    return bool(getattr(vis, "shadow", True))
+
+
+def _socket_value(node, names, default=None):
+    for n in names:
+        s = node.inputs.get(n)
+        if s is not None and not s.is_linked and hasattr(s, "default_value"):
+            v = s.default_value
+            try:
+                return [float(x) for x in v]
+            except TypeError:
+                return float(v)
+    return default
+
+
+def material_surface(mat):
+    """-> (glossy, roughness or None, albedo luminance or None) of a material's surface: the
+    BSDF nodes in its tree (node groups not entered: their surface counts as matte)."""
+    if mat is None or not mat.use_nodes or mat.node_tree is None:
+        rough = getattr(mat, "roughness", 0.5) if mat is not None else 0.5
+        metal = getattr(mat, "metallic", 0.0) if mat is not None else 0.0
+        col = list(getattr(mat, "diffuse_color", (0.8, 0.8, 0.8)))[:3] if mat else None
+        glossy = rough < GLOSSY_ROUGHNESS or metal > GLOSSY_METALLIC
+        return glossy, rough, _lum(col) if col else None
+    glossy, roughs, albedo = False, [], None
+    for n in mat.node_tree.nodes:
+        kind = n.bl_idname
+        if kind == "ShaderNodeBsdfPrincipled":
+            r = _socket_value(n, ("Roughness",), 0.5)
+            m = _socket_value(n, ("Metallic",), 0.0)
+            if isinstance(r, float):
+                roughs.append(r)
+                glossy = glossy or r < GLOSSY_ROUGHNESS
+            if isinstance(m, float) and m > GLOSSY_METALLIC:
+                glossy = True
+            col = _socket_value(n, ("Base Color",))
+            if isinstance(col, list) and albedo is None:
+                albedo = _lum(col[:3])
+        elif kind in ("ShaderNodeBsdfGlossy", "ShaderNodeBsdfAnisotropic",
+                      "ShaderNodeBsdfGlass", "ShaderNodeBsdfRefraction",
+                      "ShaderNodeBsdfMetallic"):
+            r = _socket_value(n, ("Roughness",), 0.5)
+            if isinstance(r, float):
+                roughs.append(r)
+                glossy = glossy or r < GLOSSY_ROUGHNESS
+        elif kind in ("ShaderNodeBsdfDiffuse",):
+            col = _socket_value(n, ("Color",))
+            if isinstance(col, list) and albedo is None:
+                albedo = _lum(col[:3])
+    return glossy, (min(roughs) if roughs else None), albedo
+
+
+def _lum(rgb):
+    return sum(w * c for w, c in zip(LUMINANCE, rgb))
+
+
+def _materials(o):
+    return [s.material for s in o.material_slots] or [None]
+
+
+def find_ground(objs):
+    """The ground: a large flat horizontal object under the others, or None."""
+    boxes = {o.name: _world_box(o) for o in objs}
+    best = None
+    for o in objs:
+        lo, hi = boxes[o.name]
+        size = hi - lo
+        width = min(size.x, size.y)
+        if width <= 0 or size.z > GROUND_FLAT * max(size.x, size.y):
+            continue
+        others = [boxes[p.name] for p in objs if p is not o]
+        if others:
+            olo = mathutils.Vector((min(b[0].x for b in others), min(b[0].y for b in others),
+                                    min(b[0].z for b in others)))
+            ohi = mathutils.Vector((max(b[1].x for b in others), max(b[1].y for b in others),
+                                    max(b[1].z for b in others)))
+            extent = max(ohi.x - olo.x, ohi.y - olo.y)
+            height = max(ohi.z - olo.z, 1e-6)
+            if width < GROUND_WIDE * extent or hi.z > olo.z + GROUND_BELOW * height:
+                continue
+        if best is None or width > best[1]:
+            best = (o, width)
+    return best[0] if best else None
+
+
+def read_scene(scene):
+    """The Plan for `scene` (its engine, objects, materials, shadows, ground)."""
+    p = Plan()
+    engine = scene.render.engine
+    p.engine = engine
+    name = ENGINES.get(engine, engine)
+    objs = _visible_meshes(scene)
+    if engine == "BLENDER_WORKBENCH":
+        p.compute = False
+        p.recipe = "nothing"
+        p.reasons.append("Workbench draws neither lamps nor the world's light")
+        p.skipped.append("everything: Workbench lights with its own studio lights; switch to "
+                         "Cycles or EEVEE, or turn Read Scene off")
+        return p
+    ground = find_ground(objs)
+    rest = [o for o in objs if o is not ground]
+    gloss, roughs = [], []
+    for o in rest:
+        for m in _materials(o):
+            g, r, _ = material_surface(m)
+            if g:
+                gloss.append(o.name)
+            if r is not None:
+                roughs.append(r)
+    p.glossy = bool(gloss)
+    casters = [o.name for o in rest if _casts_shadow(o)]
+    receivers = len(rest) + (1 if ground is not None else 0)
+    # the ground
+    if ground is not None:
+        albedo = None
+        for m in _materials(ground):
+            _, _, a = material_surface(m)
+            if a is not None:
+                albedo = a
+                break
+        p.ground_object = ground.name
+        p.ground_albedo = max(0.0, min(1.0, albedo if albedo is not None else DEFAULT_ALBEDO))
+        p.reasons.append("ground '%s' (albedo %.2f%s): the map's lower half is replaced by its "
+                         "bounce" % (ground.name, p.ground_albedo,
+                                     "" if albedo is not None else ", default"))
+    else:
+        p.skipped.append("ground treatment: no large flat object under the others")
+    # shadows
+    if not casters:
+        p.shadows = "NONE"
+        p.skipped.append("shadows: no object casts one")
+    elif receivers < 2:
+        p.shadows = "SOFT"
+        p.reasons.append("soft shadows (a lone object: its own terminator)")
+    else:
+        p.shadows = "SOFT"
+        p.reasons.append("soft shadows (%d casting objects)" % len(casters))
+    # the world
+    p.world_mode = "SH"
+    p.method, p.count = "fit", 4
+    if engine in ("BLENDER_EEVEE_NEXT", "BLENDER_EEVEE"):
+        # EEVEE lights from one capture of the world, shaded as a glossy ray (Is Glossy 1,
+        # Is Camera 0): a world split by ray type cannot give diffuse and glossy different
+        # light, so the lighting world is the map less the lamps for both, camera rays the map
+        p.world_mode = "RESIDUAL"
+        p.camera_only = True
+        p.reasons.append("%s: %d fitted lamps + the residual image as the world's light "
+                         "(EEVEE lights diffuse and glossy from one capture of the world)"
+                         % (name, p.count))
+        p.skipped.append("the SH world: EEVEE captures the world once, the residual image is "
+                         "as cheap there")
+        p.recipe = "eevee-residual" + ("-ground" if p.ground_albedo is not None else "")
+        return p
+    if p.glossy:
+        # a glossy surface shows the world itself: the suns as lamps (exact highlights and
+        # shadows), every other ray the map less the suns, importance-sampled by Cycles (an SH
+        # world seen in reflections, or lamps wider than a sun, would show; measured)
+        p.world_mode, p.count, p.camera_only = "RESIDUAL", 0, True
+        p.reasons.append("%s: glossy surfaces (%s, roughness from %.2f): the suns as lamps, "
+                         "the map less the suns as the world (exact)"
+                         % (name, ", ".join(gloss[:3]) + ("..." if len(gloss) > 3 else ""),
+                            min(roughs) if roughs else 0.0))
+        p.skipped.append("fitted lamps and the SH world: a glossy surface would show them")
+        if p.ground_albedo is not None:
+            p.ground_albedo = p.ground_object = None
+            p.reasons = [r for r in p.reasons if not r.startswith("ground")]
+            p.skipped.append("ground treatment: the world is the map itself, the ground is "
+                             "traced")
+        p.recipe = "sun-residual"
+        return p
+    p.reasons.append("%s: %d fitted lamps + a smooth SH world (no glossy surface: the "
+                     "world's detail is never seen in a reflection)" % (name, p.count))
+    p.skipped.append("the HDR in reflections: no glossy surface reflects it")
+    p.recipe = "sh"
+    if p.ground_albedo is not None:
+        p.recipe += "-ground"
+    return p
+
+
+def plan_from_settings(settings, scene):
+    """The Plan the panel's own settings give (Read Scene off); Ground Auto still looks for
+    a ground in the scene."""
+    p = Plan()
+    p.engine = scene.render.engine
+    p.world_mode = settings.world_mode
+    p.method = settings.method
+    p.count = settings.count
+    p.shadows = settings.shadows
+    p.glossy_hdr = settings.world_mode == "SH" and settings.glossy_hdr
+    p.suns = settings.suns
+    if settings.ground_mode == "ON":
+        p.ground_albedo = settings.ground_albedo
+        p.reasons.append("ground albedo %.2f (the panel)" % p.ground_albedo)
+    elif settings.ground_mode == "AUTO":
+        g = read_scene(scene)
+        p.ground_albedo, p.ground_object = g.ground_albedo, g.ground_object
+        p.reasons += [r for r in g.reasons if r.startswith("ground")]
+        p.skipped += [r for r in g.skipped if r.startswith("ground")]
+    p.recipe = "custom"
+    p.reasons.append("the panel's settings (Read Scene off)")
+    return p
