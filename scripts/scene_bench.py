@@ -33,7 +33,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 
-HOSTS = {"pov": "scene_bench_pov"}
+HOSTS = {"pov": "scene_bench_pov", "blender": "scene_bench_blender"}
 TARGET_SPEEDUP = 10.0
 TARGET_ERROR = {"a": 0.02, "b": 0.04}
 DATA = os.environ.get("ENVL_SHARED_DATA", os.path.join(ROOT, "..", "shared", "data"))
@@ -55,11 +55,16 @@ def parse_args(argv):
                    help="the built-in sky only, a small image, few recipes, a cheaper "
                         "reference: an end-to-end check")
     p.add_argument("--recipes", metavar="R1,R2", help="only these recipes")
-    p.add_argument("--scenes", metavar="a,b", default="a,b", help="scenes (default a,b)")
+    p.add_argument("--scenes", metavar="a,b", default=None,
+                   help="scenes (default: all of the host's: a,b for pov, a,b,c for blender)")
     p.add_argument("--envlight", default=os.path.join("build", "envlight"),
                    help="the envlight CLI (default build/envlight)")
     p.add_argument("--library", default=os.path.join("build", "libenvlight.so"),
                    help="libenvlight (default build/libenvlight.so)")
+    p.add_argument("--report-from", metavar="JSON",
+                   help="no runs: rescore a run's JSON (the host's own scoring, when it has "
+                        "one) and write --docs / --json from it (the picture grid needs the "
+                        "run's images: kept from that run)")
     p.add_argument("--tmp", default=None,
                    help="work folder (default $ENVL_TEST_TMP or /tmp/envl_scene_bench)")
     return p.parse_args(argv)
@@ -96,9 +101,19 @@ def pct(x, digits=2):
     return "-" if x is None else "%.*f" % (digits, 100 * x)
 
 
-def target_check(result):
-    """Per map: the picked rows against the goal. -> {map: (met, text)}."""
+def target_check(result, host=None):
+    """Per map: the picked rows against the goal. -> {map: (met, text)}. A host module with
+    its own goal (target_row: one picked row -> (met, text)) judges its rows."""
     out = {}
+    if host is not None and hasattr(host, "target_row"):
+        for name in result["maps"]:
+            rows = [r for r in result["runs"] if r["map"] == name and r["picked"]]
+            if not rows:
+                out[name] = (None, "no picked row")
+                continue
+            checks = [host.target_row(r) for r in rows]
+            out[name] = (all(c[0] for c in checks), "; ".join(c[1] for c in checks))
+        return out
     for name in result["maps"]:
         rows = {r["scene"]: r for r in result["runs"] if r["map"] == name and r["picked"]}
         if not rows:
@@ -123,7 +138,29 @@ def target_check(result):
     return out
 
 
-def report(result, out_dir, host):
+def header(result, host, image_note=""):
+    """The report's first lines: the command, date, load, versions, image size."""
+    return ["# Scene benchmark, host %s" % host, "",
+            "Written by `scripts/scene_bench.py` (do not edit by hand).", "",
+            "- command: `%s`" % result["command"],
+            "- date: %s; total %.0f s" % (result["date"], result["total_seconds"]),
+            "- load average at start / end: %s / %s" % (
+                " ".join("%.2f" % v for v in result["load_average"]),
+                " ".join("%.2f" % v for v in result["load_average_end"])),
+            "- %s; %s; image %dx%d%s" % (result["host_version"], result["envlight_version"],
+                                         result["image"][0], result["image"][1], image_note)]
+
+
+def report(result, out_dir, host, module=None):
+    if module is not None and hasattr(module, "report_lines"):
+        L = header(result, host) + module.describe(result) + [""]
+        L += module.report_lines(result, target_check(result, module))
+        L += ["", "![grid](%s_scene_grid.png)" % host, "",
+              "Rows: maps; columns: reference (a), picked (a), reference (b), picked (b); one "
+              "exposure per map, sRGB.", "",
+              "![error against time](%s_scene_error_time.png)" % host, ""]
+        write_atomic(os.path.join(out_dir, "scene_bench_%s.md" % host), "\n".join(L))
+        return
     maps = list(result["maps"])
     recipes = []
     for r in result["runs"]:
@@ -133,15 +170,7 @@ def report(result, out_dir, host):
     by = {}
     for r in result["runs"]:
         by[(r["map"], r["scene"], "default" if r["picked"] else r["recipe"])] = r
-    L = ["# Scene benchmark, host %s" % host, "",
-         "Written by `scripts/scene_bench.py` (do not edit by hand).", "",
-         "- command: `%s`" % result["command"],
-         "- date: %s; total %.0f s" % (result["date"], result["total_seconds"]),
-         "- load average at start / end: %s / %s" % (
-             " ".join("%.2f" % v for v in result["load_average"]),
-             " ".join("%.2f" % v for v in result["load_average_end"])),
-         "- %s; %s; image %dx%d, no anti-aliasing, +FH" % (
-             result["host_version"], result["envlight_version"], *result["image"]),
+    L = header(result, host, ", no anti-aliasing, +FH") + [
          "- reference: bright pixels (> %g x the mean luminance) as %d hard-shadowed "
          "median-cut lights (direct light; their bounce from %d of them under radiosity: "
          "passes radiosity - %d lights + %d lights, CPU s summed), the rest as EnvLight_Sky() "
@@ -234,7 +263,7 @@ def plot(result, out_dir, host, family):
         fam = "default (picked)" if r["picked"] else family(r["recipe"])
         series.setdefault(fam, []).append((r["seconds"], max(100 * r["error"], 1e-3)))
     refs = [(m, e["reference"]["cpu_seconds"]["a"]) for m, e in result["maps"].items()
-            if "a" in e["reference"]["cpu_seconds"]]
+            if "a" in e["reference"].get("cpu_seconds", {})]
     if not series:
         return
     colours = ["#999999", "#e69f00", "#0072b2", "#009e73", "#cc79a7", "#56b4e9", "#d55e00",
@@ -305,8 +334,27 @@ def grid(images, result, out_dir, host):
     os.replace(out + ".tmp.png", out)
 
 
+def report_from(args):
+    host = importlib.import_module(HOSTS[args.host])
+    with open(args.report_from) as f:
+        result = json.load(f)
+    if hasattr(host, "rescore"):
+        host.rescore(result)
+    text = json.dumps(finite(result), indent=1)
+    if args.json:
+        write_atomic(args.json, text)
+    if args.docs:
+        write_atomic(os.path.join(args.docs, "scene_bench_%s.json" % args.host), text)
+        report(result, args.docs, args.host, host)
+        plot(result, args.docs, args.host, host.family)
+    for m, (met, text_) in target_check(result, host).items():
+        print("goal %s: %s: %s" % (m, {True: "met", False: "NOT met", None: "-"}[met], text_))
+
+
 def main(argv=None):
     args = parse_args(sys.argv[1:] if argv is None else argv)
+    if args.report_from:
+        return report_from(args)
     t0 = time.time()
     load0 = list(os.getloadavg())
     host = importlib.import_module(HOSTS[args.host])
@@ -321,7 +369,7 @@ def main(argv=None):
     r = subprocess.run([envlight, "--version"], capture_output=True, text=True)
     envlight_version = (r.stdout or r.stderr).strip().splitlines()[0] if r.returncode == 0 \
         else "envlight"
-    scenes = [s for s in args.scenes.split(",") if s]
+    scenes = [s for s in args.scenes.split(",") if s] if args.scenes else list(host.SCENES)
     bad = [s for s in scenes if s not in host.SCENES]
     if bad:
         sys.exit("--scenes: %s unknown (known: %s)" % (",".join(bad), ",".join(host.SCENES)))
@@ -356,7 +404,8 @@ def main(argv=None):
                   date=datetime.datetime.now().isoformat(timespec="seconds"),
                   load_average=load0, quick=args.quick, scenes=scenes, recipes=recipes,
                   image=list(host.QUICK_IMAGE if args.quick else host.IMAGE),
-                  reference_settings=dict(
+                  reference_settings=host.reference_settings(args.quick)
+                  if hasattr(host, "reference_settings") else dict(
                       bright_factor=host.BRIGHT_FACTOR, bright_lights=host.BRIGHT_LIGHTS,
                       bounce_lights=host.BOUNCE_LIGHTS,
                       radiosity=host.radiosity_block(
@@ -365,7 +414,8 @@ def main(argv=None):
                       validation_tolerance=host.VALIDATION_TOLERANCE),
                   maps={}, runs=[], notes=[])
     images = {}
-    opts = dict(quick=args.quick, recipes=recipes, scenes=scenes, tmp=tmp)
+    opts = dict(quick=args.quick, recipes=recipes, scenes=scenes, tmp=tmp, envlight=envlight,
+                library=library)
     for name, path in maps:
         entry, runs, imgs = host.run_map(name, path, opts)
         result["maps"][name] = entry
@@ -380,11 +430,11 @@ def main(argv=None):
         write_atomic(args.json, text)
     if args.docs:
         write_atomic(os.path.join(args.docs, "scene_bench_%s.json" % args.host), text)
-        report(result, args.docs, args.host)
+        report(result, args.docs, args.host, host)
         grid(images, result, args.docs, args.host)
         plot(result, args.docs, args.host, host.family)
     print()
-    for m, (met, text_) in target_check(result).items():
+    for m, (met, text_) in target_check(result, host).items():
         print("goal %s: %s: %s" % (m, {True: "met", False: "NOT met", None: "-"}[met], text_))
     print("total %.0f s; load average %.2f %.2f %.2f" % (time.time() - t0, *os.getloadavg()))
 

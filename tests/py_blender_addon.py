@@ -674,6 +674,21 @@ def test_reads_a_matte_scene_on_a_ground(addon_zip, spot_hdr):
     assert run["world"]["sampling"] == ["NONE", 1024]
     suns = [l for l in run["lamps"] if l["tagged"]]
     assert suns and all(l["visible_glossy"] in (True, None) for l in suns)
+    # the ground's irradiance is exact: the lamps (energy = irradiance at normal incidence)
+    # plus the SH world over the sky half (sum_c k_c c, k = the integrals of Y00, Y10, Y20
+    # times z over z > 0: pi Y00, 2 pi / 3 Y1, pi / 2 Y20) = the map's sky half at +Z; and
+    # the SH is >= 0 on the sky half (nothing for the clamp to add)
+    c = np.asarray(run["sh"]["sh_coeffs"])
+    k = {0: 0.282095 * math.pi, 2: 0.488603 * 2 * math.pi / 3, 6: 0.315392 * math.pi / 2}
+    e_sh = sum(v * c[i] for i, v in k.items())
+    e_lamps = sum(np.array(l["color"]) * l["energy"] * max(l["direction"][2], 0) for l in suns)
+    px, _ = rgbe_decode(res, path)
+    with envlight.from_pixels(px, layout="latlong") as env, env.sky_hemisphere() as sky:
+        exact = np.array(sky.irradiance([(0.0, 0.0, 1.0)]))[0]
+    np.testing.assert_allclose(e_lamps + e_sh, exact, rtol=2e-4)
+    dirs = [d for d in envlight.fibonacci_directions(4096) if d[2] > 0]
+    sh = np.array([envlight.sh_basis(2, d) for d in dirs]) @ c
+    assert sh.min() >= -1e-3 * np.abs(c[0]).max()
 
 
 def test_reads_a_glossy_scene(addon_zip, spot_hdr):

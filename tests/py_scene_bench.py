@@ -83,3 +83,48 @@ def test_quick():
     assert all(r["recipe"] == "dome" for r in picked)   # both scenes: objects shadow others
     for path, v in numbers(res):
         assert math.isfinite(v), path
+
+
+BLENDER4 = "/var/cache/envlight/trixie-root/run-blender"
+
+
+def test_quick_blender():
+    """--host blender --quick (the built-in sky, scenes a, b, c; the plain HDR world and what
+    the add-on picks) in Debian 13's Blender 4.3 (scripts/blender4.sh), else `blender`: the
+    JSON's shape, the picked recipe per scene, every number finite."""
+    blender = os.environ.get("ENVL_BLENDER") or (BLENDER4 if os.path.exists(BLENDER4)
+                                                 else shutil.which("blender"))
+    if not blender:
+        pytest.skip("SKIP: no Blender (Debian's blender, or scripts/blender4.sh)")
+    os.makedirs(TMP, exist_ok=True)
+    out = os.path.join(TMP, "quick_blender.json")
+    if os.path.exists(out):
+        os.unlink(out)
+    env = dict(os.environ, ENVL_BLENDER=blender)
+    r = subprocess.run([sys.executable, SCRIPT, "--host", "blender", "--quick", "--json", out,
+                        "--envlight", ENVLIGHT, "--library", LIBRARY,
+                        "--tmp", os.path.join(TMP, "work_blender")],
+                       capture_output=True, text=True, cwd=SOURCE, env=env)
+    print(r.stdout[-4000:])
+    assert r.returncode == 0, r.stderr[-3000:]
+    res = json.load(open(out))
+    assert res["host"] == "blender" and res["host_version"].startswith("Blender ")
+    assert list(res["maps"]) == ["sky"] and res["scenes"] == ["a", "b", "c"]
+    keys = {"map", "scene", "recipe", "picked", "engine", "seconds", "samples", "error",
+            "noise", "floor", "bias", "biases", "errors", "speedup", "picked_as", "report"}
+    objects = {"a": {"ground", "matte"}, "b": {"ground", "matte", "glossy"},
+               "c": {"ground", "matte", "wall", "overhang"}}
+    for row in res["runs"]:
+        assert keys <= set(row), keys - set(row)
+        assert row["engine"] == "cycles" and row["recipe"] in ("hdr", "picked")
+        assert set(row["biases"]) == objects[row["scene"]]
+        assert set(row["errors"]) == objects[row["scene"]] | {"objects"}
+        assert row["error"] == row["errors"]["objects"] >= 0 and row["noise"] >= 0
+        assert row["seconds"] > 0
+        if row["recipe"] == "hdr":
+            assert row["speedup"] == 1.0 and not row["picked"]
+    picked = {r["scene"]: r["picked_as"] for r in res["runs"] if r["picked"]}
+    # the add-on's reading of each scene: a ground under matte objects; a glossy sphere
+    assert picked == {"a": "sh-ground", "b": "sun-residual", "c": "sh-ground"}
+    for path, v in numbers(res):
+        assert math.isfinite(v), path
