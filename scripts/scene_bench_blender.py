@@ -67,11 +67,10 @@ RECIPES = {
                      shadows="SOFT", ground_mode="NONE", suns=False),
     "sh": dict(read_scene=False, world_mode="SH", method="fit", count=4, shadows="SOFT",
                ground_mode="NONE", suns=False),
-    # steps towards what it picks: the ground treatment alone, then the suns split off too
+    # the fast alternative (the panel's SH world over a ground): the suns as lamps, 4 fitted
+    # lamps from the sky half, an SH world fitted to the sky half
     "sh-ground": dict(read_scene=False, world_mode="SH", method="fit", count=4,
-                      shadows="SOFT", ground_mode="AUTO", suns=False),
-    "sun-sh-ground": dict(read_scene=False, world_mode="SH", method="fit", count=4,
-                          shadows="SOFT", ground_mode="AUTO", suns=True),
+                      shadows="SOFT", ground_mode="AUTO", suns=True),
     "picked": dict(read_scene=True),
     # EEVEE-Next (Blender 4.2+): the plain HDR world and what the add-on picks there, against
     # the same Cycles reference

@@ -124,7 +124,7 @@ def test_quick_blender():
         if row["recipe"] == "hdr":
             assert row["speedup"] == 1.0 and not row["picked"]
     picked = {r["scene"]: r["picked_as"] for r in res["runs"] if r["picked"]}
-    # the add-on's reading of each scene: a ground under matte objects; a glossy sphere
-    assert picked == {"a": "sh-ground", "b": "sun-residual", "c": "sh-ground"}
+    # the add-on's pick in Cycles: the exact recipe in every scene
+    assert picked == {"a": "sun-residual", "b": "sun-residual", "c": "sun-residual"}
     for path, v in numbers(res):
         assert math.isfinite(v), path

@@ -685,11 +685,8 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step):
             if mode == "RESIDUAL" or (mode == "SH" and plan.ground_albedo is not None):
                 residual = res.residual
             if mode == "SH" and plan.ground_albedo is not None and not plan.camera_only:
-                # the ground hides the lower half: the SH that best fits the sky half, made
-                # non-negative there with the ground's irradiance kept exact
-                with pkg.from_pixels(residual, layout="latlong") as rmap:
-                    e_up = np.array(rmap.irradiance([(0.0, 0.0, 1.0)]))[0]
-                sh_coeffs = nonnegative_sky(sky_sh2(residual), e_up) * strength
+                # the ground hides the lower half: the SH that best fits the sky half
+                sh_coeffs = sky_sh2(residual) * strength
             elif mode == "SH":
                 if res.remainder is not None:
                     sh_coeffs = np.asarray(res.remainder_radiance) * strength
@@ -902,53 +899,6 @@ def sky_sh2(residual, rows=32):
     sw = np.sqrt(np.array(wts))[:, None]
     coeffs, *_ = np.linalg.lstsq(basis * sw, np.array(vals) * sw, rcond=None)
     return coeffs
-
-
-#: the irradiance at the normal +Z of an order-2 SH radiance seen over the upper hemisphere
-#: only, per coefficient: integral over z > 0 of Y_c(d) d_z dw, nonzero for m = 0 only:
-#: Y00 pi, Y10 (2 pi / 3), Y20 (pi / 2) (the constants of sh_radiance_socket)
-_UP_IRRADIANCE = {0: _Y00 * math.pi, 2: _Y1 * 2.0 * math.pi / 3.0, 6: _Y20 * math.pi / 2.0}
-
-
-def sky_irradiance_up(coeffs):
-    """E(+Z) of the SH radiance over the upper hemisphere (per channel)."""
-    import numpy as np
-    c = np.asarray(coeffs, dtype=np.float64)
-    return sum(k * c[i] for i, k in _UP_IRRADIANCE.items())
-
-
-def nonnegative_sky(coeffs, e_up, steps=30):
-    """The sky-half SH `coeffs` made non-negative over the upper hemisphere without changing
-    the ground's irradiance E(+Z) = e_up (per channel): the l >= 1 terms scaled by the largest
-    k in [0, 1] for which sum_c Y_c(d) c stays >= 0 on 2048 upper-hemisphere directions, the
-    constant term then set so that sky_irradiance_up is e_up again (bisection on k). The world
-    clamps an SH at 0, which adds light where it rings below 0: on empty_warehouse_01 the
-    ground got 6.5 % too much (measured; scripts/scene_bench.py --host blender)."""
-    import numpy as np
-    pkg = shim()
-    c = np.array(coeffs, dtype=np.float64)
-    dirs = [d for d in pkg.fibonacci_directions(4096) if d[2] > 0]
-    basis = np.array([pkg.sh_basis(2, d) for d in dirs])
-    e_up = np.asarray(e_up, dtype=np.float64)
-    out = c.copy()
-    for ch in range(c.shape[1]):
-        def attempt(k):
-            t = c[:, ch] * k
-            t[0] = 0.0
-            t[0] = (e_up[ch] - sky_irradiance_up(t)) / _UP_IRRADIANCE[0]
-            return t
-        if (basis @ attempt(1.0)).min() >= 0:
-            out[:, ch] = attempt(1.0)
-            continue
-        lo, hi = 0.0, 1.0
-        for _ in range(steps):
-            mid = 0.5 * (lo + hi)
-            if (basis @ attempt(mid)).min() >= 0:
-                lo = mid
-            else:
-                hi = mid
-        out[:, ch] = attempt(lo)
-    return out
 
 
 def rotate_sh2(coeffs, rot):

@@ -179,6 +179,23 @@ def find_ground(objs):
     return best[0] if best else None
 
 
+def set_ground(p, ground):
+    """The ground treatment of plan p for the object `ground` (or None), with its reason."""
+    if ground is None:
+        p.skipped.append("ground treatment: no large flat object under the others")
+        return
+    albedo = None
+    for m in _materials(ground):
+        _, _, a = material_surface(m)
+        if a is not None:
+            albedo = a
+            break
+    p.ground_object = ground.name
+    p.ground_albedo = max(0.0, min(1.0, albedo if albedo is not None else DEFAULT_ALBEDO))
+    p.reasons.append("ground '%s' (albedo %.2f%s): the map's lower half is left to it"
+                     % (ground.name, p.ground_albedo, "" if albedo is not None else ", default"))
+
+
 def read_scene(scene):
     """The Plan for `scene` (its engine, objects, materials, shadows, ground)."""
     p = Plan()
@@ -206,21 +223,7 @@ def read_scene(scene):
     p.glossy = bool(gloss)
     casters = [o.name for o in rest if _casts_shadow(o)]
     receivers = len(rest) + (1 if ground is not None else 0)
-    # the ground
-    if ground is not None:
-        albedo = None
-        for m in _materials(ground):
-            _, _, a = material_surface(m)
-            if a is not None:
-                albedo = a
-                break
-        p.ground_object = ground.name
-        p.ground_albedo = max(0.0, min(1.0, albedo if albedo is not None else DEFAULT_ALBEDO))
-        p.reasons.append("ground '%s' (albedo %.2f%s): the map's lower half is replaced by its "
-                         "bounce" % (ground.name, p.ground_albedo,
-                                     "" if albedo is not None else ", default"))
-    else:
-        p.skipped.append("ground treatment: no large flat object under the others")
+    set_ground(p, ground)
     # shadows
     if not casters:
         p.shadows = "NONE"
@@ -247,29 +250,29 @@ def read_scene(scene):
                          "as cheap there")
         p.recipe = "eevee-residual" + ("-ground" if p.ground_albedo is not None else "")
         return p
+    # Cycles: the suns as lamps (exact highlights and sharp shadows; the sun is what makes a
+    # plain HDR world noisy), every other ray the map less the suns, importance-sampled by
+    # Cycles: exact. The faster SH world (sh-ground: fitted lamps + an order-2 SH of the sky
+    # half) is biased where the sky has structure the SH cannot hold: measured -1.6 to -14 %
+    # on a matte sphere on a ground, -2 to -19 % under an overhang (README, scene benchmark),
+    # so it is the panel's choice (Read Scene off), never picked.
+    p.world_mode, p.count, p.camera_only = "RESIDUAL", 0, True
     if p.glossy:
-        # a glossy surface shows the world itself: the suns as lamps (exact highlights and
-        # shadows), every other ray the map less the suns, importance-sampled by Cycles (an SH
-        # world seen in reflections, or lamps wider than a sun, would show; measured)
-        p.world_mode, p.count, p.camera_only = "RESIDUAL", 0, True
-        p.reasons.append("%s: glossy surfaces (%s, roughness from %.2f): the suns as lamps, "
-                         "the map less the suns as the world (exact)"
+        p.reasons.append("%s: the suns as lamps, the map less the suns as the world (exact; "
+                         "glossy surfaces %s, roughness from %.2f, see it as it is)"
                          % (name, ", ".join(gloss[:3]) + ("..." if len(gloss) > 3 else ""),
                             min(roughs) if roughs else 0.0))
-        p.skipped.append("fitted lamps and the SH world: a glossy surface would show them")
-        if p.ground_albedo is not None:
-            p.ground_albedo = p.ground_object = None
-            p.reasons = [r for r in p.reasons if not r.startswith("ground")]
-            p.skipped.append("ground treatment: the world is the map itself, the ground is "
-                             "traced")
-        p.recipe = "sun-residual"
-        return p
-    p.reasons.append("%s: %d fitted lamps + a smooth SH world (no glossy surface: the "
-                     "world's detail is never seen in a reflection)" % (name, p.count))
-    p.skipped.append("the HDR in reflections: no glossy surface reflects it")
-    p.recipe = "sh"
+    else:
+        p.reasons.append("%s: the suns as lamps, the map less the suns as the world (exact)"
+                         % name)
+    p.skipped.append("fitted lamps and the SH world: faster, but biased by 2-19 % in the "
+                     "scene benchmark (Read Scene off, World: SH World, Ground: Auto)")
     if p.ground_albedo is not None:
-        p.recipe += "-ground"
+        p.ground_albedo = p.ground_object = None
+        p.reasons = [r for r in p.reasons if not r.startswith("ground")]
+        p.skipped = [r for r in p.skipped if not r.startswith("ground")]
+        p.skipped.append("ground treatment: the world is the map itself, the ground is traced")
+    p.recipe = "sun-residual"
     return p
 
 
@@ -288,10 +291,7 @@ def plan_from_settings(settings, scene):
         p.ground_albedo = settings.ground_albedo
         p.reasons.append("ground albedo %.2f (the panel)" % p.ground_albedo)
     elif settings.ground_mode == "AUTO":
-        g = read_scene(scene)
-        p.ground_albedo, p.ground_object = g.ground_albedo, g.ground_object
-        p.reasons += [r for r in g.reasons if r.startswith("ground")]
-        p.skipped += [r for r in g.skipped if r.startswith("ground")]
+        set_ground(p, find_ground(_visible_meshes(scene)))
     p.recipe = "custom"
     p.reasons.append("the panel's settings (Read Scene off)")
     return p
