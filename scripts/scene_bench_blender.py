@@ -489,10 +489,13 @@ def _in_blender():
             t = time.perf_counter()
             r = bpy.ops.envlight.create_lights()
             t_lib = time.perf_counter() - t
-            if r != {"FINISHED"}:
-                raise RuntimeError("Create Lights: %s (%s)" % (r, s.result_message))
             report = s.result_message
-            picked_as = getattr(s, "result_recipe", "") or recipe
+            if r == {"CANCELLED"} and report.startswith("nothing computed"):
+                picked_as = "unchanged"   # the add-on left the scene as it is
+            elif r != {"FINISHED"}:
+                raise RuntimeError("Create Lights: %s (%s)" % (r, s.result_message))
+            else:
+                picked_as = getattr(s, "result_recipe", "") or recipe
         if eevee:   # deterministic: one render, its own time, no noise
             scene.eevee.taa_render_samples = EEVEE_SPP
             render(1, 1)   # shaders compiled outside the timing

@@ -756,6 +756,22 @@ def test_a_lone_object_gets_no_ground_treatment(addon_zip, spot_hdr):
     assert any(s.startswith("ground treatment: no large flat") for s in run["plan"]["skipped"])
 
 
+def test_no_sun_leaves_a_cycles_scene_as_it_is(addon_zip):
+    """A map whose light is smooth (no sun): in Cycles the plain HDR world is exact and as fast
+    as any recipe, so Create Lights computes nothing, says why, and changes nothing."""
+    path = os.path.join(TMP, "smooth.hdr")
+    rows = np.linspace(2.0, 0.2, 32, dtype=np.float32)[:, None, None]
+    envlight.save_image(path, np.broadcast_to(rows, (32, 64, 3)).copy())
+    res, log = run_blender("scene_no_sun", {"hdr": path, "engine": "CYCLES",
+                                            "objects": [GROUND_OBJ, MATTE_OBJ]}, addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["CANCELLED"]
+    assert not [l for l in run["lamps"] if l["tagged"]]
+    assert run["world"] == res["world_state_before"]
+    assert "suns hold 0 % of its light" in run["panel"]["message"]
+    assert "nothing computed" in log
+
+
 def test_workbench_computes_nothing_and_changes_nothing(addon_zip, spot_hdr):
     """Workbench draws neither lamps nor the world's light: nothing computed, a warning that
     says so, no lamp, the world as it was."""

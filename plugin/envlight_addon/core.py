@@ -34,6 +34,19 @@ USER_SUN_THRESHOLD = "envlight_user_sun_threshold"
 SUN_THRESHOLD_OFF = 0.0
 #: the most suns split off as lamps of their own (envlight's lights method "sun")
 MAX_SUNS = 4
+#: Cycles' exact recipe changes the scene only when the suns hold at least this share of the
+#: map's light (luminance): then the sun lamp takes away what makes the plain world noisy
+#: (the built-in sky, 56 %: 2.1x sooner on a matte scene, 37x with a glossy sphere); below it
+#: the plain world is as fast (immenstadter_horn, 22 %: 0.6x; scripts/scene_bench.py --host
+#: blender, README)
+SUN_SHARE_MIN = 0.5
+
+
+def sun_share(summary):
+    """The share of the map's light (luminance) its suns took."""
+    lum = lambda c: sum(w * v for w, v in zip(LUMINANCE, c))  # noqa: E731
+    total = lum(summary["power"])
+    return lum(summary["lights_power"]) / total if total > 0 else 0.0
 
 # order-2 real SH basis constants (DESIGN.md, Ramamoorthi & Hanrahan 2001)
 _Y00, _Y1, _Y2, _Y20, _Y22 = 0.282095, 0.488603, 1.092548, 0.315392, 0.546274
@@ -703,8 +716,8 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step):
 class NothingToDo(Exception):
     """Create Lights has nothing to compute for this scene (its plan says why)."""
 
-    def __init__(self, plan):
-        super().__init__("; ".join(plan.skipped) or "nothing to compute")
+    def __init__(self, plan, reason=None):
+        super().__init__(reason or "; ".join(plan.skipped) or "nothing to compute")
         self.plan = plan
 
 
@@ -775,6 +788,16 @@ def create_lights(context, settings, progress=None):
                 if sun_lights:
                     glossy_pixels = sres.residual
                     rest = pkg.from_pixels(glossy_pixels, layout="latlong")
+        if plan.count == 0 and plan.recipe == "sun-residual":
+            share = sun_share(sun_summary)
+            if share < SUN_SHARE_MIN:
+                if rest is not env:
+                    rest.close()
+                why = ("the map's suns hold %.0f %% of its light (under %.0f %%): the plain HDR "
+                       "world is exact and, in Cycles, as fast (scene benchmark); the scene is "
+                       "left as it is" % (100 * share, 100 * SUN_SHARE_MIN))
+                plan.skipped.append("everything: " + why)
+                raise NothingToDo(plan, why)
         if plan.count == 0:
             # the suns alone: every other ray sees the map less them, exactly
             lights, summary = [], sun_summary
