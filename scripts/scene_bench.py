@@ -154,6 +154,8 @@ def header(result, host, image_note=""):
 def report(result, out_dir, host, module=None):
     if module is not None and hasattr(module, "report_lines"):
         L = header(result, host) + module.describe(result) + [""]
+        if result.get("notes"):
+            L += ["Notes: " + " ".join(result["notes"]), ""]
         L += module.report_lines(result, target_check(result, module))
         L += ["", "![grid](%s_scene_grid.png)" % host, "",
               "Rows: maps; columns: reference (a), picked (a), reference (b), picked (b); one "
