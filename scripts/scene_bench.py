@@ -342,13 +342,22 @@ def report_from(args):
         result = json.load(f)
     if hasattr(host, "rescore"):
         host.rescore(result)
+    write_out(args, host, result)
+
+
+def write_out(args, host, result, images=None):
+    """The JSON (--json, --docs), the report and the figures (--docs; the picture grid when
+    there are images), and the goal per map on stdout."""
     text = json.dumps(finite(result), indent=1)
     if args.json:
         write_atomic(args.json, text)
     if args.docs:
         write_atomic(os.path.join(args.docs, "scene_bench_%s.json" % args.host), text)
         report(result, args.docs, args.host, host)
+        if images is not None:
+            grid(images, result, args.docs, args.host)
         plot(result, args.docs, args.host, host.family)
+    print()
     for m, (met, text_) in target_check(result, host).items():
         print("goal %s: %s: %s" % (m, {True: "met", False: "NOT met", None: "-"}[met], text_))
 
@@ -427,17 +436,7 @@ def main(argv=None):
             write_atomic(args.json, json.dumps(finite(dict(result, partial=True)), indent=1))
     result["load_average_end"] = list(os.getloadavg())
     result["total_seconds"] = time.time() - t0
-    text = json.dumps(finite(result), indent=1)
-    if args.json:
-        write_atomic(args.json, text)
-    if args.docs:
-        write_atomic(os.path.join(args.docs, "scene_bench_%s.json" % args.host), text)
-        report(result, args.docs, args.host, host)
-        grid(images, result, args.docs, args.host)
-        plot(result, args.docs, args.host, host.family)
-    print()
-    for m, (met, text_) in target_check(result, host).items():
-        print("goal %s: %s: %s" % (m, {True: "met", False: "NOT met", None: "-"}[met], text_))
+    write_out(args, host, result, images)
     print("total %.0f s; load average %.2f %.2f %.2f" % (time.time() - t0, *os.getloadavg()))
 
 
