@@ -22,7 +22,9 @@ from py_blender_addon import addon_zip, blender_in_use, spot_hdr  # noqa: E402,F
 
 TMP = base.TMP
 SCRIPT = os.path.join(base.SRC, "scripts", "blender_hard_cases.py")
-SETTINGS = {"count": 4, "method": "fit", "world_mode": "RESIDUAL", "shadows": "SOFT"}
+# the panel's own settings (Read Scene off): the cases test reading the image, not the scene
+SETTINGS = {"read_scene": False, "suns": False, "count": 4, "method": "fit",
+            "world_mode": "RESIDUAL", "shadows": "SOFT"}
 
 # the lat-long images: 128 x 64, a 4 x 4 blob at columns 80..83, rows 20..23 (row 0 at the top)
 LL = dict(w=128, h=64, col=80, row=20, size=4)
