@@ -56,9 +56,6 @@ class Plan:
         self.skipped = []              # what was left out and why
         self.recipe = ""
 
-    def summary(self):
-        return "; ".join(self.reasons)
-
     def expected(self):
         """'in-scene error to expect ...' for the report, or None without a figure."""
         fig = EXPECTED_ERROR.get(self.recipe)
@@ -225,18 +222,12 @@ def read_scene(scene):
                 roughs.append(r)
     p.glossy = bool(gloss)
     casters = [o.name for o in rest if _casts_shadow(o)]
-    receivers = len(rest) + (1 if ground is not None else 0)
-    set_ground(p, ground)
-    # shadows
-    if not casters:
-        p.shadows = "NONE"
-        p.skipped.append("shadows: no object casts one")
-    elif receivers < 2:
-        p.shadows = "SOFT"
-        p.reasons.append("soft shadows (a lone object: its own terminator)")
-    else:
+    if casters:
         p.shadows = "SOFT"
         p.reasons.append("soft shadows (%d casting objects)" % len(casters))
+    else:
+        p.shadows = "NONE"
+        p.skipped.append("shadows: no object casts one")
     # the world
     p.world_mode = "SH"
     p.method, p.count = "fit", 4
@@ -246,6 +237,7 @@ def read_scene(scene):
         # light, so the lighting world is the map less the lamps for both, camera rays the map
         p.world_mode = "RESIDUAL"
         p.camera_only = True
+        set_ground(p, ground)
         p.reasons.append("%s: %d fitted lamps + the residual image as the world's light "
                          "(EEVEE lights diffuse and glossy from one capture of the world)"
                          % (name, p.count))
@@ -270,11 +262,9 @@ def read_scene(scene):
                          % name)
     p.skipped.append("fitted lamps and the SH world: faster, but biased by 2-19 % in the "
                      "scene benchmark (Read Scene off, World: SH World, Ground: Auto)")
-    if p.ground_albedo is not None:
-        p.ground_albedo = p.ground_object = None
-        p.reasons = [r for r in p.reasons if not r.startswith("ground")]
-        p.skipped = [r for r in p.skipped if not r.startswith("ground")]
-        p.skipped.append("ground treatment: the world is the map itself, the ground is traced")
+    p.skipped.append("ground treatment: the world is the map itself, %s" % (
+        "the ground '%s' is traced" % ground.name if ground is not None
+        else "and there is no ground"))
     p.recipe = "sun-residual"
     return p
 
