@@ -23,7 +23,8 @@ GROUND_BELOW = 0.05
 DEFAULT_ALBEDO = 0.8
 LUMINANCE = (0.2126, 0.7152, 0.0722)
 
-#: the in-scene error to expect per recipe: the median over the maps of the scene benchmark
+#: the in-scene error to expect per recipe: the median over the scenes where the add-on picks
+#: it in the scene benchmark
 #: (scripts/scene_bench.py --host blender, docs/scene_bench_blender.md) of the converged error
 #: against a path-traced reference, relative RMS over the objects' pixels, and its worst map;
 #: a figure of the benchmark's scenes, not of the user's map
@@ -61,8 +62,9 @@ class Plan:
         fig = EXPECTED_ERROR.get(self.recipe)
         if fig is None:
             return None
-        return ("in-scene error to expect: %.1f %% (median over the benchmark's maps, worst "
-                "%.1f %%; scene benchmark, not this map)" % (100 * fig[0], 100 * fig[1]))
+        return ("in-scene error to expect: %.1f %% (median over the benchmark's scenes where "
+                "this recipe is picked, worst %.1f %%; scene benchmark, not this map)"
+                % (100 * fig[0], 100 * fig[1]))
 
 
 def _ours(obj):
