@@ -21,9 +21,18 @@ cp "$here/povray_include/envlight.inc" "$here/povray_include/examples/sphere_on_
   -o "$out/env.inc" --quiet
 "$cli" preview "$file" -o "$out/preview.png" --quiet
 # render.png at the include's exposure; render.hdr in the map's radiometry
-if ! (cd "$out" && povray +Isphere_on_plane.pov +Orender.png +W480 +H360 +A0.1 -D \
-        2>povray.log && povray +Isphere_on_plane.pov +Orender.hdr +FH +W480 +H360 +A0.1 -D \
-        Declare=EnvLight_Exposure=1 2>>povray.log); then
+# povray ARGS... in $out, its messages added to povray.log; once more only when POV-Ray 3.7
+# gave up starting its worker threads (it does on a heavily loaded machine)
+pov() {
+  (cd "$out" && povray "$@" 2>>povray.log) && return 0
+  grep -q "Timed out waiting for worker thread startup" "$out/povray.log" || return 1
+  echo "envlight: povray timed out starting its threads: trying again" >&2
+  (cd "$out" && povray "$@" 2>>povray.log)
+}
+: >"$out/povray.log"
+if ! { pov +Isphere_on_plane.pov +Orender.png +W480 +H360 +A0.1 -D &&
+       pov +Isphere_on_plane.pov +Orender.hdr +FH +W480 +H360 +A0.1 -D \
+         Declare=EnvLight_Exposure=1; }; then
   echo "envlight: povray failed on $out/sphere_on_plane.pov (see $out/povray.log)" >&2
   exit 1
 fi

@@ -170,11 +170,10 @@ if command -v povray >/dev/null; then
     checks=$((checks + 1))
     povray +Ip_$inc.pov -F +W8 +H8 -D -P +L"$src/povray_include" >pov.txt 2>&1 && continue
     rc=$?
-    # A parse error is deterministic. A failure with no "Error" line (a signal, an assertion in
-    # POV-Ray's radiosity threads, a full disk) is shown, and the parse is tried once more.
-    if ! grep -q "Error" pov.txt; then
-      echo "NOTE: POV-Ray exited $rc on $inc.inc with no parse error; its last lines:"
-      tail -n 8 pov.txt; df -h . | tail -n 1
+    # POV-Ray 3.7 gives up when its worker threads do not start in time on a loaded machine
+    # (seen in CI under AddressSanitizer load): that run is tried once more, said so.
+    if grep -q "Timed out waiting for worker thread startup" pov.txt; then
+      echo "NOTE: POV-Ray timed out starting its threads on $inc.inc (exit $rc): tried again"
       povray +Ip_$inc.pov -F +W8 +H8 -D -P +L"$src/povray_include" >pov.txt 2>&1 && continue
       rc=$?
     fi
