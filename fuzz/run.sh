@@ -1,19 +1,26 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets with clang (ASan + UBSan + coverage) into build-fuzz and runs
-# each from a seed corpus made of ../shared/data's small files and
-# files envlight writes itself. A crash leaves its input in build-fuzz/crashes/ and fails: add it
-# to tests/fuzz_regressions/ with a test in tests/test_fuzz_regressions.c once fixed.
+# Builds the libFuzzer targets with clang (ASan + UBSan + coverage) into build-fuzz (or
+# $ENVL_FUZZ_BUILD) and runs each from a seed corpus made of ../shared/data's small files and
+# files envlight writes itself (fuzz_writers: small images whose N-th write step fails). A
+# crash leaves its input in build-fuzz/crashes/ and fails: add it to tests/fuzz_regressions/
+# with a test in tests/test_fuzz_regressions.c once fixed.
 #   bash fuzz/run.sh SECONDS   each target for SECONDS with a random seed (exploring)
 #   bash fuzz/run.sh ci        each target for a fixed number of runs with seed 1, about a
 #                              minute each: the same inputs every time (what CI runs)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mode=${1:-60}
-CC=clang cmake -S . -B build-fuzz -DENVL_FUZZ=ON -DENVL_SANITIZE=ON -DENVL_TESTS=OFF \
+fz=${ENVL_FUZZ_BUILD:-build-fuzz}
+CC=clang cmake -S . -B "$fz" -DENVL_FUZZ=ON -DENVL_SANITIZE=ON -DENVL_TESTS=OFF \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
-cmake --build build-fuzz -j"$(nproc)" >/dev/null
-corpus=build-fuzz/corpus
-rm -rf "$corpus" build-fuzz/crashes && mkdir -p "$corpus"/{hdr,exr,pfm,any,cli,pov} build-fuzz/crashes
+cmake --build "$fz" -j"$(nproc)" >/dev/null
+# fuzz_writers is not a CMake target (CMakeLists.txt lists the others): built here against
+# the static library just built, with the same sanitizers.
+clang -g -O1 -fno-omit-frame-pointer -fsanitize=fuzzer,address,undefined \
+  -fno-sanitize-recover=undefined -Isrc fuzz/fuzz_writers.c "$fz/libenvlight_static.a" \
+  $(pkg-config --libs OpenEXR libpng) -lm -lpthread -o "$fz/fuzz_writers"
+corpus=$fz/corpus
+rm -rf "$corpus" "$fz/crashes" && mkdir -p "$corpus"/{hdr,exr,pfm,any,cli,pov,writers} "$fz/crashes"
 data=${ENVL_SHARED_DATA:-../shared/data}
 small() { find "$@" -type f -size -200k 2>/dev/null; }
 for f in $(small "$data/radiance_hdr" "$data/synthetic"); do cp "$f" "$corpus/hdr/"; done
@@ -34,9 +41,17 @@ cp "$corpus"/hdr/* "$corpus"/exr/* "$corpus"/pfm/* "$corpus/any/" 2>/dev/null ||
 cp povray_include/examples/*.pov "$corpus/pov/"
 printf -- '--rotate\0000\0--width\00064\0--layout-in\0angular' > "$corpus/cli/a"
 printf -- '--sun-elevation=10\0-n\0004\0--strict' > "$corpus/cli/b"
+# writers: kind (0 exr, 1 exr half, 2 hdr, 3 pfm, 4 png rgbm, 5 png srgb, 6 text), width - 1,
+# height - 1, failing step - 1, then pixels as little-endian floats (a NaN, an Inf, negatives)
+for k in 0 1 2 3 4 5 6; do
+  python3 -c 'import struct, sys; k = int(sys.argv[1]); v = [(i * 0.37) % 7 - (i % 13 == 0) for i in range(94)]
+sys.stdout.buffer.write(bytes([k, 9, 3, 3 * k]) + struct.pack("<96f", float("nan"), float("inf"), *v))' $k \
+    > "$corpus/writers/$k"
+done
 status=0
-declare -A ci_runs=([hdr]=60000 [exr]=30000 [pfm]=100000 [any]=30000 [cli]=1000000 [pov]=300000)
-for t in hdr exr pfm any cli pov; do
+declare -A ci_runs=([hdr]=60000 [exr]=30000 [pfm]=100000 [any]=30000 [cli]=1000000 [pov]=300000
+  [writers]=80000)
+for t in hdr exr pfm any cli pov writers; do
   name=fuzz_$t
   [ $t = cli ] && name=fuzz_cli_options
   [ $t = pov ] && name=fuzz_pov_scene
@@ -46,11 +61,11 @@ for t in hdr exr pfm any cli pov; do
     limit=(-max_total_time="$mode")
   fi
   echo "== $name ${limit[*]}"
-  if ! "build-fuzz/$name" "${limit[@]}" -rss_limit_mb=4096 -timeout=20 \
-      -artifact_prefix=build-fuzz/crashes/ "$corpus/$t" 2>build-fuzz/$name.log; then
-    echo "FAIL: $name found a crash:"; tail -40 build-fuzz/$name.log; status=1
+  if ! "$fz/$name" "${limit[@]}" -rss_limit_mb=4096 -timeout=20 \
+      -artifact_prefix="$fz/crashes/" "$corpus/$t" 2>"$fz/$name.log"; then
+    echo "FAIL: $name found a crash:"; tail -40 "$fz/$name.log"; status=1
   else
-    grep -E '^#[0-9]+.*(DONE|pulse)' build-fuzz/$name.log | tail -1
+    grep -E '^#[0-9]+.*(DONE|pulse)' "$fz/$name.log" | tail -1
   fi
 done
 exit $status

@@ -37,13 +37,19 @@ typedef struct exr_stream {
     char msg[640];          /* first detailed message the library reported ("" if none) */
 } exr_stream;
 
+/* The stream of the read or write running on this thread, for the error handler. The handler
+ * must not ask the context for its user data: exr_get_user_data() takes the lock of a write
+ * context, which the library already holds when it calls our write function, whose error
+ * report reaches the handler (exr_write_header -> exr_fd_write -> error_cb -> exr_on_error):
+ * a self-deadlock on a full disk (issue 19). The library calls the handler on the thread of
+ * the call that failed, and our reads and writes run on one thread each. */
+static _Thread_local exr_stream *current_stream;
+
 static void exr_on_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
-    void *ud = NULL;
-    if (!ctxt || exr_get_user_data(ctxt, &ud) != EXR_ERR_SUCCESS || !ud)
-        return;
-    exr_stream *s = ud;
-    if (!s->msg[0])
+    (void)ctxt;
+    exr_stream *s = current_stream;
+    if (s && !s->msg[0])
         snprintf(s->msg, sizeof s->msg, "%s (%s)", msg ? msg : "",
                  exr_get_error_code_as_string(code));
 }
@@ -92,7 +98,9 @@ static int64_t exr_fd_write(exr_const_context_t ctxt, void *userdata, const void
     const uint8_t *p = buffer;
     uint64_t done = 0;
     while (done < sz) {
-        ssize_t n = pwrite(s->fd, p + done, (size_t)(sz - done), (off_t)(offset + done));
+        ssize_t n = envl__io_fault()
+                        ? -1
+                        : pwrite(s->fd, p + done, (size_t)(sz - done), (off_t)(offset + done));
         if (n < 0 && errno == EINTR)
             continue;
         if (n <= 0) {
@@ -832,6 +840,8 @@ envl_result envl__read_exr(const uint8_t *data, size_t size, const char *name,
     init.max_tile_width = init.max_tile_height = dim;
 
     exr_context_t ctxt = NULL;
+    exr_stream *outer = current_stream;
+    current_stream = &s;
     exr_result_t rc = exr_start_read(&ctxt, name, &init);
     envl_result e;
     if (rc != EXR_ERR_SUCCESS)
@@ -840,6 +850,7 @@ envl_result envl__read_exr(const uint8_t *data, size_t size, const char *name,
         e = read_part(ctxt, &s, name, lim, max_pixels, out);
     if (ctxt)
         exr_finish(&ctxt);
+    current_stream = outer;
     if (e)
         envl__image_free(out);
     return e;
@@ -876,7 +887,9 @@ envl_result envl__write_exr(const char *path, const float *rgb, int32_t w, int32
     if (pixel_type != ENVL_PIXEL_FLOAT && pixel_type != ENVL_PIXEL_HALF)
         return envl__fail(ENVL_ERR_ARGUMENT, "%s: unknown pixel type %d", path, (int)pixel_type);
     const bool half = pixel_type == ENVL_PIXEL_HALF;
-    exr_stream s = {.fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644)};
+    exr_stream s = {.fd = envl__io_fault() ? -1
+                                           : open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC,
+                                                  0644)};
     if (s.fd < 0)
         return envl__fail(ENVL_ERR_IO, "%s: cannot create: %s", path, strerror(errno));
 
@@ -894,6 +907,8 @@ envl_result envl__write_exr(const char *path, const float *rgb, int32_t w, int32
     exr_pixel_type_t type = half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT;
     compress_hook hook = {NULL};
 
+    exr_stream *outer = current_stream;
+    current_stream = &s;
     exr_result_t rc = exr_start_write(&ctxt, path, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rc == EXR_ERR_SUCCESS) {
         what = "cannot define the image";
@@ -976,7 +991,8 @@ envl_result envl__write_exr(const char *path, const float *rgb, int32_t w, int32
             rc = frc;
         }
     }
-    int cerr = close(s.fd) != 0 ? errno : 0;
+    current_stream = outer;
+    int cerr = (close(s.fd) != 0 || envl__io_fault()) ? errno : 0;
     if (rc != EXR_ERR_SUCCESS)
         return exr_fail(&s, ENVL_ERR_IO, path, rc, what);
     if (cerr)

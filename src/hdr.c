@@ -730,7 +730,7 @@ envl_result envl__write_hdr(const char *path, const float *rgb, int32_t w, int32
         return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate a scanline of %d pixels", path,
                           (int)w);
     }
-    FILE *f = fopen(path, "wb");
+    FILE *f = envl__io_fault() ? NULL : fopen(path, "wb");
     if (!f) {
         int err = errno;
         free(line);
@@ -739,7 +739,8 @@ envl_result envl__write_hdr(const char *path, const float *rgb, int32_t w, int32
     }
     int err = 0;
     errno = 0;
-    if (fprintf(f, "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n", (int)h, (int)w) < 0)
+    if (envl__io_fault() ||
+        fprintf(f, "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n", (int)h, (int)w) < 0)
         err = errno ? errno : EIO;
     for (int32_t r = 0; r < h && !err; r++) {
         const float *src = rgb + (size_t)r * (size_t)w * 3;
@@ -758,13 +759,13 @@ envl_result envl__write_hdr(const char *path, const float *rgb, int32_t w, int32
             bytes = enc;
         }
         errno = 0;
-        if (fwrite(bytes, 1, n, f) != n)
+        if (envl__io_fault() || fwrite(bytes, 1, n, f) != n)
             err = errno ? errno : EIO;
     }
     free(line);
     free(enc);
     errno = 0;
-    if (fclose(f) != 0 && !err)
+    if ((fclose(f) != 0 || envl__io_fault()) && !err)
         err = errno ? errno : EIO;
     if (err)
         return envl__fail(ENVL_ERR_IO, "%s: write failed: %s", path, strerror(err));

@@ -99,6 +99,13 @@ envl_result envl__read_file(const char *path, size_t max_bytes, uint8_t **data, 
 envl_result envl__atomic_begin(const char *path, char **tmp_path);
 /* Renames tmp over path (on failure removes tmp). `ok` false: just removes tmp. */
 envl_result envl__atomic_end(const char *path, char *tmp_path, bool ok);
+/* Test-only fault injection. Every step that writes a file (create, write, close, rename) in
+ * every writer (io.c, hdr.c, pfm.c, exr.c; png.c through io.c) first calls envl__io_fault():
+ * it counts the steps of this thread in envl__io_calls, and step number envl__io_fail_at
+ * (1-based) fails as on a full disk: it returns true with errno = ENOSPC. 0 (the default):
+ * nothing fails. Used by tests/test_writers.c and fuzz/fuzz_writers.c. */
+extern _Thread_local int64_t envl__io_fail_at, envl__io_calls;
+bool envl__io_fault(void);
 
 /* ---- layouts (layout.c) ---- */
 /* Guesses the layout of an image from metadata and aspect ratio. */

@@ -8,6 +8,17 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+/* Fault injection (internal.h): one thread-local increment and compare per write step. */
+_Thread_local int64_t envl__io_fail_at, envl__io_calls;
+
+bool envl__io_fault(void)
+{
+    if (++envl__io_calls != envl__io_fail_at)
+        return false;
+    errno = ENOSPC;
+    return true;
+}
+
 envl_result envl__read_file(const char *path, size_t max_bytes, uint8_t **data, size_t *size)
 {
     *data = NULL;
@@ -56,7 +67,7 @@ envl_result envl__atomic_begin(const char *path, char **tmp_path)
         return envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", path);
     /* Same directory as the target, so rename() is atomic. Hidden-ish suffix. */
     snprintf(tmp, n + 16, "%s.tmp-XXXXXX", path);
-    int fd = mkstemp(tmp);
+    int fd = envl__io_fault() ? -1 : mkstemp(tmp);
     if (fd < 0) {
         envl_result rc = envl__fail(ENVL_ERR_IO, "%s: cannot create a file there: %s", path,
                                     strerror(errno));
@@ -72,7 +83,7 @@ envl_result envl__atomic_begin(const char *path, char **tmp_path)
 envl_result envl__atomic_end(const char *path, char *tmp_path, bool ok)
 {
     envl_result rc = ENVL_OK;
-    if (ok && rename(tmp_path, path) != 0) {
+    if (ok && (envl__io_fault() || rename(tmp_path, path) != 0)) {
         rc = envl__fail(ENVL_ERR_IO, "%s: cannot replace: %s", path, strerror(errno));
         ok = false;
     }
@@ -90,10 +101,10 @@ envl_result envl_file_write_atomic(const char *path, const void *data, size_t si
     envl_result rc = envl__atomic_begin(path, &tmp);
     if (rc)
         return rc;
-    FILE *f = fopen(tmp, "wb");
-    bool ok = f && fwrite(data, 1, size, f) == size;
+    FILE *f = envl__io_fault() ? NULL : fopen(tmp, "wb");
+    bool ok = f && !envl__io_fault() && fwrite(data, 1, size, f) == size;
     int err = errno;
-    if (f && fclose(f) != 0) {
+    if (f && (fclose(f) != 0 || envl__io_fault())) {
         ok = false;
         err = errno;
     }

@@ -27,6 +27,23 @@ static size_t header_token(const uint8_t *data, size_t size, size_t *pos, char t
     return n;
 }
 
+/* The header token as a message may show it (a terminal must not receive escape sequences):
+ * its first 32 bytes, printable ASCII as is, other bytes as \xHH, "..." when longer. */
+static void printable(const char *tok, char out[4 * 32 + 4])
+{
+    size_t o = 0, i = 0;
+    for (; tok[i] && i < 32; i++) {
+        unsigned char c = (unsigned char)tok[i];
+        if (c >= 0x20 && c < 0x7f && c != '\\')
+            out[o++] = (char)c;
+        else
+            o += (size_t)snprintf(out + o, 5, "\\x%02x", c);
+    }
+    if (tok[i])
+        memcpy(out + o, "...", 3), o += 3;
+    out[o] = '\0';
+}
+
 static int parse_int(const char *s, long *v)
 {
     char *end;
@@ -69,9 +86,12 @@ envl_result envl__read_pfm(const uint8_t *data, size_t size, const char *name,
                           name, pos);
     char *end;
     double scale = strtod(tok, &end);
-    if (*end || !isfinite(scale) || scale == 0.0)
+    if (*end || !isfinite(scale) || scale == 0.0) {
+        char shown[4 * 32 + 4];
+        printable(tok, shown);
         return envl__fail(ENVL_ERR_FORMAT, "%s: PFM scale '%s' must be a non-zero number", name,
-                          tok);
+                          shown);
+    }
     if (pos >= size || !(data[pos] == '\n' || data[pos] == ' ' || data[pos] == '\r' ||
                          data[pos] == '\t'))
         return envl__fail(ENVL_ERR_FORMAT, "%s: PFM header: expected one whitespace byte after "
@@ -115,16 +135,20 @@ envl_result envl__read_pfm(const uint8_t *data, size_t size, const char *name,
 
 envl_result envl__write_pfm(const char *path, const float *rgb, int32_t w, int32_t h)
 {
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        return envl__fail(ENVL_ERR_IO, "%s: cannot write: %s", path, strerror(errno));
-    int ok = fprintf(f, "PF\n%d %d\n-1.0\n", (int)w, (int)h) > 0;
     uint8_t *row = malloc((size_t)w * 12);
-    if (!row) {
-        fclose(f);
+    if (!row)
         return envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", path);
+    FILE *f = envl__io_fault() ? NULL : fopen(path, "wb");
+    if (!f) {
+        int err = errno;
+        free(row);
+        return envl__fail(ENVL_ERR_IO, "%s: cannot write: %s", path, strerror(err));
     }
-    for (int32_t r = h - 1; r >= 0 && ok; r--) {
+    int err = 0;
+    errno = 0;
+    if (envl__io_fault() || fprintf(f, "PF\n%d %d\n-1.0\n", (int)w, (int)h) < 0)
+        err = errno ? errno : EIO;
+    for (int32_t r = h - 1; r >= 0 && !err; r--) {
         const float *s = rgb + (size_t)r * w * 3;
         for (size_t i = 0; i < (size_t)w * 3; i++) {
             uint32_t u;
@@ -134,11 +158,15 @@ envl_result envl__write_pfm(const char *path, const float *rgb, int32_t w, int32
             row[4 * i + 2] = (uint8_t)(u >> 16);
             row[4 * i + 3] = (uint8_t)(u >> 24);
         }
-        ok = fwrite(row, 12, (size_t)w, f) == (size_t)w;
+        errno = 0;
+        if (envl__io_fault() || fwrite(row, 12, (size_t)w, f) != (size_t)w)
+            err = errno ? errno : EIO;
     }
     free(row);
-    int err = errno;
-    if (fclose(f) != 0 || !ok)
-        return envl__fail(ENVL_ERR_IO, "%s: write failed: %s", path, strerror(err ? err : errno));
+    errno = 0;
+    if ((fclose(f) != 0 || envl__io_fault()) && !err)
+        err = errno ? errno : EIO;
+    if (err)
+        return envl__fail(ENVL_ERR_IO, "%s: write failed: %s", path, strerror(err));
     return ENVL_OK;
 }
