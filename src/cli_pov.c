@@ -288,9 +288,30 @@ static void hemi_from_sh(int order, const double *sh, double axis[3], double sky
         double c1 = 0;
         for (int a = 0; a < 3; a++)
             c1 += d[a][ch] * axis[a];
-        sky[ch] = amb[ch] + c1;
-        ground[ch] = amb[ch] - c1;
+        /* Never negative, as sh.c's hemi_pair: when amb - |c1| < 0 the best fit with sky,
+         * ground >= 0 puts 0 at the negative end and (3 amb + |c1|) / 2 at the other. */
+        double lit = (3 * amb[ch] + fabs(c1)) / 2;
+        int clamp = amb[ch] - fabs(c1) < 0;
+        sky[ch] = !clamp ? amb[ch] + c1 : c1 > 0 ? lit : 0;
+        ground[ch] = !clamp ? amb[ch] - c1 : c1 > 0 ? 0 : lit;
     }
+}
+
+/* The least channel of the ambient as written (ridge form) at 4096 Fibonacci normals, and
+ * how many of them are negative in some channel. */
+static double ridge_least(const ridge *r, int *negative)
+{
+    double least = INFINITY;
+    *negative = 0;
+    for (int i = 0; i < 4096; i++) {
+        double n[3], a[3];
+        envl_fibonacci_direction(i, 4096, n);
+        ridge_eval(r, n, a);
+        double m = fmin(a[0], fmin(a[1], a[2]));
+        least = fmin(least, m);
+        *negative += m < 0;
+    }
+    return least;
 }
 
 /* ---- the command ---- */
@@ -702,7 +723,8 @@ int cli_pov(int argc, char **argv)
             } else {
                 envl_load_options rl = {.layout = ENVL_LAYOUT_LATLONG,
                                         .threads = c.load.threads};
-                envl_sh_options so = {.bands = order + 1};
+                /* window auto: the least windowing that keeps it non-negative */
+                envl_sh_options so = {.bands = order + 1, .window = ENVL_WINDOW_AUTO};
                 if (envl_envmap_from_pixels(envl_lights_residual(ls), info.width, info.height,
                                             3, &rl, &residual) ||
                     envl_sh_compute(residual, &so, &sh)) {
@@ -735,6 +757,14 @@ int cli_pov(int argc, char **argv)
         if (error <= bound)
             break;
     }
+    /* Negative ambient light is never usable: the hemispheric form and the residual's SH
+     * (window auto) cannot go negative; the fit's remainder is what the fit chose, so the
+     * include and stderr say where it dips below 0. */
+    int amb_negative = 0;
+    double amb_least = ambient != AMB_NONE ? ridge_least(&rd, &amb_negative) : 0;
+    if (amb_negative && !c.quiet)
+        cli_error("%s: warning: the ambient irradiance is negative at %d of 4096 normals "
+                  "(least %.6g in a channel)", source, amb_negative, amb_least);
     if (s.no_light && !c.quiet)
         cli_error("%s: no light: the environment is black", source);
     /* Auto exposure: a white Lambertian surface facing up, unshadowed, reads POV_AUTO_WHITE:
@@ -820,6 +850,18 @@ int cli_pov(int argc, char **argv)
                                                                    : "residual SH",
                 amb_order, rd.terms);
     fprintf(f, "; shadows %s\n", shadow_names[shadows]);
+    if (ambient != AMB_NONE) {
+        fprintf(f, "// ambient %s: least irradiance %.6g in a channel at 4096 normals",
+                ambient == AMB_HEMI ? "(sky/ground: the best fit with both >= 0)"
+                : amb_sh == ground_sh ? "(the ground's bounce: never negative)"
+                : sh && amb_sh == envl_sh_irradiance(sh) ? "(SH window auto: never negative)"
+                                                         : "(the fit's SH remainder, as fitted)",
+                amb_least);
+        if (amb_negative)
+            fprintf(f, ": NEGATIVE at %d of them (POV-Ray takes light away there)",
+                    amb_negative);
+        fputc('\n', f);
+    }
     pov_header_recipe(f, recipe, why, scene, ground_from, sky, ambient != AMB_NONE,
                       dome_auto_count ? (int)s.count : 0, bounce);
     if (grounded && bounce) {

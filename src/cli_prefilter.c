@@ -32,8 +32,8 @@ static const char prefilter_help[] =
     "                     sidecar, left out of the irradiance map and the glossy levels, for\n"
     "                     the renderer to add analytically; errors are measured with them\n"
     "  --irradiance-method resampled|sh|exact   (default resampled: exact sum over the map\n"
-    "                     area-averaged to 256 x 128; sh: SH of --irradiance-order; exact:\n"
-    "                     every pixel, slow)\n"
+    "                     area-averaged to 256 x 128; sh: SH of --irradiance-order with\n"
+    "                     the auto window (never negative); exact: every pixel, slow)\n"
     "  --irradiance-order L   SH order for --irradiance-method sh (default 2)\n"
     "  --irradiance-size S    lat-long width (default 64; cube face 32)\n"
     "  --format F         exr (float, default), hdr, pfm, rgbm-png (RGBA8, rgb = 6 rgb.a)\n"
@@ -222,14 +222,19 @@ int cli_prefilter(int argc, char **argv)
         free(list);
         return CLI_FAIL;
     }
-    /* the folder only once the input has been read: a bad input leaves nothing behind */
+    /* the folder only once the products are computed: a bad input, or products that
+     * overflow, leave nothing behind */
     envl_products *p = NULL;
+    if (envl_compute(map, &q, &p)) {
+        rc = cli_fail();
+        goto done;
+    }
     if (mkdir(dir, 0777) != 0 && errno != EEXIST) {
         cli_error("%s: cannot create the directory: %s", dir, strerror(errno));
         rc = CLI_FAIL;
         goto done;
     }
-    if (envl_compute(map, &q, &p) || envl_products_export(p, dir, &eo)) {
+    if (envl_products_export(p, dir, &eo)) {
         rc = cli_fail();
         goto done;
     }

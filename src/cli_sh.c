@@ -2,6 +2,7 @@
 #include "cli.h"
 #include "json.h"
 
+#include <math.h>
 #include <string.h>
 
 static const char sh_help[] =
@@ -10,10 +11,13 @@ static const char sh_help[] =
     "Real SH (no Condon-Shortley phase; l <= 2 as Ramamoorthi & Hanrahan 2001), coefficient\n"
     "order l = 0..L, m = -l..l, canonical frame (Blender, +Z up). Irradiance = A_l x radiance.\n"
     "  --order L     0..32 (default 2)\n"
-    "  --window W    none (default), hann, lanczos, auto (the least windowing that keeps the\n"
-    "                irradiance non-negative; the width found is reported)\n"
+    "  --window W    auto (default: the least windowing that keeps the irradiance\n"
+    "                non-negative in every channel; the width found is reported; none when\n"
+    "                nothing rings), none (the plain truncated expansion: can go negative,\n"
+    "                said on stderr), hann, lanczos\n"
     "Also reported: ambient + x/y/z deltas (E(n) ~ ambient + deltas . n) and the hemispheric\n"
-    "sky/ground pair with its axis, in irradiance units; the diffuse error and seconds.\n";
+    "sky/ground pair with its axis, in irradiance units (never negative: the best fit with\n"
+    "sky, ground >= 0, said on stderr when that clamps); the diffuse error and seconds.\n";
 
 static void coef_array(json_writer *j, const char *key, const double *c, int n)
 {
@@ -23,11 +27,52 @@ static void coef_array(json_writer *j, const char *key, const double *c, int n)
     json_array_end(j);
 }
 
+/* What a user must know about negative light: an expansion that goes negative (window none,
+ * hann, lanczos) and a hemispheric end clamped to 0 (auto's width is in the output). */
+static void report_negative(const cli_common *c, const envl_sh *sh, const envl_sh_summary *s,
+                            const char *file)
+{
+    if (c->quiet)
+        return;
+    /* the least channel of the irradiance at 4096 Fibonacci normals (auto's own test) */
+    double least = INFINITY, e[3];
+    for (int i = 0; i < 4096; i++) {
+        double n[3];
+        envl_fibonacci_direction(i, 4096, n);
+        envl_sh_eval_irradiance(sh, 1, n, e);
+        least = fmin(least, fmin(e[0], fmin(e[1], e[2])));
+    }
+    if (least < 0)
+        cli_error("%s: warning: the SH irradiance (window %s) is negative over part of the "
+                  "sphere (least %.6g in a channel); --window auto avoids it", file,
+                  envl_window_name(s->window), least);
+    /* sky, ground of the unconstrained linear fit: ambient +- deltas . axis */
+    double fit[2][3];
+    int clamped[2] = {0, 0};
+    for (int ch = 0; ch < 3; ch++) {
+        double c1 = 0;
+        for (int a = 0; a < 3; a++)
+            c1 += s->deltas[a][ch] * s->hemi_axis[a];
+        fit[0][ch] = s->ambient[ch] + c1;
+        fit[1][ch] = s->ambient[ch] - c1;
+        clamped[0] |= fit[0][ch] < 0;
+        clamped[1] |= fit[1][ch] < 0;
+    }
+    for (int end = 0; end < 2; end++)
+        if (clamped[end])
+            cli_error("%s: hemispheric %s: the plain linear fit gives %.6g %.6g %.6g; written as "
+                      "%.6g %.6g %.6g (the best fit with sky, ground >= 0)", file,
+                      end ? "ground" : "sky", fit[end][0], fit[end][1], fit[end][2],
+                      end ? s->hemi_ground[0] : s->hemi_sky[0],
+                      end ? s->hemi_ground[1] : s->hemi_sky[1],
+                      end ? s->hemi_ground[2] : s->hemi_sky[2]);
+}
+
 int cli_sh(int argc, char **argv)
 {
     cli_common c = {0};
     const char *file = NULL, *out = NULL;
-    envl_sh_options so = {0};
+    envl_sh_options so = {.window = ENVL_WINDOW_AUTO};
     int json = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v;
@@ -75,6 +120,7 @@ int cli_sh(int argc, char **argv)
     envl_info info;
     envl_envmap_info(map, &info);
     int n = (s.order + 1) * (s.order + 1);
+    report_negative(&c, sh, &s, info.file);
     cli_output o;
     int rc = cli_output_open(&o, out);
     if (rc == CLI_OK) {
@@ -108,8 +154,11 @@ int cli_sh(int argc, char **argv)
             json_number(&j, "seconds", s.seconds);
             json_end(&j);
         } else {
-            fprintf(o.f, "%s: SH order %d, window %s, diffuse error %.3f %%, %.4f s\n", info.file,
-                    s.order, envl_window_name(s.window), 100 * s.diffuse_error, s.seconds);
+            fprintf(o.f, "%s: SH order %d, window %s", info.file, s.order,
+                    envl_window_name(s.window));
+            if (s.window == ENVL_WINDOW_AUTO && s.window_width > 0)
+                fprintf(o.f, " (Hann width %.4g)", s.window_width);
+            fprintf(o.f, ", diffuse error %.3f %%, %.4f s\n", 100 * s.diffuse_error, s.seconds);
             const double *rad = envl_sh_radiance(sh), *irr = envl_sh_irradiance(sh);
             for (int l = 0, i = 0; l <= s.order; l++)
                 for (int m = -l; m <= l; m++, i++)

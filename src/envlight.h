@@ -283,7 +283,8 @@ ENVL_API envl_result envl_lights_irradiance(const envl_lights *lights, int32_t c
 #define ENVL_WINDOW_HANN 1     /* w_l = (1 + cos(pi l / (order + 1))) / 2 */
 #define ENVL_WINDOW_LANCZOS 2  /* w_l = sinc(pi l / (order + 1)) */
 #define ENVL_WINDOW_AUTO 3     /* the least windowing that keeps the reconstructed irradiance
-                                  non-negative: Hann-type factors (1 + cos(pi l / wd)) / 2
+                                  non-negative in every channel at 4096 Fibonacci directions:
+                                  Hann-type factors (1 + cos(pi l / wd)) / 2
                                   (0 for l >= wd) with the largest width wd that does */
 #define ENVL_WINDOW_COUNT 4
 ENVL_API const char *envl_window_name(int32_t window);     /* "none", "hann", ... */
@@ -291,7 +292,9 @@ ENVL_API int32_t envl_window_from_name(const char *name);  /* -1 if unknown */
 
 typedef struct envl_sh_options {
     int32_t bands;            /* order + 1, 1..33; default 3 (order 2) */
-    int32_t window;           /* ENVL_WINDOW_*; default none */
+    int32_t window;           /* ENVL_WINDOW_*; default none: the plain truncated expansion,
+                                 which can go negative (min_irradiance says); auto cannot
+                                 (the CLI's default) */
 } envl_sh_options;
 
 typedef struct envl_sh_summary {
@@ -303,7 +306,9 @@ typedef struct envl_sh_summary {
     double seconds;           /* projection + windowing */
     /* Artist forms (irradiance units, canonical frame): E(n) ~ ambient + deltas . n, and the
      * hemispheric pair: E = sky at n = axis, ground at n = -axis, linear between (the least
-     * squares best over the sphere). */
+     * squares best over the sphere with sky, ground >= 0: never negative; where the plain fit
+     * ambient -+ deltas . axis has a negative end, that end is 0 and the other
+     * (3 ambient + |deltas . axis|) / 2). */
     double ambient[3];
     double deltas[3][3];      /* [x, y, z][r, g, b] */
     double hemi_axis[3];
@@ -401,7 +406,8 @@ typedef struct envl_brdf_options {
  * intermediate work (one SH projection; one mip pyramid, cached on the map, for every specular
  * level). */
 typedef struct envl_request {
-    int32_t diffuse;          /* diffuse ambient: SH irradiance coefficients of order sh_order */
+    int32_t diffuse;          /* diffuse ambient: SH irradiance coefficients of order sh_order,
+                                 window auto (non-negative; so is an SH irradiance map) */
     int32_t irradiance_map;   /* an irradiance map (prefilter.irradiance_*) */
     int32_t mirror;           /* mirror reflections / background: the roughness-0 level */
     int32_t shadows;          /* lights for shadows (options in `lights`) */

@@ -1093,6 +1093,31 @@ static envl_result add_residual_irradiance(const envl_envmap *m, const envl_ligh
 
 /* ---- the call ---- */
 
+/* Every number the lights carry is finite: their directions, colours and sizes, the SH
+ * remainder, the residual map (float) and the summary (a map near FLT_MAX could overflow). */
+static int lights_finite(const envl_lights *ls)
+{
+    const envl_lights_summary *s = &ls->summary;
+    int ok = isfinite(s->diffuse_error);
+    for (int k = 0; k < 3; k++)
+        ok &= isfinite(s->power[k]) && isfinite(s->lights_power[k]) &&
+              isfinite(s->residual_power[k]);
+    for (int32_t i = 0; ok && i < s->count; i++) {
+        const envl_light *l = ls->lights + i;
+        for (int k = 0; k < 3; k++)
+            ok &= isfinite(l->direction[k]) && isfinite(l->rgb[k]);
+        ok &= isfinite(l->solid_angle) && isfinite(l->angle);
+    }
+    int32_t nsh = s->remainder_order >= 0 ? (s->remainder_order + 1) * (s->remainder_order + 1)
+                                          : 0;
+    for (int32_t j = 0; ok && ls->remainder && j < 3 * nsh; j++)
+        ok &= isfinite(ls->remainder[j]);
+    size_t npx = (size_t)ls->width * ls->height * 3;
+    for (size_t i = 0; ok && ls->residual && i < npx; i++)
+        ok &= isfinite(ls->residual[i]);
+    return ok;
+}
+
 envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *options,
                                 envl_lights **out)
 {
@@ -1193,6 +1218,10 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
         s->diffuse_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, approx, ref);
     free(normals);
     free(approx);
+    if (rc == ENVL_OK && !lights_finite(ls))
+        rc = envl__fail(ENVL_ERR_NONFINITE, "%s: the lights overflow (a value is not finite; "
+                        "the largest pixel value is %g)", m->info.file,
+                        fmax(m->info.max[0], fmax(m->info.max[1], m->info.max[2])));
     if (rc)
         goto fail;
     *out = ls;

@@ -30,8 +30,10 @@
 #include "internal.h"
 #include "envmap_impl.h"
 #include "sun_split.h"
+#include "json.h" /* json_write_escaped only (header-only) */
 
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -965,6 +967,15 @@ static double *latlong_dirs(int32_t w, int32_t h)
     return d;
 }
 
+/* Every value of a float product is finite (checked before anything is written). */
+static int floats_finite(const float *v, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(v[i]))
+            return 0;
+    return 1;
+}
+
 /* `sh` may be given (an SH object of the right order, shared with the diffuse product). */
 static envl_result irradiance_map(envl_envmap *m, const resolved *o, const envl_sh *sh,
                                   float **out, envl_irradiance_map *st, int *projected)
@@ -984,13 +995,18 @@ static envl_result irradiance_map(envl_envmap *m, const resolved *o, const envl_
     }
     if (o->irr_method == ENVL_IRRADIANCE_SH) {
         if (!sh) {
-            envl_sh_options so = {.bands = o->irr_order + 1};
+            /* window auto: the least windowing that keeps the irradiance non-negative */
+            envl_sh_options so = {.bands = o->irr_order + 1, .window = ENVL_WINDOW_AUTO};
             if ((rc = envl_sh_compute(m, &so, &own)))
                 goto done;
             sh = own;
             *projected = 1;
         }
         rc = envl_sh_eval_irradiance(sh, (int32_t)n, dirs, e);
+        /* the auto window keeps it >= 0 at its 4096 test directions; a dip between them
+         * (small) becomes 0 */
+        for (size_t i = 0; !rc && i < 3 * n; i++)
+            e[i] = e[i] < 0 ? 0 : e[i];
     } else if (o->irr_method == ENVL_IRRADIANCE_EXACT || m->width <= RESAMPLED_IRRADIANCE_WIDTH) {
         rc = envl_irradiance_exact(m, (int32_t)n, dirs, e);
     } else {
@@ -1008,8 +1024,15 @@ static envl_result irradiance_map(envl_envmap *m, const resolved *o, const envl_
     }
     if (rc)
         goto done;
-    for (size_t i = 0; i < 3 * n; i++)
+    for (size_t i = 0; i < 3 * n; i++) {
+        /* stored as float: a map near FLT_MAX has irradiance (pi L) beyond it */
+        if (!(fabs(e[i]) <= FLT_MAX)) {
+            rc = envl__fail(ENVL_ERR_NONFINITE, "%s: the irradiance map overflows the float "
+                            "range (%g; the largest is %g)", m->info.file, e[i], FLT_MAX);
+            goto done;
+        }
         px[i] = (float)e[i];
+    }
     memset(st, 0, sizeof *st);
     st->method = o->irr_method;
     st->width = w;
@@ -1124,7 +1147,7 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
     int irr_sh = q->irradiance_map && p->opt.irr_method == ENVL_IRRADIANCE_SH;
     if (q->diffuse) {
         t = now();
-        envl_sh_options so = {.bands = sh_order + 1};
+        envl_sh_options so = {.bands = sh_order + 1, .window = ENVL_WINDOW_AUTO};
         if ((rc = envl_sh_compute(m, &so, &p->sh))) {
             free(want);
             goto fail;
@@ -1211,6 +1234,10 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
     for (int32_t i = 0; i < nw; i++) {
         t = now();
         rc = specular_level(m, &p->opt, want[i], 0, &sp, &p->level_px[i], &p->levels[i]);
+        if (!rc && !floats_finite(p->level_px[i], 3 * (size_t)p->levels[i].width *
+                                                      p->levels[i].height))
+            rc = envl__fail(ENVL_ERR_NONFINITE, "%s: the specular level of roughness %g "
+                            "overflows the float range", m->info.file, want[i]);
         if (rc) {
             split_free(&sp);
             free(want);
@@ -1439,21 +1466,6 @@ static void json_num(FILE *f, const char *key, double v)
         fprintf(f, ", \"%s\": null", key);
 }
 
-static void json_str(FILE *f, const char *s)
-{
-    fputc('"', f);
-    for (; *s; s++) {
-        unsigned char c = (unsigned char)*s;
-        if (c == '"' || c == '\\')
-            fprintf(f, "\\%c", c);
-        else if (c < 0x20)
-            fprintf(f, "\\u%04x", c);
-        else
-            fputc(c, f);
-    }
-    fputc('"', f);
-}
-
 static int cmp_level(const void *a, const void *b)
 {
     const envl_level *x = *(const envl_level *const *)a, *y = *(const envl_level *const *)b;
@@ -1531,7 +1543,7 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
     FILE *j = x.json;
     const resolved *r = &p->opt;
     fprintf(j, "{\"source\": ");
-    json_str(j, p->file);
+    json_write_escaped(j, p->file); /* json.h: valid UTF-8 whatever the bytes */
     fprintf(j, ",\n \"frame\": \"blender-z-up\", \"latlong\": \"column c, row r (0 = top) of W x "
             "H: u = (c+0.5)/W, v = (r+0.5)/H, phi = pi (1 - 2u), theta = pi (0.5 - v), d = (cos "
             "theta cos phi, cos theta sin phi, sin theta)\",\n \"format\": \"%s\", \"layout\": "

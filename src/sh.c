@@ -10,6 +10,7 @@
 #include "envmap_impl.h"
 #include "sh_basis.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -75,6 +76,7 @@ typedef struct project_job {
     const envl_envmap *m;
     int32_t order, n;
     int32_t block;           /* pixels per block, at most SH_BLOCK */
+    float scale;             /* 1, or 1 / SH_BLOCK for pixels near FLT_MAX (row_sums) */
     const float *wt;         /* 2 L x 3 SH_BLOCK: per order m = 1..L, cos then sin (m c D) per
                                 float of a block (repeated over the 3 channels) */
     const double *turn;      /* blocks x L x 2: cos, sin (m phi_0) of each block's first pixel */
@@ -142,14 +144,23 @@ static void block_sum(const float *p, int32_t count, double *sum)
             sum[ch] += p[ch];
 }
 
-/* A row's S_m (without the factors k_m): s[3 (L + m) + ch], m = -L..L. */
+/* A row's S_m (without the factors k_m): s[3 (L + m) + ch], m = -L..L. A float lane sums up
+ * to SH_BLOCK / 4 products L w (|w| <= 1), which overflows for L near FLT_MAX: with scale < 1
+ * (a power of two: exact) each block is first copied scaled, and the sums are divided by it in
+ * double. */
 static void row_sums(const float *row, int32_t w, int32_t block, const float *wt,
-                     const double *turn, int32_t L, double *s)
+                     const double *turn, int32_t L, float scale, double *s)
 {
+    float scaled[3 * SH_BLOCK];
     memset(s, 0, sizeof(double) * 3 * (2 * L + 1));
     for (int32_t c0 = 0, k = 0; c0 < w; c0 += block, k++) {
         int32_t count = w - c0 < block ? w - c0 : block;
         const float *p = row + 3 * (size_t)c0;
+        if (scale != 1.0f) {
+            for (int32_t i = 0; i < 3 * count; i++)
+                scaled[i] = p[i] * scale;
+            p = scaled;
+        }
         double sum[3];
         if (L == 0)
             block_sum(p, count, sum);
@@ -166,6 +177,9 @@ static void row_sums(const float *row, int32_t w, int32_t block, const float *wt
         for (int ch = 0; ch < 3; ch++)
             s[3 * L + ch] += sum[ch];
     }
+    if (scale != 1.0f)
+        for (int32_t i = 0; i < 3 * (2 * L + 1); i++)
+            s[i] /= scale;
 }
 
 static void project_rows(void *arg, int64_t begin, int64_t end)
@@ -199,7 +213,7 @@ static void project_rows(void *arg, int64_t begin, int64_t end)
         }
         /* S_m = sum over the row of L(c) Phi_m(c) = k_m x the row's sums, m = -L..L */
         const float *p = m->px + (size_t)r * w * 3;
-        row_sums(p, w, j->block, j->wt, j->turn, L, s);
+        row_sums(p, w, j->block, j->wt, j->turn, L, j->scale, s);
         double *out = j->row_coef + (size_t)r * n * 3;
         for (int32_t l = 0; l <= L; l++)
             for (int32_t mm = -l; mm <= l; mm++) {
@@ -259,7 +273,9 @@ static envl_result project(const envl_envmap *m, int32_t L, double *coef)
     double k[2 * 32 + 1];
     for (int32_t mm = -L; mm <= L; mm++)
         k[L + mm] = mm == 0 ? 2.0 * ENVL_PI / w : 2.0 / abs(mm) * sin(abs(mm) * ENVL_PI / w);
-    project_job job = {m, L, n, block, wt, turn, k, row_coef};
+    double top = fmax(m->info.max[0], fmax(m->info.max[1], m->info.max[2]));
+    float scale = top > FLT_MAX / SH_BLOCK ? 1.0f / SH_BLOCK : 1.0f;
+    project_job job = {m, L, n, block, scale, wt, turn, k, row_coef};
     envl__parallel_for(h, m->threads, project_rows, &job);
     /* Rows summed in order: the same result at any thread count. */
     memset(coef, 0, sizeof(double) * n * 3);
@@ -305,14 +321,46 @@ static void eval(const envl_sh *sh, const double *coef, int32_t count, const dou
     }
 }
 
-/* Least luminance irradiance over MIN_DIRECTIONS Fibonacci directions. */
-static double min_irradiance(const envl_sh *sh, const double *dirs, double *buf, double *y)
+/* Least luminance irradiance over MIN_DIRECTIONS Fibonacci directions; *channel (may be
+ * NULL): the least of any channel (what "non-negative" means for the auto window). */
+static double min_irradiance(const envl_sh *sh, const double *dirs, double *buf, double *y,
+                             double *channel)
 {
     eval(sh, sh->irradiance, MIN_DIRECTIONS, dirs, buf, y);
-    double mn = INFINITY;
-    for (int32_t i = 0; i < MIN_DIRECTIONS; i++)
+    double mn = INFINITY, mc = INFINITY;
+    for (int32_t i = 0; i < MIN_DIRECTIONS; i++) {
         mn = fmin(mn, envl__lum(buf[3 * i], buf[3 * i + 1], buf[3 * i + 2]));
+        mc = fmin(mc, fmin(buf[3 * i], fmin(buf[3 * i + 1], buf[3 * i + 2])));
+    }
+    if (channel)
+        *channel = mc;
     return mn;
+}
+
+/* The hemispheric pair of one channel: c0 + c1 t (t = axis . n) closest to E over the sphere
+ * with sky = c0 + c1 >= 0 and ground = c0 - c1 >= 0. Unconstrained it is c0 = a (the ambient,
+ * >= 0), c1 = b; the squared error grows by 4 pi ((c0 - a)^2 + (c1 - b)^2 / 3), so when
+ * a - |b| < 0 the best on the boundary c1 = +-c0 is c0 = (3 a + |b|) / 4: the negative end
+ * becomes 0, the other (3 a + |b|) / 2. */
+static void hemi_pair(double a, double b, double *sky, double *ground)
+{
+    if (a - fabs(b) >= 0) {
+        *sky = a + b;
+        *ground = a - b;
+        return;
+    }
+    double lit = (3 * a + fabs(b)) / 2;
+    *sky = b > 0 ? lit : 0;
+    *ground = b > 0 ? 0 : lit;
+}
+
+/* Every number a product carries must be finite (a map near FLT_MAX could overflow). */
+static int all_finite(const double *v, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(v[i]))
+            return 0;
+    return 1;
 }
 
 envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl_sh **out)
@@ -364,8 +412,9 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
     }
     s->window_width = o->window == ENVL_WINDOW_NONE || o->window == ENVL_WINDOW_AUTO ? 0 : L + 1;
     apply_window(sh, raw, sh->window);
-    s->min_irradiance = min_irradiance(sh, dirs, buf, y);
-    if (o->window == ENVL_WINDOW_AUTO && s->min_irradiance < 0) {
+    double least;
+    s->min_irradiance = min_irradiance(sh, dirs, buf, y, &least);
+    if (o->window == ENVL_WINDOW_AUTO && least < 0) {
         /* The least windowing: the largest Hann width wd with non-negative irradiance, by
          * bisection on 1/wd in (0, 1]. Width L+1 is the plain Hann window; narrower ones
          * window harder, down to wd = 1 (band 0 only: the mean, never negative). */
@@ -375,7 +424,8 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
             for (int32_t l = 0; l <= L; l++)
                 sh->window[l] = hann(l, 1.0 / mid);
             apply_window(sh, raw, sh->window);
-            if (min_irradiance(sh, dirs, buf, y) >= 0)
+            min_irradiance(sh, dirs, buf, y, &least);
+            if (least >= 0)
                 hi = mid;
             else
                 lo = mid;
@@ -384,7 +434,7 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
             sh->window[l] = hann(l, 1.0 / hi);
         apply_window(sh, raw, sh->window);
         s->window_width = 1.0 / hi;
-        s->min_irradiance = min_irradiance(sh, dirs, buf, y);
+        s->min_irradiance = min_irradiance(sh, dirs, buf, y, NULL);
     }
     clock_gettime(CLOCK_MONOTONIC, &ts1);
     s->seconds = (ts1.tv_sec - ts0.tv_sec) + 1e-9 * (ts1.tv_nsec - ts0.tv_nsec);
@@ -403,15 +453,15 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
         dy[a] = envl__lum(s->deltas[a][0], s->deltas[a][1], s->deltas[a][2]);
     double len = sqrt(dy[0] * dy[0] + dy[1] * dy[1] + dy[2] * dy[2]);
     /* Hemispheric: axis along the luminance gradient (up when there is none); per channel
-     * the best fit of c0 + c1 (axis . n) is c0 = ambient, c1 = deltas . axis. */
+     * the best fit of c0 + c1 (axis . n) is c0 = ambient, c1 = deltas . axis, unless that
+     * makes sky or ground negative (hemi_pair: never negative). */
     for (int a = 0; a < 3; a++)
         s->hemi_axis[a] = len > 0 ? dy[a] / len : (a == 2);
     for (int ch = 0; ch < 3; ch++) {
         double c1 = 0;
         for (int a = 0; a < 3; a++)
             c1 += s->deltas[a][ch] * s->hemi_axis[a];
-        s->hemi_sky[ch] = s->ambient[ch] + c1;
-        s->hemi_ground[ch] = s->ambient[ch] - c1;
+        hemi_pair(s->ambient[ch], c1, &s->hemi_sky[ch], &s->hemi_ground[ch]);
     }
 
     /* Error of the irradiance reconstruction against the exact integrator. */
@@ -429,6 +479,16 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
     eval(sh, sh->irradiance, ENVL_ERROR_NORMALS, normals, buf, y);
     s->diffuse_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, buf, ref);
     free(normals);
+    double figures[] = {s->min_irradiance, s->diffuse_error, s->ambient[0], s->ambient[1],
+                        s->ambient[2], s->hemi_sky[0], s->hemi_sky[1], s->hemi_sky[2],
+                        s->hemi_ground[0], s->hemi_ground[1], s->hemi_ground[2]};
+    if (!all_finite(sh->radiance, 3 * (size_t)n) || !all_finite(sh->irradiance, 3 * (size_t)n) ||
+        !all_finite(figures, sizeof figures / sizeof *figures)) {
+        rc = envl__fail(ENVL_ERR_NONFINITE, "%s: the SH coefficients overflow (not finite; the "
+                        "largest pixel value is %g)", m->info.file,
+                        fmax(m->info.max[0], fmax(m->info.max[1], m->info.max[2])));
+        goto fail;
+    }
     free(raw);
     free(dirs);
     free(buf);

@@ -740,8 +740,65 @@ static void test_sun_light_choice(void)
     envl_envmap_free(m);
 }
 
+/* Issue 19. A map of 3e38 (finite) has irradiance pi 3e38, beyond a float: envl_compute
+ * refuses the irradiance map (ENVL_ERR_NONFINITE, naming the map) instead of returning inf
+ * pixels; the specular levels (weighted means of the map) still fit and are finite. A bright
+ * pixel over a dim map rings negative in plain order-2 SH: the SH irradiance map (window auto)
+ * has no negative pixel. */
+static void test_hostile_numbers(void)
+{
+    const int w = 64, h = 32;
+    float *px = malloc(sizeof(float) * w * h * 3);
+    for (int i = 0; i < w * h * 3; i++)
+        px[i] = 3e38f;
+    envl_envmap *m;
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &(envl_load_options){.layout = 1}, &m));
+    envl_products *p = NULL;
+    envl_request q = {.irradiance_map = 1};
+    for (int method = 0; method < ENVL_IRRADIANCE_COUNT; method++) {
+        q.prefilter.irradiance_method = method;
+        CHECK_RC(envl_compute(m, &q, &p), ENVL_ERR_NONFINITE);
+        CHECK(p == NULL && strstr(envl_last_error(), "irradiance map overflows the float"));
+    }
+    envl_request spec = {.n_roughness = 2, .roughness = (double[]){0.0, 0.5}};
+    spec.prefilter = (envl_prefilter_options){.width = 64, .min_width = 32, .samples = 16};
+    CHECK_OK(envl_compute(m, &spec, &p));
+    for (int32_t i = 0; p && i < envl_products_level_count(p); i++) {
+        envl_level l;
+        envl_products_level(p, i, &l);
+        for (int32_t k = 0; k < 3 * l.width * l.height; k++)
+            CHECK_REL(l.rgb[k], 3e38f, 1e-6); /* a mean of equal floats */
+    }
+    envl_products_free(p);
+    envl_envmap_free(m);
+
+    for (int i = 0; i < w * h * 3; i++)
+        px[i] = 0.1f;
+    for (int k = 0; k < 3; k++)
+        px[3 * (10 * w + 20) + k] = 1e5f;
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &(envl_load_options){.layout = 1}, &m));
+    q.prefilter = (envl_prefilter_options){.irradiance_method = ENVL_IRRADIANCE_SH,
+                                           .irradiance_width = 64};
+    q.diffuse = 1; /* shared with the irradiance map */
+    CHECK_OK(envl_compute(m, &q, &p));
+    envl_irradiance_map irr;
+    if (p && envl_products_irradiance(p, &irr) == ENVL_OK) {
+        float least = INFINITY;
+        for (int32_t k = 0; k < 3 * irr.width * irr.height; k++)
+            least = fminf(least, irr.rgb[k]);
+        CHECK(least >= 0);
+        envl_sh_summary s;
+        envl_sh_get_summary(envl_products_sh(p), &s);
+        CHECK(s.window == ENVL_WINDOW_AUTO && s.window_width > 0 && s.min_irradiance >= 0);
+    }
+    envl_products_free(p);
+    envl_envmap_free(m);
+    free(px);
+}
+
 int main(void)
 {
+    test_hostile_numbers();
     test_constant();
     test_linear();
     test_bright_pixel();

@@ -217,6 +217,120 @@ static void test_bright_pixel_windows(void)
     free(px);
 }
 
+/* Pixels near FLT_MAX (issue 19): a float lane of the projection summed 8 of them and
+ * overflowed to inf / NaN. A map with a few 3e38 pixels over 1 is exactly 1024 times the same
+ * map divided by 1024 (whose sums stay far from FLT_MAX): the power-of-two scaling is exact,
+ * so the coefficients agree bit for bit; a constant 3e38 gives L00 = 2 sqrt(pi) 3e38. */
+static void test_huge_values(void)
+{
+    const int w = 256, h = 128;
+    float *px = malloc(sizeof(float) * w * h * 3), *small = malloc(sizeof(float) * w * h * 3);
+    for (int i = 0; i < w * h * 3; i++)
+        px[i] = 1.0f;
+    for (int j = 0; j < 40; j++) /* a cluster: one block of 8 x 5 pixels */
+        for (int k = 0; k < 3; k++)
+            px[3 * ((30 + j / 8) * w + 100 + j % 8) + k] = 3e38f;
+    for (int i = 0; i < w * h * 3; i++)
+        small[i] = px[i] / 1024.0f;
+    envl_envmap *m, *ms;
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG};
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &lo, &m));
+    CHECK_OK(envl_envmap_from_pixels(small, w, h, 3, &lo, &ms));
+    envl_sh *a = NULL, *b = NULL;
+    CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.bands = 5}, &a));
+    CHECK_OK(envl_sh_compute(ms, &(envl_sh_options){.bands = 5}, &b));
+    if (a && b) {
+        const double *ra = envl_sh_radiance(a), *rb = envl_sh_radiance(b);
+        for (int i = 0; i < 25 * 3; i++) {
+            CHECK(isfinite(ra[i]));
+            CHECK_NEAR(ra[i], 1024.0 * rb[i], 0);
+        }
+        envl_sh_summary s;
+        envl_sh_get_summary(a, &s);
+        CHECK(isfinite(s.diffuse_error) && isfinite(s.hemi_sky[0]) && isfinite(s.hemi_ground[0]));
+    }
+    envl_sh_free(a);
+    envl_sh_free(b);
+    envl_envmap_free(m);
+    envl_envmap_free(ms);
+    for (int i = 0; i < w * h * 3; i++)
+        px[i] = 3e38f;
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &lo, &m));
+    CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.bands = 3}, &a));
+    if (a) {
+        /* a float lane adds 8 equal terms: 7 roundings, relative 7 u = 7 x 2^-24 = 4.2e-7
+         * (blocks and rows add in double); the diffuse error, at most that much again from
+         * the same rounding in bands 1-2: 2 x 7 u */
+        const double u = ldexp(1.0, -24);
+        CHECK_REL(envl_sh_radiance(a)[0], 2 * sqrt(PI) * (double)3e38f, 7 * u);
+        envl_sh_summary s;
+        envl_sh_get_summary(a, &s);
+        CHECK_NEAR(s.diffuse_error, 0, 14 * u);
+    }
+    envl_sh_free(a);
+    envl_envmap_free(m);
+    free(px);
+    free(small);
+}
+
+/* Negative light (issue 19). The auto window keeps every channel >= 0 (a blue spike over a
+ * yellow map rings in blue while the luminance stays positive), and the hemispheric pair is
+ * never negative: where the plain linear fit (ambient -+ c1) has a negative end, the pair is
+ * the best fit with both ends >= 0, c0 = c1 = (3 ambient + |c1|) / 4 (sh.c's hemi_pair). */
+static void test_never_negative(void)
+{
+    const int w = 128, h = 64;
+    float *px = malloc(sizeof(float) * w * h * 3);
+    for (int i = 0; i < w * h; i++) {
+        px[3 * i] = px[3 * i + 1] = 1.0f;
+        px[3 * i + 2] = 0.01f;
+    }
+    px[3 * (20 * w + 40) + 2] = 2e4f;
+    envl_envmap *m;
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &(envl_load_options){.layout = 1}, &m));
+    for (int win = 0; win < 2; win++) {
+        envl_sh *sh;
+        int32_t window = win ? ENVL_WINDOW_AUTO : ENVL_WINDOW_NONE;
+        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){3, window}, &sh));
+        envl_sh_summary s;
+        envl_sh_get_summary(sh, &s);
+        double least = INFINITY, d[3], e[3];
+        for (int i = 0; i < 4096; i++) {
+            envl_fibonacci_direction(i, 4096, d);
+            envl_sh_eval_irradiance(sh, 1, d, e);
+            least = fmin(least, fmin(e[0], fmin(e[1], e[2])));
+        }
+        if (win) {
+            CHECK(least >= 0);
+            CHECK(s.window_width > 0);
+        } else {
+            CHECK(least < 0);             /* the map does ring: the test means something */
+            CHECK(s.min_irradiance >= 0); /* ... in blue only: luminance stays positive */
+        }
+        int clamped = 0;
+        for (int ch = 0; ch < 3; ch++) {
+            CHECK(s.hemi_sky[ch] >= 0 && s.hemi_ground[ch] >= 0);
+            double c1 = 0;
+            for (int a = 0; a < 3; a++)
+                c1 += s.deltas[a][ch] * s.hemi_axis[a];
+            double a0 = s.ambient[ch];
+            if (a0 - fabs(c1) < 0) {
+                clamped++;
+                double lit = (3 * a0 + fabs(c1)) / 2, tol = 1e-12 * lit;
+                CHECK_NEAR(c1 > 0 ? s.hemi_sky[ch] : s.hemi_ground[ch], lit, tol);
+                CHECK_NEAR(c1 > 0 ? s.hemi_ground[ch] : s.hemi_sky[ch], 0, 0);
+            } else {
+                CHECK_NEAR(s.hemi_sky[ch], a0 + c1, 1e-12 * (a0 + fabs(c1)));
+                CHECK_NEAR(s.hemi_ground[ch], a0 - c1, 1e-12 * (a0 + fabs(c1)));
+            }
+        }
+        CHECK(clamped > 0); /* the blue spike's plain fit has a negative end */
+        envl_sh_free(sh);
+    }
+    envl_envmap_free(m);
+    free(px);
+}
+
 /* Same coefficients at 1 and 4 threads, bit for bit. */
 static void test_threads(void)
 {
@@ -244,6 +358,8 @@ int main(void)
     test_furnace();
     test_linear_z();
     test_bright_pixel_windows();
+    test_huge_values();
+    test_never_negative();
     test_threads();
     return check_report("test_sh");
 }
