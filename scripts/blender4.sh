@@ -31,6 +31,9 @@
 #   ENVL_BLENDER4_XVFB=1  (wrapper, at run time) run Blender under the root's own xvfb-run -a
 #                         (for a window without the host's xvfb; the host's xvfb-run around
 #                         the wrapper works too: /tmp/.X11-unix and its Xauthority are shared)
+case "${1:-}" in  # --help: the usage and the header above, nothing run
+  -h|--help) echo "usage: bash scripts/blender4.sh   (as root; last line of stdout: the command that runs Blender 4)"; sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
+esac
 set -euo pipefail
 
 exec 3>&1 1>&2 # stdout is for the last line only (fd 3)

@@ -151,7 +151,8 @@ def write_zip(files, tmp_zip):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description=__doc__,  # the whole docstring, as written
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build-dir", default=os.path.join(ROOT, "build"))
     ap.add_argument("--library", help="libenvlight.so to ship (default: <build-dir>/addon-lib/"
                     "libenvlight.so, the self-contained build, else <build-dir>/libenvlight.so)")

@@ -25,6 +25,14 @@ import json
 import os
 import sys
 
+# --help (after "--" under Blender, or as usual under python3) prints the above and ends here,
+# before bpy is imported or anything runs.
+if __name__ == "__main__" and {"-h", "--help"} & set(
+        sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]):
+    print("usage: blender -b --factory-startup --python %s -- SPEC.json\n\n%s"
+          % ("scripts/" + os.path.basename(__file__), __doc__))
+    sys.exit(0)
+
 import bpy
 import numpy as np
 

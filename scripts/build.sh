@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Installs what envlight needs from Debian (when missing; needs root), then configures and
 # builds into ./build (or $1). Extra arguments go to cmake's configure step.
+case "${1:-}" in  # --help: the usage and the header above, nothing run
+  -h|--help) echo "usage: bash scripts/build.sh [BUILD_DIR] [CMAKE_ARG...]"; sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
+esac
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}

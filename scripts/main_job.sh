@@ -6,6 +6,9 @@
 # and preview.png (the map with its lights, spheres lit by the exact reference and by each
 # approximation, errors and times).
 #   bash scripts/main_job.sh [OUTDIR] [FILE]      (OUTDIR default: envlight-out; FILE default: -)
+case "${1:-}" in  # --help: the usage and the header above, nothing run
+  -h|--help) echo "usage: bash scripts/main_job.sh [OUTDIR] [FILE]"; sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
+esac
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 file=${2:--}

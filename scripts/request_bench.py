@@ -5,10 +5,25 @@ time of one envl_compute request for "everything" against a few typical requests
 dropped before each request (each starts cold); time = the request's own `seconds` (error
 measures excluded), the minimum of RUNS runs. Prints a markdown table.
 Usage: PYTHONPATH=py_shim ENVL_LIBRARY=build/libenvlight.so scripts/request_bench.py [RUNS]"""
-import sys
-import envlight as E
+import argparse
 
-RUNS = int(sys.argv[1]) if len(sys.argv) > 1 else 3
+
+def _runs(v):
+    n = int(v)
+    if n < 1:
+        raise argparse.ArgumentTypeError("RUNS must be at least 1, not %d" % n)
+    return n
+
+
+# the arguments first: --help (or a bad RUNS) ends here, before the library is loaded
+_ap = argparse.ArgumentParser(description=__doc__,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+_ap.add_argument("runs", nargs="?", type=_runs, default=3, metavar="RUNS",
+                 help="runs of each request; the table shows the fastest (default 3)")
+RUNS = _ap.parse_args().runs
+
+import envlight as E  # noqa: E402
+
 REQUESTS = [
     ("everything: diffuse SH + irradiance map + mirror + shadows (16 median-cut lights) + "
      "6-level chain + BRDF table",

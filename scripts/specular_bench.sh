@@ -5,6 +5,9 @@
 # sampling with 1024 samples per texel; glossy error (DESIGN.md) and seconds of each level, and
 # the ratio of (c)'s total time to (b)'s, all measured in the same run. Prints a markdown table.
 # Usage: scripts/specular_bench.sh ENVLIGHT [MAP...]   (MAP '-' = the built-in sky at 2048)
+case "${1:-}" in  # --help: the usage and the header above, nothing run
+  -h|--help) echo "usage: bash scripts/specular_bench.sh ENVLIGHT [MAP...]"; sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
+esac
 set -eu
 ENVLIGHT=$1; shift
 [ $# -gt 0 ] || set -- -

@@ -10,6 +10,9 @@
 # out: they spend their time in external programs, not in envlight. Memcheck runs all threads
 # of a program on one core, so N tests run at once (default: the number of cores). --quick (what
 # CI runs) keeps, of the CLI tests, cli_basics and cli_malformed: the bad-input paths.
+case "${1:-}" in  # --help: the usage and the header above, nothing run
+  -h|--help) echo "usage: bash scripts/valgrind.sh [BUILD_DIR] [--all | --quick] [-j N]"; sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
+esac
 set -uo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD

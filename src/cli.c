@@ -84,12 +84,43 @@ const char cli_common_help[] =
     "                     negatives become 0, +Inf the largest finite value, with a warning)\n"
     "  --apply-exposure   divide Radiance pixels by the file's EXPOSURE\n"
     "  --part NAME        multipart OpenEXR: read the part NAME\n"
-    "  --max-pixels N     refuse files whose header claims more pixels (default 268435456)\n"
+    "  --max-pixels N     refuse files whose header claims more pixels, and a --width or\n"
+    "                     --sky-width W whose W x W/2 map has more (default 268435456)\n"
     "  --threads N        worker threads (default: all cores)\n"
     "  --quiet            no notes or warnings on stderr\n"
     "Built-in sky (FILE '-' or absent):\n"
     "  --sun-elevation DEG (default 35)   --sun-azimuth DEG (default 0 = +X)\n"
     "  --sky-width W (default 1024)\n";
+
+int cli_light_count_ok(const char *command, const envl_lights_options *lo)
+{
+    if (lo->method != ENVL_METHOD_FIT || lo->count <= CLI_FIT_MAX_LIGHTS)
+        return 1;
+    cli_usage(command, "--method fit takes 1..%d lights, not %d (median and variance take "
+              "more)", CLI_FIT_MAX_LIGHTS, (int)lo->count);
+    return 0;
+}
+
+/* --width W (and --sky-width W) make a W x W/2 map: --max-pixels bounds it as it bounds a file,
+ * checked whichever comes first (each check sees the options given so far), before anything is
+ * read or allocated (a 40000 x 20000 map is 9.6 GB of floats). 1 if it fits, else a usage
+ * error. */
+static int map_fits(const char *command, const cli_common *c)
+{
+    int64_t max = c->load.max_pixels > 0 ? c->load.max_pixels : ENVL_DEFAULT_MAX_PIXELS;
+    const char *opt[2] = {"--width", "--sky-width"};
+    int32_t w[2] = {c->load.width, c->sky.width};
+    for (int k = 0; k < 2; k++) {
+        int64_t h = w[k] / 2 > 0 ? w[k] / 2 : 1;
+        if (w[k] > 0 && (int64_t)w[k] * h > max) {
+            cli_usage(command, "%s %d makes a %d x %d map: more than --max-pixels %lld (a "
+                      "smaller %s, or a larger --max-pixels)", opt[k], (int)w[k], (int)w[k],
+                      (int)h, (long long)max, opt[k]);
+            return 0;
+        }
+    }
+    return 1;
+}
 
 int cli_common_option(const char *command, int argc, char **argv, int *i, cli_common *c)
 {
@@ -116,7 +147,7 @@ int cli_common_option(const char *command, int argc, char **argv, int *i, cli_co
         if (cli_parse_int(v, 1, 1 << 20, &n))
             return cli_usage(command, "--width takes a whole number from 1, not '%s'", v), -2;
         c->load.width = (int32_t)n;
-        return 1;
+        return map_fits(command, c) ? 1 : -2;
     }
     if ((r = VALUE("--rotate")) != 0) {
         if (r < 0)
@@ -138,7 +169,7 @@ int cli_common_option(const char *command, int argc, char **argv, int *i, cli_co
         if (cli_parse_int(v, 1, INT64_MAX, &n))
             return cli_usage(command, "--max-pixels takes a positive number, not '%s'", v), -2;
         c->load.max_pixels = n;
-        return 1;
+        return map_fits(command, c) ? 1 : -2;
     }
     if ((r = VALUE("--threads")) != 0) {
         if (r < 0)
@@ -171,7 +202,7 @@ int cli_common_option(const char *command, int argc, char **argv, int *i, cli_co
         if (cli_parse_int(v, 2, 65536, &n))
             return cli_usage(command, "--sky-width takes 2..65536, not '%s'", v), -2;
         c->sky.width = (int32_t)n;
-        return 1;
+        return map_fits(command, c) ? 1 : -2;
     }
 #undef VALUE
     const char *a = argv[*i];
@@ -184,6 +215,21 @@ int cli_common_option(const char *command, int argc, char **argv, int *i, cli_co
     else
         return 0;
     return 1;
+}
+
+/* The layout guess (layout.c: metadata, then the aspect ratio) is evident when the file has
+ * the shape of the layout it was read as: OpenEXR's envmap attribute, 2:1 lat-long, 3:4 / 4:3
+ * crosses, 6:1 / 1:6 strips. A square is a guess (an angular probe or a mirror ball?), and so
+ * is a lat-long of any other aspect (no layout has that shape). */
+int cli_layout_evident(const envl_info *in)
+{
+    int64_t w = in->source_width, h = in->source_height;
+    switch (in->layout) {
+    case ENVL_LAYOUT_LATLONG: return w == 2 * h;
+    case ENVL_LAYOUT_ANGULAR:
+    case ENVL_LAYOUT_MIRRORBALL: return 0;
+    default: return 1;
+    }
 }
 
 int cli_load(const char *file, const cli_common *c, envl_envmap **out)
@@ -203,15 +249,23 @@ int cli_load(const char *file, const cli_common *c, envl_envmap **out)
         return rc ? cli_fail() : CLI_OK;
     }
     rc = envl_envmap_load(file, &c->load, out);
-    if (rc)
-        return cli_fail();
+    if (rc) {
+        /* every message about reading FILE names it (the resampling's "cannot allocate" does
+         * not know the file) */
+        const char *msg = envl_last_error();
+        size_t n = strlen(file);
+        if (strncmp(msg, file, n) == 0 && msg[n] == ':')
+            return cli_fail();
+        cli_error("%s: %s", file, msg);
+        return CLI_FAIL;
+    }
     envl_info info;
     envl_envmap_info(*out, &info);
     if (!c->quiet && (info.nonfinite_pixels || info.negative_pixels))
         cli_error("warning: %s: %lld pixels with NaN or Inf, %lld with negative values: NaN and "
                   "negatives set to 0, +Inf to the largest finite value (--strict refuses them)",
                   file, (long long)info.nonfinite_pixels, (long long)info.negative_pixels);
-    if (!c->quiet && info.layout_guessed)
+    if (!c->quiet && info.layout_guessed && !cli_layout_evident(&info))
         fprintf(stderr, "envlight: %s: %d x %d read as layout '%s' (--layout-in to choose)\n",
                 file, info.source_width, info.source_height, envl_layout_name(info.layout));
     return CLI_OK;

@@ -18,6 +18,8 @@ static void info_json(FILE *f, const envl_info *in)
     json_string(&j, "format", in->format);
     json_string(&j, "layout", envl_layout_name(in->layout));
     json_bool(&j, "layout_guessed", in->layout_guessed);
+    /* true: the layout follows from the file's shape or metadata; false after a real guess */
+    json_bool(&j, "layout_evident", !in->layout_guessed || cli_layout_evident(in));
     json_int(&j, "width", in->source_width);
     json_int(&j, "height", in->source_height);
     json_int(&j, "channels", in->channels);
@@ -41,13 +43,31 @@ static void info_json(FILE *f, const envl_info *in)
     json_end(&j);
 }
 
+/* How the layout was chosen; the command line's other commands say it only for a real guess
+ * (cli_load), info always. */
+static const char *layout_note(const envl_info *in)
+{
+    if (!in->layout_guessed)
+        return ""; /* --layout-in */
+    if (!cli_layout_evident(in))
+        return " (a guess: --layout-in to choose)";
+    switch (in->layout) {
+    case ENVL_LAYOUT_LATLONG: return " (guessed from the 2:1 aspect ratio)";
+    case ENVL_LAYOUT_CROSS_V: return " (guessed from the 3:4 aspect ratio)";
+    case ENVL_LAYOUT_CROSS_H: return " (guessed from the 4:3 aspect ratio)";
+    case ENVL_LAYOUT_STRIP_H: return " (guessed from the 6:1 aspect ratio)";
+    case ENVL_LAYOUT_STRIP_V: return " (guessed from the 1:6 aspect ratio)";
+    default: return " (from the file's envmap attribute)";
+    }
+}
+
 static void info_text(FILE *f, const envl_info *in)
 {
     fprintf(f, "file:        %s\n", in->file);
     fprintf(f, "format:      %s, %d channel%s\n", in->format, in->channels,
             in->channels == 1 ? "" : "s");
     fprintf(f, "size:        %d x %d, layout %s%s\n", in->source_width, in->source_height,
-            envl_layout_name(in->layout), in->layout_guessed ? " (guessed)" : "");
+            envl_layout_name(in->layout), layout_note(in));
     fprintf(f, "envmap:      %d x %d lat-long (frame: Blender, +Z up)\n", in->width, in->height);
     fprintf(f, "mean:        %.6g %.6g %.6g\n", in->mean[0], in->mean[1], in->mean[2]);
     fprintf(f, "power:       %.6g %.6g %.6g\n", in->power[0], in->power[1], in->power[2]);

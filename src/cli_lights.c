@@ -11,7 +11,8 @@ static const char lights_help[] =
     "Directional lights that stand in for the environment, in the canonical frame (Blender:\n"
     "+Z up). Each light: direction, rgb = irradiance it delivers at normal incidence (the sum\n"
     "of L dw it took), solid angle of its region and angular diameter (radians).\n"
-    "  -n N              number of lights (default 16; fit: 4; sun: at most, 4)\n"
+    "  -n N              number of lights (default 16; fit: 4, at most 32; sun: at most,\n"
+    "                    4)\n"
     "  --method M        median (Debevec 2005, default), variance (variance-minimising cut),\n"
     "                    fit (non-negative least-squares lights + SH remainder), sun (the\n"
     "                    suns split off exactly: pixels above 50x the mean luminance, one\n"
@@ -158,6 +159,8 @@ int cli_lights(int argc, char **argv)
             file = a;
         }
     }
+    if (!cli_light_count_ok("lights", &lo)) /* once every option is read: any order */
+        return CLI_USAGE;
     envl_envmap *map;
     if (cli_load(file, &c, &map))
         return CLI_FAIL;
