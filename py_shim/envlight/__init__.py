@@ -14,21 +14,24 @@ by close() or at the end of a ``with`` block (and, as a fallback, by the garbage
 """
 import ctypes
 import math
+import numbers
 from ctypes import byref, c_double, c_float, c_int32, c_void_p
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
+from . import _args as A
 from . import _lib
-from ._lib import ABI_VERSION, Error, _check, _str, lib, library_path
+from ._lib import ABI_VERSION, ArgumentError, Error, _check, _str, lib, library_path
 
 try:
     import numpy as _np
 except ImportError:  # pragma: no cover - numpy is optional
     _np = None
 
-__all__ = ["Error", "Envmap", "LightsResult", "SHResult", "Light", "load", "sky", "from_pixels",
-           "save_image", "fibonacci_directions", "relative_rms_luminance", "sh_basis",
-           "cosine_lobe", "brdf_lut", "brdf_eval", "Products", "version", "ABI_VERSION", "library_path", "has_numpy"]
+__all__ = ["Error", "ArgumentError", "Envmap", "LightsResult", "SHResult", "Light", "load", "sky",
+           "from_pixels", "save_image", "fibonacci_directions", "relative_rms_luminance",
+           "sh_basis", "cosine_lobe", "brdf_lut", "brdf_eval", "Products", "version",
+           "ABI_VERSION", "library_path", "has_numpy"]
 
 __version__ = "0.1.0"
 has_numpy = _np is not None
@@ -44,36 +47,45 @@ def version():
 
 # ---- small helpers -------------------------------------------------------------------------
 
-def _enum(value, from_name, to_name, what):
-    """An enum given as a name ('fit') or an int; returns the int, Error-free ValueError if
-    unknown (bad usage, not a library failure)."""
-    if isinstance(value, str):
-        v = from_name(value.encode())
-        if v < 0:
-            raise ValueError("unknown %s %r" % (what, value))
-        return v
-    v = int(value)
-    if to_name(v) is None:
-        raise ValueError("unknown %s %r" % (what, value))
-    return v
+# Every argument goes through _args (A) before it becomes a C value: see _args.py.
 
-
-def _layout(value):
-    if value is None or value == "auto":
+def _layout(value, what, lo=0):
+    """A layout name or ENVL_LAYOUT_* (None: auto); lo=1 refuses 'auto'."""
+    if value is None and lo == 0:
         return 0
-    return _enum(value, lib.envl_layout_from_name, lib.envl_layout_name, "layout")
+    return A.enum(value, what, lib.envl_layout_from_name, lib.envl_layout_name, lo)
 
 
-def _vectors(values):
-    """(N, 3) directions -> (count, ctypes double array)."""
+def _method(value, what):
+    return A.enum(value, what, lib.envl_method_from_name, lib.envl_method_name)
+
+
+def _vectors(values, what):
+    """(N, 3) finite directions -> (count, ctypes double array)."""
+    n, flat = A.vectors(values, what)
     if _np is not None:
-        a = _np.ascontiguousarray(_np.asarray(values, dtype=_np.float64).reshape(-1, 3))
-        buf = (c_double * a.size).from_buffer_copy(a.tobytes())
-        return len(a), buf
-    flat = [float(x) for v in values for x in v]
-    if len(flat) % 3:
-        raise ValueError("directions must be triples")
-    return len(flat) // 3, (c_double * len(flat))(*flat)
+        return n, (c_double * len(flat)).from_buffer_copy(_np.ascontiguousarray(flat).tobytes())
+    return n, (c_double * len(flat))(*flat)
+
+
+_FIT = lib.envl_method_from_name(b"fit")
+
+
+def _count(value, method, what, none_ok=True, lo=1):
+    """A number of lights for `method`: lo..32 for fit, else lo..2^24 (the library's limits);
+    None (if none_ok) = the library's default."""
+    hi = A.LIGHTS_MAX_FIT if method == _FIT else A.LIGHTS_MAX
+    if not none_ok:
+        return A.integer(value, what, lo, hi)
+    return A.integer(value, what, lo, hi, 0, "the library's default: 16, fit and sun 4")
+
+
+#: prefilter's SH orders: the library reads order 0 as its default 2, so 0 cannot be asked for
+_ORDER_0 = "the default 2; 0 is not available: the library reads it as its default"
+
+
+def _threads(value, what):
+    return A.integer(value, what, 1, A.INT32_MAX, 0, "all cores (the library uses at most 256)")
 
 
 def _rows(ptr, n, k, dtype="float64"):
@@ -97,46 +109,58 @@ def _t(arr):
     return tuple(arr)
 
 
-def _load_options(layout=None, width=0, rotate=0.0, max_pixels=0, strict=False,
-                  apply_exposure=False, exr_part=None, threads=0):
+def _load_options(f, layout=None, width=None, rotate=0.0, max_pixels=None, strict=False,
+                  apply_exposure=False, exr_part=None, threads=None, width_name="width"):
+    """envl_load_options for function f (its name, for the messages)."""
     o = _lib.LoadOptions()
-    o.layout = _layout(layout)
-    o.width = int(width or 0)
-    o.rotate_degrees = float(rotate or 0.0)
-    o.max_pixels = int(max_pixels or 0)
-    o.strict = 1 if strict else 0
-    o.apply_exposure = 1 if apply_exposure else 0
-    o.exr_part = exr_part.encode() if exr_part else None
-    o.threads = int(threads or 0)
+    o.layout = _layout(layout, f + ": layout")
+    o.width = A.integer(width, "%s: %s" % (f, width_name), 1, A.INT32_MAX, 0,
+                        "the source's own size")
+    o.rotate_degrees = A.real(rotate, f + ": rotate", default=0.0, note="no rotation")
+    o.max_pixels = A.integer(max_pixels, f + ": max_pixels", 1, A.INT64_MAX, 0,
+                             "the library's 2^28")
+    o.strict = A.flag(strict, f + ": strict")
+    o.apply_exposure = A.flag(apply_exposure, f + ": apply_exposure")
+    o.exr_part = A.text(exr_part, f + ": exr_part", None)
+    o.threads = _threads(threads, f + ": threads")
     return o
 
 
 # ---- constructors --------------------------------------------------------------------------
 
-def load(path, layout="auto", rotate=0.0, width=0, strict=False, apply_exposure=False,
-         exr_part=None, max_pixels=0, threads=0):
+def load(path, layout="auto", rotate=0.0, width=None, strict=False, apply_exposure=False,
+         exr_part=None, max_pixels=None, threads=None):
     """Loads an .hdr/.pic, .exr or .pfm file into the canonical lat-long frame.
 
     layout: 'auto', 'latlong', 'angular', 'mirrorball', 'cross', 'hcross', 'hstrip', 'vstrip',
     'exr-latlong', 'exr-cube' (or the ENVL_LAYOUT_* int); rotate: degrees about +Z
-    (counter-clockwise seen from above); width: canonical map width (0 = default)."""
-    o = _load_options(layout, width, rotate, max_pixels, strict, apply_exposure, exr_part, threads)
+    (counter-clockwise seen from above); width: canonical map width (None = default);
+    max_pixels: refuse larger files (None = 2^28); threads: None = all cores."""
+    p = A.path(path, "load: path")
+    o = _load_options("load", layout, width, rotate, max_pixels, strict, apply_exposure,
+                      exr_part, threads)
     h = c_void_p()
-    _check(lib.envl_envmap_load(str(path).encode(), byref(o), byref(h)))
+    _check(lib.envl_envmap_load(p, byref(o), byref(h)))
     return Envmap(h)
 
 
-def sky(sun_elevation=35.0, sun_azimuth=0.0, width=1024, sun_irradiance=0.0, zenith_radiance=0.0,
-        ground_albedo=0.0):
-    """The built-in procedural clear sky (0 = the library's default for the last three)."""
+def sky(sun_elevation=35.0, sun_azimuth=0.0, width=1024, sun_irradiance=None,
+        zenith_radiance=None, ground_albedo=None):
+    """The built-in procedural clear sky. sun_elevation in [-90, 90] degrees; width 1..23170
+    (the map's pixels within the library's 2^28); sun_irradiance and zenith_radiance > 0,
+    ground_albedo in (0, 1]; None: the library's default (35, 1024, 12, 0.6, 0.2)."""
     o = _lib.SkyOptions()
-    o.sun_elevation_degrees = float(sun_elevation)
-    o.sun_elevation_is_set = 1
-    o.sun_azimuth_degrees = float(sun_azimuth)
-    o.width = int(width or 0)
-    o.sun_irradiance = float(sun_irradiance)
-    o.zenith_radiance = float(zenith_radiance)
-    o.ground_albedo = float(ground_albedo)
+    o.sun_elevation_degrees = A.real(sun_elevation, "sky: sun_elevation", -90.0, 90.0,
+                                     default=0.0, note="the default 35")
+    o.sun_elevation_is_set = 0 if sun_elevation is None else 1
+    o.sun_azimuth_degrees = A.real(sun_azimuth, "sky: sun_azimuth", default=0.0, note="0")
+    o.width = A.integer(width, "sky: width", 1, A.SKY_MAX_WIDTH, 0, "the default 1024")
+    o.sun_irradiance = A.real(sun_irradiance, "sky: sun_irradiance", above=0.0, default=0.0,
+                              note="the default 12")
+    o.zenith_radiance = A.real(zenith_radiance, "sky: zenith_radiance", above=0.0, default=0.0,
+                               note="the default 0.6")
+    o.ground_albedo = A.real(ground_albedo, "sky: ground_albedo", above=0.0, hi=1.0,
+                             default=0.0, note="the default 0.2")
     h = c_void_p()
     _check(lib.envl_envmap_sky(byref(o), byref(h)))
     return Envmap(h)
@@ -185,14 +209,14 @@ def _float_buffer(buffer, width, height, channels, flip):
 
 
 def from_pixels(buffer, width=None, height=None, channels=None, flip=False, layout="auto",
-                rotate=0.0, map_width=0, strict=False, threads=0):
+                rotate=0.0, map_width=None, strict=False, threads=None):
     """An envmap from float pixels in memory.
 
     buffer: a numpy array ((height, width, channels) shapes give the sizes) or any object with
     the buffer protocol holding float32 values (array.array('f'), bytes, memoryview), or a
     sequence of numbers. channels: 1, 3 or 4 (alpha ignored). Rows run top to bottom; pass
     flip=True for bottom-up pixels such as Blender's Image.pixels (RGBA, row 0 at the bottom).
-    map_width: width of the canonical map (0 = keep)."""
+    map_width: width of the canonical map (None = keep)."""
     if _np is not None and isinstance(buffer, _np.ndarray) and buffer.ndim == 3:
         h, w, c = buffer.shape
         height = h if height is None else height
@@ -204,19 +228,21 @@ def from_pixels(buffer, width=None, height=None, channels=None, flip=False, layo
         width = w if width is None else width
         channels = 1 if channels is None else channels
     if width is None or height is None or channels is None:
-        raise ValueError("from_pixels: width, height and channels are needed for a flat buffer")
-    width, height, channels = int(width), int(height), int(channels)
-    if width <= 0 or height <= 0:
-        raise ValueError("from_pixels: %d x %d pixels" % (width, height))
+        raise ArgumentError("from_pixels: width, height and channels are needed for a flat "
+                            "buffer")
+    width = A.integer(width, "from_pixels: width", 1, A.INT32_MAX)
+    height = A.integer(height, "from_pixels: height", 1, A.INT32_MAX)
+    channels = A.integer(channels, "from_pixels: channels", -A.INT32_MAX - 1, A.INT32_MAX)
+    flip = A.flag(flip, "from_pixels: flip")
+    o = _load_options("from_pixels", layout, map_width, rotate, None, strict, False, None,
+                      threads, "map_width")
     if channels not in (1, 3, 4):
         # the library names the problem; let it (ENVL_ERR_ARGUMENT) - but never read past the
         # buffer: pass a pointer to a small dummy
         dummy = (c_float * 4)()
-        o = _load_options(layout, map_width, rotate, 0, strict, False, None, threads)
         _check(lib.envl_envmap_from_pixels(dummy, width, height, channels, byref(o),
                                            byref(c_void_p())))
     keep, ptr = _float_buffer(buffer, width, height, channels, flip)
-    o = _load_options(layout, map_width, rotate, 0, strict, False, None, threads)
     h = c_void_p()
     _check(lib.envl_envmap_from_pixels(ptr, width, height, channels, byref(o), byref(h)))
     del keep
@@ -229,19 +255,28 @@ def save_image(path, rgb, width=None, height=None, format=None, half=False):
     if _np is not None and isinstance(rgb, _np.ndarray) and rgb.ndim == 3:
         height, width = rgb.shape[0], rgb.shape[1]
         if rgb.shape[2] != 3:
-            raise ValueError("save_image: 3 channels expected, got %d" % rgb.shape[2])
+            raise ArgumentError("save_image: rgb has %d channels, 3 expected" % rgb.shape[2])
     if width is None or height is None:
-        raise ValueError("save_image: width and height are needed for a flat buffer")
-    keep, ptr = _float_buffer(rgb, int(width), int(height), 3, False)
-    o = _lib.SaveOptions()
-    o.pixel_type = _lib.ENVL_PIXEL_HALF if half else _lib.ENVL_PIXEL_FLOAT
-    o.format = format.encode() if format else None
-    _check(lib.envl_image_save(str(path).encode(), ptr, int(width), int(height), byref(o)))
+        raise ArgumentError("save_image: width and height are needed for a flat buffer")
+    width = A.integer(width, "save_image: width", 1, A.INT32_MAX)
+    height = A.integer(height, "save_image: height", 1, A.INT32_MAX)
+    p = A.path(path, "save_image: path")
+    o = _save_options("save_image", format, half)
+    keep, ptr = _float_buffer(rgb, width, height, 3, False)
+    _check(lib.envl_image_save(p, ptr, width, height, byref(o)))
     del keep
 
 
+def _save_options(f, format, half):
+    o = _lib.SaveOptions()
+    o.pixel_type = _lib.ENVL_PIXEL_HALF if A.flag(half, f + ": half") else _lib.ENVL_PIXEL_FLOAT
+    o.format = A.text(format, f + ": format", None)
+    return o
+
+
 def fibonacci_directions(n=_lib.ENVL_ERROR_NORMALS):
-    """The n points of the Fibonacci sphere the error measure uses (n = 1024)."""
+    """The n points of the Fibonacci sphere the error measure uses (n = 1024); n 1..2^24."""
+    n = A.integer(n, "fibonacci_directions: n", 1, A.DIRECTIONS_MAX)
     d = (c_double * 3)()
     out = []
     for i in range(n):
@@ -252,24 +287,27 @@ def fibonacci_directions(n=_lib.ENVL_ERROR_NORMALS):
 
 def relative_rms_luminance(approx_rgb, exact_rgb):
     """DESIGN.md's error: sqrt(mean((Ya - Ye)^2)) / mean(|Ye|) over (N, 3) irradiances."""
-    na, a = _vectors(approx_rgb)
-    ne, e = _vectors(exact_rgb)
-    if na != ne:
-        raise ValueError("relative_rms_luminance: %d and %d values" % (na, ne))
+    na, a = _vectors(approx_rgb, "relative_rms_luminance: approx_rgb")
+    ne, e = _vectors(exact_rgb, "relative_rms_luminance: exact_rgb")
+    if na != ne or na == 0:
+        raise ArgumentError("relative_rms_luminance: approx_rgb has %d values and exact_rgb %d "
+                            "(the same number, at least 1, expected)" % (na, ne))
     return lib.envl_relative_rms_luminance(na, a, e)
 
 
 def sh_basis(order, direction):
-    """Y_lm(direction) for l = 0..order, index l (l + 1) + m."""
+    """Y_lm(direction) for l = 0..order (0..32), index l (l + 1) + m."""
+    order = A.integer(order, "sh_basis: order", 0, A.SH_MAX_ORDER)
+    d = A.triple(direction, "sh_basis: direction")
     n = (order + 1) ** 2
     y = (c_double * n)()
-    lib.envl_sh_basis(int(order), (c_double * 3)(*direction), y)
+    lib.envl_sh_basis(order, (c_double * 3)(*d), y)
     return list(y)
 
 
 def cosine_lobe(l):
     """A_l: irradiance coefficient = A_l x radiance coefficient (pi, 2 pi / 3, pi / 4, 0, ...)."""
-    return lib.envl_sh_cosine_lobe(int(l))
+    return lib.envl_sh_cosine_lobe(A.integer(l, "cosine_lobe: l", 0, A.INT32_MAX))
 
 
 # ---- handles ---------------------------------------------------------------------------------
@@ -323,6 +361,9 @@ class Light:
     def blender_sun(self, mode="max"):
         """(energy, color) of a Blender sun lamp with energy * color == rgb (DESIGN.md).
         mode 'max': energy = the largest channel, colour <= 1; 'luminance': energy = Y."""
+        if mode not in SUN_ENERGY_MODES:
+            raise ArgumentError("Light.blender_sun: unknown mode %r (%s)"
+                                % (mode, ", ".join(SUN_ENERGY_MODES)))
         r, g, b = self.rgb
         e = max(r, g, b) if mode == "max" else lib.envl_luminance(r, g, b)
         if e <= 0:
@@ -370,23 +411,31 @@ class Envmap(_Handle):
                       lib.envl_envmap_height(h))
 
     def solid_angle(self, row):
-        return lib.envl_envmap_solid_angle(self._handle(), int(row))
+        """Solid angle of a pixel of row 0..height-1 (sr)."""
+        h = self._handle()
+        row = A.integer(row, "Envmap.solid_angle: row", 0, lib.envl_envmap_height(h) - 1)
+        return lib.envl_envmap_solid_angle(h, row)
 
     def direction(self, column, row):
+        """Unit direction of the centre of pixel (column 0..width-1, row 0..height-1)."""
+        h = self._handle()
+        column = A.integer(column, "Envmap.direction: column", 0, lib.envl_envmap_width(h) - 1)
+        row = A.integer(row, "Envmap.direction: row", 0, lib.envl_envmap_height(h) - 1)
         d = (c_double * 3)()
-        lib.envl_envmap_direction(self._handle(), int(column), int(row), d)
+        lib.envl_envmap_direction(h, column, row, d)
         return tuple(d)
 
     def pixel_of(self, direction):
         """Continuous (column, row) of a direction in this map."""
+        d = A.triple(direction, "Envmap.pixel_of: direction")
         c, r = c_double(), c_double()
-        lib.envl_latlong_pixel(self.width, self.height, (c_double * 3)(*direction), byref(c),
+        lib.envl_latlong_pixel(self.width, self.height, (c_double * 3)(*d), byref(c),
                                byref(r))
         return c.value, r.value
 
     def irradiance(self, normals):
         """Exact irradiance E(n) = sum L dw max(0, n.d) for (N, 3) normals -> (N, 3)."""
-        n, buf = _vectors(normals)
+        n, buf = _vectors(normals, "Envmap.irradiance: normals")
         out = (c_double * (3 * n))()
         _check(lib.envl_irradiance_exact(self._handle(), n, buf, out))
         return _rows(out, n, 3)
@@ -398,21 +447,24 @@ class Envmap(_Handle):
         return _rows(p, _lib.ENVL_ERROR_NORMALS, 3)
 
     def drop_caches(self, which=_lib.ENVL_CACHE_SAT | _lib.ENVL_CACHE_REFERENCE):
-        lib.envl_envmap_drop_caches(self._handle(), int(which))
+        """Drops the cached tables: which = ENVL_CACHE_SAT | ENVL_CACHE_REFERENCE bits (0..3)."""
+        which = A.integer(which, "Envmap.drop_caches: which", 0,
+                          _lib.ENVL_CACHE_SAT | _lib.ENVL_CACHE_REFERENCE)
+        lib.envl_envmap_drop_caches(self._handle(), which)
 
     def save(self, path, format=None, half=False):
         """Writes the canonical map (.hdr, .exr, .pfm by extension or format), atomically."""
-        o = _lib.SaveOptions()
-        o.pixel_type = _lib.ENVL_PIXEL_HALF if half else _lib.ENVL_PIXEL_FLOAT
-        o.format = format.encode() if format else None
-        _check(lib.envl_envmap_save(self._handle(), str(path).encode(), byref(o)))
+        p = A.path(path, "Envmap.save: path")
+        o = _save_options("Envmap.save", format, half)
+        _check(lib.envl_envmap_save(self._handle(), p, byref(o)))
 
     def ground_plane(self, albedo):
         """The map as a scene on a ground plane (canonical z = 0) of this albedo sees it: a new
         Envmap whose lower hemisphere is the plane's radiance albedo E_up / pi (E_up: the exact
         irradiance at +Z), and that radiance (rgb). -> (Envmap, [r, g, b])"""
+        albedo = A.real(albedo, "Envmap.ground_plane: albedo", 0.0, 1.0)
         h, rgb = c_void_p(), (c_double * 3)()
-        _check(lib.envl_ground_plane_map(self._handle(), float(albedo), 0, byref(h), rgb))
+        _check(lib.envl_ground_plane_map(self._handle(), albedo, 0, byref(h), rgb))
         return Envmap(h), list(rgb)
 
     def sky_hemisphere(self):
@@ -421,28 +473,36 @@ class Envmap(_Handle):
         _check(lib.envl_sky_hemisphere_map(self._handle(), 0, byref(h)))
         return Envmap(h)
 
-    def to_layout(self, layout, size=0):
-        """The map rendered into another layout -> (height, width, 3) array (or flat list)."""
+    def to_layout(self, layout, size):
+        """The map rendered into another layout (not 'auto') -> (height, width, 3) array (or
+        flat list). size: face size for cubes and strips, diameter for probes, lat-long width."""
+        layout = _layout(layout, "Envmap.to_layout: layout", lo=1)
+        size = A.integer(size, "Envmap.to_layout: size", 1, A.INT32_MAX)
         p = ctypes.POINTER(c_float)()
         w, h = c_int32(), c_int32()
-        _check(lib.envl_envmap_to_layout(self._handle(), _layout(layout), int(size), byref(p),
+        _check(lib.envl_envmap_to_layout(self._handle(), layout, size, byref(p),
                                          byref(w), byref(h)))
         try:
             return _image(p, w.value, h.value)
         finally:
             lib.envl_free(p)
 
-    def lights(self, n=0, method="fit", order=2):
+    def lights(self, n=None, method="fit", order=2):
         """Directional lights standing in for the map.
 
-        n: number of lights (0 = the library's default: 16, fit 4; sun: at most n, 4); method:
-        'median', 'variance', 'fit' or 'sun' (the suns split off exactly; the residual is the
-        map less their excess); order: fit's SH remainder order (0..8), None for lights only
-        (ignored by the cuts and sun). Returns a LightsResult (a context manager)."""
+        n: number of lights, 1..32 for fit, else 1..2^24 (None = the library's default: 16, fit
+        4; sun: at most n, 4); method: 'median', 'variance', 'fit' or 'sun' (the suns split off
+        exactly; the residual is the map less their excess); order: fit's SH remainder order
+        (0..8), None for lights only (ignored by the cuts and sun). Returns a LightsResult (a
+        context manager)."""
         o = _lib.LightsOptions()
-        o.method = _enum(method, lib.envl_method_from_name, lib.envl_method_name, "method")
-        o.count = int(n or 0)
-        o.remainder_bands = _lib.ENVL_REMAINDER_NONE if order is None else int(order) + 1
+        o.method = _method(method, "Envmap.lights: method")
+        o.count = _count(n, o.method, "Envmap.lights: n")
+        if order is None:
+            o.remainder_bands = _lib.ENVL_REMAINDER_NONE
+        else:
+            o.remainder_bands = A.integer(order, "Envmap.lights: order", 0,
+                                          A.REMAINDER_MAX_ORDER, note="lights only") + 1
         h = c_void_p()
         m = self._handle()
         _check(lib.envl_lights_compute(m, byref(o), byref(h)))
@@ -453,29 +513,39 @@ class Envmap(_Handle):
         """Real SH projection of the map (order 0..32; window 'none', 'hann', 'lanczos',
         'auto'). Returns an SHResult (a context manager)."""
         o = _lib.SHOptions()
-        o.bands = int(order) + 1
-        o.window = _enum(window, lib.envl_window_from_name, lib.envl_window_name, "window")
+        o.bands = A.integer(order, "Envmap.sh: order", 0, A.SH_MAX_ORDER) + 1
+        o.window = A.enum(window, "Envmap.sh: window", lib.envl_window_from_name,
+                          lib.envl_window_name)
         h = c_void_p()
         _check(lib.envl_sh_compute(self._handle(), byref(o), byref(h)))
         return SHResult(h)
 
 
-    def _prefilter_options(self, levels=0, width=0, min_width=0, samples=0, unfiltered=False,
-                           irradiance_method="resampled", irradiance_width=0,
-                           irradiance_order=2, threads=0, sun_lights=False):
+    @staticmethod
+    def _prefilter_options(f, levels=None, width=None, min_width=None, samples=None,
+                           unfiltered=False, irradiance_method="resampled",
+                           irradiance_width=None, irradiance_order=2, threads=None,
+                           sun_lights=False):
+        """envl_prefilter_options for function f; None = the library's default (README)."""
         o = _lib.PrefilterOptions()
-        o.levels, o.width, o.min_width, o.samples = int(levels), int(width), int(min_width), \
-            int(samples)
-        o.unfiltered = 1 if unfiltered else 0
-        o.irradiance_method = _enum(irradiance_method, lib.envl_irradiance_method_from_name,
-                                    lib.envl_irradiance_method_name, "irradiance method")
-        o.irradiance_width, o.irradiance_order = int(irradiance_width), int(irradiance_order)
-        o.threads = int(threads)
-        o.sun_lights = 1 if sun_lights else 0
+        o.levels = A.integer(levels, f + ": levels", 1, A.PREFILTER_MAX_LEVELS, 0, "the default 6")
+        o.width = A.integer(width, f + ": width", 2, A.PREFILTER_MAX_WIDTH, 0, "the default 512")
+        o.min_width = A.integer(min_width, f + ": min_width", 2, A.INT32_MAX, 0, "the default 64")
+        o.samples = A.integer(samples, f + ": samples", 1, A.PREFILTER_MAX_SAMPLES, 0, "the default 64")
+        o.unfiltered = A.flag(unfiltered, f + ": unfiltered")
+        o.irradiance_method = A.enum(irradiance_method, f + ": irradiance_method",
+                                     lib.envl_irradiance_method_from_name,
+                                     lib.envl_irradiance_method_name)
+        o.irradiance_width = A.integer(irradiance_width, f + ": irradiance_width", 2,
+                                       A.PREFILTER_MAX_WIDTH, 0, "the default 64")
+        o.irradiance_order = A.integer(irradiance_order, f + ": irradiance_order", 1,
+                                       A.SH_MAX_ORDER, 0, _ORDER_0)
+        o.threads = _threads(threads, f + ": threads")
+        o.sun_lights = A.flag(sun_lights, f + ": sun_lights")
         return o
 
     def prefilter(self, roughness=None, chain=False, mirror=False, irradiance=False,
-                  diffuse=False, brdf=False, measure=False, sh_order=2, brdf_size=0,
+                  diffuse=False, brdf=False, measure=False, sh_order=2, brdf_size=None,
                   multiscatter=False, shadows=0, shadows_method="median", **options):
         """Prefiltered maps (one envl_compute request; only what is asked is computed):
         roughness: GGX roughness values (one specular level each); chain: all K levels
@@ -484,37 +554,49 @@ class Envmap(_Handle):
         sun as lights, left out of the irradiance map and glossy levels); mirror: the
         roughness-0 level; irradiance: an irradiance map; diffuse: SH irradiance of sh_order;
         brdf: the split-sum table; shadows: that many lights for shadows (shadows_method
-        'median'|'variance'|'fit'|'sun'); measure: also the glossy / diffuse errors (slow).
-        Returns Products (a context manager)."""
+        'median'|'variance'|'fit'|'sun'; 0: none); measure: also the glossy / diffuse errors
+        (slow). sh_order 1..32, brdf_size 1..4096; a None option is the library's default (see
+        _prefilter_options). Returns Products (a context manager)."""
+        f = "Envmap.prefilter"
         req = _lib.Request()
-        rough = [float(r) for r in (roughness or [])]
+        if roughness is None:
+            roughness = []
+        elif isinstance(roughness, (numbers.Number, str, bytes)):
+            raise TypeError("%s: roughness must be a sequence of numbers (one level each), "
+                            "not %s" % (f, type(roughness).__name__))
+        rough = [A.real(r, f + ": roughness", 0.0, 1.0) for r in roughness]
         keep = (c_double * max(1, len(rough)))(*rough)
-        req.n_roughness = len(rough)
+        req.n_roughness = A.integer(len(rough), f + ": len(roughness)", 0, A.INT32_MAX)
         req.roughness = keep
-        req.specular_chain = 1 if chain else 0
-        req.mirror = 1 if mirror else 0
-        req.irradiance_map = 1 if irradiance else 0
-        req.diffuse = 1 if diffuse else 0
-        req.brdf_lut = 1 if brdf else 0
-        req.measure = 1 if measure else 0
-        req.sh_order = int(sh_order)
-        req.prefilter = self._prefilter_options(**options)
-        req.shadows = 1 if shadows else 0
-        req.lights.count = int(shadows or 0)
-        req.lights.method = _enum(shadows_method, lib.envl_method_from_name, lib.envl_method_name,
-                                  "method")
-        req.brdf.size = int(brdf_size)
-        req.brdf.multiscatter = 1 if multiscatter else 0
+        req.specular_chain = A.flag(chain, f + ": chain")
+        req.mirror = A.flag(mirror, f + ": mirror")
+        req.irradiance_map = A.flag(irradiance, f + ": irradiance")
+        req.diffuse = A.flag(diffuse, f + ": diffuse")
+        req.brdf_lut = A.flag(brdf, f + ": brdf")
+        req.measure = A.flag(measure, f + ": measure")
+        req.sh_order = A.integer(sh_order, f + ": sh_order", 1, A.SH_MAX_ORDER, 0, _ORDER_0)
+        req.prefilter = self._prefilter_options(f, **options)
+        req.lights.method = _method(shadows_method, f + ": shadows_method")
+        # shadows: 0 is a real value (no lights), so no None here
+        req.lights.count = _count(shadows, req.lights.method, f + ": shadows", False, lo=0)
+        req.shadows = 1 if req.lights.count else 0
+        req.brdf.size = A.integer(brdf_size, f + ": brdf_size", 1, A.BRDF_MAX_SIZE, 0, "the default 128")
+        req.brdf.multiscatter = A.flag(multiscatter, f + ": multiscatter")
         h = c_void_p()
         _check(lib.envl_compute(self._handle(), byref(req), byref(h)))
         return Products(h)
 
-    def specular(self, roughness, width=0, **options):
-        """One prefiltered GGX specular level -> ((height, width, 3) array, stats dict)."""
-        o = self._prefilter_options(**options)
+    def specular(self, roughness, width=None, **options):
+        """One prefiltered GGX specular level (roughness 0..1; width 2..65536, None: by the
+        options' mapping) -> ((height, width, 3) array, stats dict)."""
+        f = "Envmap.specular"
+        roughness = A.real(roughness, f + ": roughness", 0.0, 1.0)
+        width = A.integer(width, f + ": width", 2, A.PREFILTER_MAX_WIDTH, 0,
+                          "by the options' mapping")
+        o = self._prefilter_options(f, **options)
         p = ctypes.POINTER(c_float)()
         st = _lib.Level()
-        _check(lib.envl_prefilter_specular(self._handle(), float(roughness), int(width), byref(o),
+        _check(lib.envl_prefilter_specular(self._handle(), roughness, width, byref(o),
                                            byref(p), byref(st)))
         try:
             return _image(p, st.width, st.height), _level_dict(st, with_rgb=False)
@@ -532,12 +614,15 @@ def _level_dict(st, with_rgb=True):
     return d
 
 
-def brdf_lut(size=0, samples=0, multiscatter=False, threads=0):
+def brdf_lut(size=None, samples=None, multiscatter=False, threads=None):
     """The split-sum BRDF table: (size, size, 2) float32 array (row j = roughness (j+0.5)/S,
-    column i = NoV (i+0.5)/S); channels (A, B), or (DFG1, DFG2) with multiscatter."""
+    column i = NoV (i+0.5)/S); channels (A, B), or (DFG1, DFG2) with multiscatter.
+    size 1..4096 (None: 128), samples 1..2^24 (None: 4096)."""
     o = _lib.BrdfOptions()
-    o.size, o.samples, o.multiscatter, o.threads = int(size), int(samples), \
-        1 if multiscatter else 0, int(threads)
+    o.size = A.integer(size, "brdf_lut: size", 1, A.BRDF_MAX_SIZE, 0, "the default 128")
+    o.samples = A.integer(samples, "brdf_lut: samples", 1, A.BRDF_MAX_SAMPLES, 0, "the default 4096")
+    o.multiscatter = A.flag(multiscatter, "brdf_lut: multiscatter")
+    o.threads = _threads(threads, "brdf_lut: threads")
     p = ctypes.POINTER(c_float)()
     n = c_int32()
     _check(lib.envl_brdf_lut(byref(o), byref(p), byref(n)))
@@ -548,10 +633,14 @@ def brdf_lut(size=0, samples=0, multiscatter=False, threads=0):
         lib.envl_free(p)
 
 
-def brdf_eval(nov, roughness, samples=0):
-    """Single-scatter (A, B) of the split sum at (NoV, roughness)."""
+def brdf_eval(nov, roughness, samples=None):
+    """Single-scatter (A, B) of the split sum at (NoV, roughness), both in [0, 1]; samples
+    1..2^24 (None: 4096)."""
+    nov = A.real(nov, "brdf_eval: nov", 0.0, 1.0)
+    roughness = A.real(roughness, "brdf_eval: roughness", 0.0, 1.0)
+    samples = A.integer(samples, "brdf_eval: samples", 1, A.BRDF_MAX_SAMPLES, 0, "the default 4096")
     ab = (c_double * 2)()
-    _check(lib.envl_brdf_eval(float(nov), float(roughness), int(samples), ab))
+    _check(lib.envl_brdf_eval(nov, roughness, samples, ab))
     return ab[0], ab[1]
 
 
@@ -600,16 +689,19 @@ class Products(_Handle):
                 self.brdf = self.brdf.reshape(n, n, 2)
 
     def find_level(self, roughness):
-        i = lib.envl_products_find_level(self._handle(), float(roughness))
+        """The level of exactly this roughness (0..1), or None."""
+        roughness = A.real(roughness, "Products.find_level: roughness", 0.0, 1.0)
+        i = lib.envl_products_find_level(self._handle(), roughness)
         return self.levels[i] if i >= 0 else None
 
     def export(self, directory, format="exr", layout="latlong"):
         """Writes the products into `directory` (with prefilter.json), all-or-nothing."""
+        d = A.path(directory, "Products.export: directory")
         o = _lib.ExportOptions()
-        o.format = format.encode() if format else None
-        o.layout = _enum(layout, lib.envl_export_layout_from_name, lib.envl_export_layout_name,
-                         "export layout")
-        _check(lib.envl_products_export(self._handle(), str(directory).encode(), byref(o)))
+        o.format = A.text(format, "Products.export: format", None)
+        o.layout = A.enum(layout, "Products.export: layout", lib.envl_export_layout_from_name,
+                          lib.envl_export_layout_name)
+        _check(lib.envl_products_export(self._handle(), d, byref(o)))
 
 
 class LightsResult(_Handle):
@@ -677,16 +769,19 @@ class LightsResult(_Handle):
 
     def irradiance(self, normals):
         """Irradiance the lights (+ remainder) predict for (N, 3) normals -> (N, 3)."""
-        n, buf = _vectors(normals)
+        n, buf = _vectors(normals, "LightsResult.irradiance: normals")
         out = (c_double * (3 * n))()
         _check(lib.envl_lights_irradiance(self._handle(), n, buf, out))
         return _rows(out, n, 3)
 
     def save_residual(self, path, format=None, half=False):
         """Writes the residual environment (.hdr, .exr, .pfm), atomically."""
-        r = self.residual
-        w, h = self._wh
-        save_image(path, r, w, h, format=format, half=half)
+        f = "LightsResult.save_residual"
+        p = A.path(path, f + ": path")
+        o = _save_options(f, format, half)
+        keep, ptr = _float_buffer(self.residual, self._wh[0], self._wh[1], 3, False)
+        _check(lib.envl_image_save(p, ptr, self._wh[0], self._wh[1], byref(o)))
+        del keep
 
 
 class SHResult(_Handle):
@@ -727,14 +822,14 @@ class SHResult(_Handle):
 
     def eval_radiance(self, directions):
         """Radiance of the (windowed) expansion in (N, 3) directions -> (N, 3)."""
-        n, buf = _vectors(directions)
+        n, buf = _vectors(directions, "SHResult.eval_radiance: directions")
         out = (c_double * (3 * n))()
         _check(lib.envl_sh_eval_radiance(self._handle(), n, buf, out))
         return _rows(out, n, 3)
 
     def eval_irradiance(self, normals):
         """Irradiance of the (windowed) expansion for (N, 3) normals -> (N, 3)."""
-        n, buf = _vectors(normals)
+        n, buf = _vectors(normals, "SHResult.eval_irradiance: normals")
         out = (c_double * (3 * n))()
         _check(lib.envl_sh_eval_irradiance(self._handle(), n, buf, out))
         return _rows(out, n, 3)

@@ -27,6 +27,18 @@ class Error(Exception):
         super().__init__("%s: %s" % (name, message))
 
 
+#: envl_result of a bad argument
+ENVL_ERR_ARGUMENT = 1
+
+
+class ArgumentError(Error, ValueError):
+    """A bad argument value (ENVL_ERR_ARGUMENT): refused by the shim before the call (see
+    _args.py) or by the library. Both an envlight.Error and a ValueError, so either catches it."""
+
+    def __init__(self, message):
+        super().__init__(ENVL_ERR_ARGUMENT, "ENVL_ERR_ARGUMENT", message)
+
+
 # ---- structure mirrors (field for field, fixed-width types, as in envlight.h) ---------------
 
 class LoadOptions(Structure):
@@ -422,7 +434,10 @@ def _str(b):
 
 
 def _check(rc):
-    """Raises Error with the library's message for every nonzero envl_result."""
+    """Raises Error with the library's message for every nonzero envl_result (ArgumentError
+    for ENVL_ERR_ARGUMENT: a bad argument is a ValueError whoever finds it)."""
+    if rc == ENVL_ERR_ARGUMENT:
+        raise ArgumentError(_str(lib.envl_last_error()))
     if rc != 0:
         raise Error(rc, _str(lib.envl_result_name(rc)), _str(lib.envl_last_error()))
     return rc
