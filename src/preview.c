@@ -1,7 +1,8 @@
 /* `envlight preview`: one picture with the lat-long map (median cut regions outlined, median cut
  * and fitted lights marked) and a grid of spheres: rows = shading (diffuse, glossy at two
  * roughness values, mirror), columns = lighting (exact reference, median cut N, fit K + SH
- * remainder, SH order 2, prefiltered maps), each with its error and seconds under it.
+ * remainder, SH order 2, prefiltered maps), each with its error and seconds under it; a cell
+ * whose method does not serve its row (preview_serves) is left empty with a note.
  *
  * Shading (README "Preview"): the camera is orthographic, looking along -v, v = the horizontal
  * direction of azimuth 45 degrees (between +X and +Y), +Z up on screen.
@@ -56,6 +57,11 @@ double preview_aces(double x)
 
 /* Reinhard et al. 2002, the simple operator: x / (1 + x). */
 double preview_reinhard(double x) { return x > 0 ? (isinf(x) ? 1 : x / (1 + x)) : 0; }
+
+static double tone_curve(int32_t tonemap, double x)
+{
+    return tonemap == PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
+}
 
 double preview_auto_exposure(const envl_envmap *map)
 {
@@ -270,9 +276,10 @@ static void free_pixels(pixels *p)
     free(p->slot);
 }
 
-/* Mirror: a source of irradiance rgb in direction d smaller than a pixel adds rgb / dW to the
- * pixel that reflects it, dW = 16 / size^2 the solid angle of R a pixel covers (orthographic
- * mirror ball: R turns twice as fast as n, dW/dA = 4 on the unit disc, pixel side 2 / size). */
+/* Mirror reference: a source of irradiance rgb in direction d smaller than a pixel adds rgb / dW
+ * to the pixel that reflects it, dW = 16 / size^2 the solid angle of R a pixel covers
+ * (orthographic mirror ball: R turns twice as fast as n, dW/dA = 4 on the unit disc, pixel
+ * side 2 / size). */
 static void deposit(const pixels *p, int32_t size, const double v[3], const double d[3],
                     const double rgb[3], double *out)
 {
@@ -428,12 +435,11 @@ static void remainder_radiance(const envl_lights *l, const double d[3], double o
     }
 }
 
-/* Lights (+ remainder) for row `row`: Oren-Nayar per light, a glossy lobe per light, or each
- * light as a disc of its solid angle for the mirror (lights smaller than min_solid_angle, a
- * pixel's, are left to deposit()). */
+/* Lights (+ remainder) for row `row` (0: Oren-Nayar per light, 1, 2: a glossy lobe per light;
+ * lights do not serve the mirror row). */
 static void shade_lights(const envl_lights *l, int row, const lobe *b,
                          const double v[3], const double n[3], const double r[3],
-                         double min_solid_angle, double out[3])
+                         double out[3])
 {
     out[0] = out[1] = out[2] = 0;
     int32_t count = envl_lights_count(l);
@@ -443,10 +449,8 @@ static void shade_lights(const envl_lights *l, int row, const lobe *b,
         double f = 0;
         if (row == 0)
             f = oren_nayar(n, v, li.direction);
-        else if (row < 3)
+        else
             f = lobe_w(b, dot3(r, li.direction)) / b->norm;
-        else if (li.solid_angle >= min_solid_angle && dot3(r, li.direction) >= cos(li.angle / 2))
-            f = 1 / li.solid_angle; /* a disc of the light's solid angle (angle = its diameter) */
         for (int k = 0; k < 3; k++)
             out[k] += f * li.rgb[k];
     }
@@ -488,6 +492,43 @@ static envl_result map_diffuse_error(envl_envmap *m, const float *rgb, int32_t w
     return ENVL_OK;
 }
 
+int preview_serves(int32_t row, int32_t col)
+{
+    if (row < 0 || row >= PREVIEW_ROWS || col < 0 || col >= PREVIEW_COLS)
+        return 0;
+    if (col == 1 || col == 2) /* lights */
+        return row < 3;
+    if (col == 3) /* SH order 2 */
+        return row == 0;
+    return 1;
+}
+
+/* e = sqrt(mean((Ya - Yr)^2)) / mean(Yr) over the disc's pixels, Y = 0.2126 T(s R) + 0.7152
+ * T(s G) + 0.0722 T(s B), s = 2^EV, T the tone curve: DESIGN.md's formula on the colours the
+ * picture shows (display-linear, before the sRGB OETF) instead of radiance.
+ * Why on the displayed values: a sun is thousands of times the sky's radiance, and where the
+ * approximation's lookup puts part of it one sphere pixel over (the mirror level is the map
+ * resampled to 512 and sampled bilinearly; the reference deposits each sun pixel whole), a
+ * radiance measure is all sun: rooitou_park's prefiltered mirror, drawn identical to the
+ * reference, measured 1516 %. On the screen both pixels are white. */
+double preview_picture_error(int32_t tonemap, double exposure_ev, int32_t count,
+                             const double *a, const double *r)
+{
+    const double scale = exp2(exposure_ev);
+    double se = 0, sr = 0;
+    for (int32_t i = 0; i < count; i++) {
+        double ya = envl_luminance(tone_curve(tonemap, scale * a[3 * i]),
+                                   tone_curve(tonemap, scale * a[3 * i + 1]),
+                                   tone_curve(tonemap, scale * a[3 * i + 2]));
+        double yr = envl_luminance(tone_curve(tonemap, scale * r[3 * i]),
+                                   tone_curve(tonemap, scale * r[3 * i + 1]),
+                                   tone_curve(tonemap, scale * r[3 * i + 2]));
+        se += (ya - yr) * (ya - yr);
+        sr += yr;
+    }
+    return count > 0 && sr > 0 ? sqrt(se / count) / (sr / count) : -1;
+}
+
 void preview_data_free(preview_data *d)
 {
     for (int r = 0; r < PREVIEW_ROWS; r++)
@@ -498,10 +539,29 @@ void preview_data_free(preview_data *d)
     memset(d, 0, sizeof *d);
 }
 
-static void note(FILE *f, const char *what, double err, double sec)
+/* One line per approximation: its name (with the count), each served row's text as the
+ * picture prints it and its seconds, and DESIGN.md's diffuse error of the product. */
+static void print_notes(FILE *f, const preview_options *o, const preview_data *d)
 {
-    if (f)
-        fprintf(f, "envlight preview: %-28s error %7.3f %%  %.4f s\n", what, 100 * err, sec);
+    for (int32_t col = 1; col < PREVIEW_COLS; col++) {
+        char h0[32], h1[32], t[32];
+        preview_column_head(d, col, 0, h0, sizeof h0);
+        preview_column_head(d, col, 1, h1, sizeof h1);
+        fprintf(f, "envlight preview: %s %s:", h0, h1);
+        for (int32_t row = 0; row < PREVIEW_ROWS; row++) {
+            if (!d->served[row][col])
+                continue;
+            preview_cell_text(o, d, row, col, 0, t, sizeof t);
+            if (row == 0)
+                fprintf(f, " diffuse %s %.3g s,", t, d->seconds[row][col]);
+            else if (row < 3)
+                fprintf(f, " glossy %.2f %s %.3g s,", o->roughness[row - 1], t,
+                        d->seconds[row][col]);
+            else
+                fprintf(f, " mirror %s %.3g s,", t, d->seconds[row][col]);
+        }
+        fprintf(f, " DESIGN.md diffuse error %.3f %%\n", 100 * d->diffuse_error[col]);
+    }
 }
 
 envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *notes,
@@ -514,9 +574,12 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
     d->size = S;
     d->view[0] = d->view[1] = sqrt(0.5);
     d->exposure_ev = o.exposure_set ? o.exposure_ev : preview_auto_exposure(map);
+    for (int c = 0; c < PREVIEW_COLS; c++)
+        d->diffuse_error[c] = -1;
     for (int r = 0; r < PREVIEW_ROWS; r++)
         for (int c = 0; c < PREVIEW_COLS; c++) {
             d->error[r][c] = -1;
+            d->served[r][c] = preview_serves(r, c);
             d->sphere[r][c] = calloc((size_t)S * S * 3, sizeof(double));
             if (!d->sphere[r][c])
                 return ENVL_ERR_MEMORY;
@@ -536,14 +599,10 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
     lobes[1] = make_lobe(o.specular, o.roughness[0]);
     lobes[2] = make_lobe(o.specular, o.roughness[1]);
     lobes[0] = lobes[1]; /* the diffuse row has no lobe; keeps the table defined */
-    /* the mirror: lights smaller than a pixel's solid angle of R are deposited */
-    const double min_solid_angle = 16.0 / ((double)S * S);
 #define STORE(row, col, src)                                                                   \
     for (int32_t q = 0; q < np; q++)                                                           \
         for (int ch = 0; ch < 3; ch++)                                                         \
             d->sphere[row][col][3 * p.index[q] + ch] = (src)[3 * q + ch]
-#define ERR(row, col)                                                                          \
-    (d->error[row][col] = envl_relative_rms_luminance(np, buf, refv))
 
     /* References. Diffuse and glossy: the split above; mirror: the full map's pixel that
      * contains R, 16 per sphere pixel. */
@@ -614,7 +673,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
             d->reference_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, e, full);
     }
 
-    /* Lights: median cut N, fit K + SH remainder. */
+    /* Lights: median cut N, fit K + SH remainder; diffuse and glossy rows. */
     for (int col = 1; col <= 2 && !rc; col++) {
         envl_lights_options lo = {.method = col == 1 ? ENVL_METHOD_MEDIAN : ENVL_METHOD_FIT,
                                   .count = col == 1 ? o.median_count : o.fit_count};
@@ -624,58 +683,36 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
             break;
         envl_lights_summary s;
         envl_lights_get_summary(*l, &s);
+        *(col == 1 ? &d->median_lights : &d->fit_lights) = envl_lights_count(*l);
         for (int row = 0; row < PREVIEW_ROWS; row++) {
+            if (!d->served[row][col])
+                continue;
             if (row == 0 && o.diffuse == PREVIEW_DIFFUSE_LAMBERT) {
                 envl_lights_irradiance(*l, np, p.n, buf);
                 for (int32_t i = 0; i < 3 * np; i++)
                     buf[i] /= PI;
-            } else if (row < 3) {
+            } else {
                 for (int32_t i = 0; i < np; i++)
                     shade_lights(*l, row, &lobes[row], d->view, p.n + 3 * i, p.r + 3 * i,
-                                 min_solid_angle, buf + 3 * i);
-            } else {
-                for (int32_t i = 0; i < 16 * np; i++)
-                    shade_lights(*l, row, NULL, d->view, NULL, p.r16 + 3 * i,
-                                 min_solid_angle, buf16 + 3 * i);
-                average16(np, buf16, buf);
-                for (int32_t i = 0; i < envl_lights_count(*l); i++) {
-                    envl_light li;
-                    envl_lights_get(*l, i, &li);
-                    if (li.solid_angle < min_solid_angle)
-                        deposit(&p, S, d->view, li.direction, li.rgb, buf);
-                }
+                                 buf + 3 * i);
             }
             STORE(row, col, buf);
             d->seconds[row][col] = s.seconds;
         }
-        if (o.diffuse == PREVIEW_DIFFUSE_LAMBERT)
-            d->error[0][col] = s.diffuse_error;
-        note(notes, col == 1 ? "median cut lights" : "fit lights + SH remainder",
-             s.diffuse_error, s.seconds);
+        d->diffuse_error[col] = s.diffuse_error;
     }
-    /* SH order 2. */
+    /* SH order 2: irradiance, so the diffuse row only (Lambert whatever the diffuse model). */
     if (!rc)
         rc = envl_sh_compute(map, &(envl_sh_options){.bands = 3}, &sh);
     if (!rc) {
         envl_sh_summary s;
         envl_sh_get_summary(sh, &s);
-        for (int row = 0; row < PREVIEW_ROWS; row++) {
-            if (row == 0) { /* irradiance only: Lambert whatever the diffuse model */
-                envl_sh_eval_irradiance(sh, np, p.n, buf);
-                for (int32_t i = 0; i < 3 * np; i++)
-                    buf[i] /= PI;
-            } else if (row < 3) {
-                envl_sh_eval_radiance(sh, np, p.r, buf);
-            } else {
-                envl_sh_eval_radiance(sh, 16 * np, p.r16, buf16);
-                average16(np, buf16, buf);
-            }
-            STORE(row, 3, buf);
-            d->seconds[row][3] = s.seconds;
-        }
-        if (o.diffuse == PREVIEW_DIFFUSE_LAMBERT)
-            d->error[0][3] = s.diffuse_error;
-        note(notes, "SH order 2", s.diffuse_error, s.seconds);
+        envl_sh_eval_irradiance(sh, np, p.n, buf);
+        for (int32_t i = 0; i < 3 * np; i++)
+            buf[i] /= PI;
+        STORE(0, 3, buf);
+        d->seconds[0][3] = s.seconds;
+        d->diffuse_error[3] = s.diffuse_error;
     }
     /* Prefiltered maps: irradiance map, the two glossy levels and the mirror level. */
     if (!rc) {
@@ -693,9 +730,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
         }
         STORE(0, 4, buf);
         d->seconds[0][4] = im.seconds;
-        if (o.diffuse == PREVIEW_DIFFUSE_LAMBERT)
-            rc = map_diffuse_error(map, im.rgb, im.width, im.height, &d->error[0][4]);
-        note(notes, "prefiltered irradiance map", d->error[0][4], im.seconds);
+        rc = map_diffuse_error(map, im.rgb, im.width, im.height, &d->diffuse_error[4]);
         for (int row = 1; row < PREVIEW_ROWS && !rc; row++) {
             envl_level lv;
             int32_t k = envl_products_find_level(pre, row < 3 ? o.roughness[row - 1] : 0);
@@ -715,28 +750,29 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
             d->seconds[row][4] = lv.seconds;
         }
     }
-    /* Errors of the other spheres: relative RMS of luminance over the sphere's pixels against
-     * the reference sphere of the row. */
+    /* The error under each served sphere: preview_picture_error against the row's reference
+     * (the formula is in preview.h). */
     for (int row = 0; row < PREVIEW_ROWS && !rc; row++) {
         for (int32_t q = 0; q < np; q++)
             for (int k = 0; k < 3; k++)
                 refv[3 * q + k] = d->sphere[row][0][3 * p.index[q] + k];
         for (int col = 1; col < PREVIEW_COLS; col++) {
-            if (d->error[row][col] >= 0)
+            if (!d->served[row][col])
                 continue;
             for (int32_t q = 0; q < np; q++)
                 for (int k = 0; k < 3; k++)
                     buf[3 * q + k] = d->sphere[row][col][3 * p.index[q] + k];
-            ERR(row, col);
+            d->error[row][col] = preview_picture_error(o.tonemap, d->exposure_ev, np, buf, refv);
         }
     }
 #undef STORE
-#undef ERR
-    if (!rc && notes)
+    if (!rc && notes) {
+        print_notes(notes, &o, d);
         fprintf(notes, "envlight preview: references on a %d-wide copy + %d points (diffuse %.4f %% from the "
                 "full map, DESIGN.md's measure): %.3f, %.3f, %.3f s; mirror %.3f s\n",
                 envl_envmap_width(rm), (int)sp.count, 100 * d->reference_error, d->seconds[0][0],
                 d->seconds[1][0], d->seconds[2][0], d->seconds[3][0]);
+    }
     free_pixels(&p);
     free(dirs);
     free(buf);
@@ -781,10 +817,7 @@ static void text_centred(canvas *cv, int32_t cx, int32_t y, const char *s, const
     text(cv, cx - text_width(s) / 2, y, s, c);
 }
 
-static double tone(const preview_options *o, double x)
-{
-    return o->tonemap == PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
-}
+static double tone(const preview_options *o, double x) { return tone_curve(o->tonemap, x); }
 
 /* Marks on the map (x wraps around the seam): map pixel (x, y) at canvas (x0 + x, y0 + y). */
 typedef struct mapview {
@@ -864,9 +897,35 @@ static void outline_regions(const mapview *m, const envl_lights *l, int32_t mw, 
     }
 }
 
-static void format_error(char *s, size_t n, double e)
+void preview_column_head(const preview_data *d, int32_t col, int32_t line, char *s, size_t n)
 {
-    if (!(e >= 0) || !isfinite(e))
+    int32_t k = col == 1 ? d->median_lights : d->fit_lights;
+    const char *plural = k == 1 ? "" : "s";
+    if (col == 1 && line == 1)
+        snprintf(s, n, "%d light%s", (int)k, plural);
+    else if (col == 2 && line == 0)
+        snprintf(s, n, "fit %d light%s", (int)k, plural);
+    else {
+        static const char *const heads[PREVIEW_COLS][2] = {
+            {"reference", "(exact)"}, {"median cut", ""}, {"", "+ SH order 2"},
+            {"SH", "order 2"}, {"prefiltered", "maps"}};
+        snprintf(s, n, "%s", col >= 0 && col < PREVIEW_COLS ? heads[col][line != 0] : "");
+    }
+}
+
+void preview_cell_text(const preview_options *o, const preview_data *d, int32_t row,
+                       int32_t col, int32_t line, char *s, size_t n)
+{
+    double e = d->error[row][col];
+    if (col == 0)
+        snprintf(s, n, "%s", line ? "" : row == 0 && o->diffuse == PREVIEW_DIFFUSE_LAMBERT
+                                              ? "exact E/pi" : "brute force");
+    else if (!d->served[row][col])
+        snprintf(s, n, "%s", col == 3 ? (line ? "diffuse only" : "SH:")
+                                      : (line ? "no mirror" : "lights:"));
+    else if (line)
+        snprintf(s, n, "%s", "");
+    else if (!(e >= 0) || !isfinite(e))
         snprintf(s, n, "err n/a");
     else
         snprintf(s, n, e < 0.1 ? "err %.2f%%" : "err %.1f%%", 100 * e);
@@ -884,7 +943,8 @@ envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
         return ENVL_ERR_MEMORY;
     static const float bg[3] = {0.012f, 0.012f, 0.012f}, white[3] = {1, 1, 1},
                        grey[3] = {0.45f, 0.45f, 0.45f}, cyan[3] = {0, 0.75f, 0.75f},
-                       yellow[3] = {1, 1, 0}, magenta[3] = {1, 0.2f, 1};
+                       yellow[3] = {1, 1, 0}, magenta[3] = {1, 0.2f, 1},
+                       dim[3] = {0.08f, 0.08f, 0.08f};
     for (size_t i = 0; i < (size_t)L.w * L.h; i++)
         memcpy(cv.px + 3 * i, bg, sizeof bg);
     const double scale = exp2(d->exposure_ev);
@@ -921,28 +981,26 @@ envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
     if (d->fit)
         mark_lights(&mv, d->fit, 1, magenta);
     int32_t x = MARGIN;
-    snprintf(s, sizeof s, "median cut %d: regions", (int)o.median_count);
+    char h[32];
+    snprintf(s, sizeof s, "median cut %d: regions", (int)d->median_lights);
     text(&cv, x, L.legend_y, s, cyan);
     x += text_width(s) + 12;
     text(&cv, x, L.legend_y, "+ lights", yellow);
     x += text_width("+ lights") + 12;
-    snprintf(s, sizeof s, "o fit %d lights", (int)o.fit_count);
+    preview_column_head(d, 2, 0, h, sizeof h);
+    snprintf(s, sizeof s, "o %s", h);
     text(&cv, x, L.legend_y, s, magenta);
     x += text_width(s) + 12;
     if (x + text_width("(marker size ~ strength)") < L.w - MARGIN)
         text(&cv, x, L.legend_y, "(marker size ~ strength)", grey);
 
     /* Column headers, row labels, spheres and their numbers. */
-    char h1[32], h2[32];
-    snprintf(h1, sizeof h1, "%d lights", (int)o.median_count);
-    snprintf(h2, sizeof h2, "fit %d lights", (int)o.fit_count);
-    const char *heads[PREVIEW_COLS][2] = {{"reference", "(exact)"}, {"median cut", h1},
-                                          {h2, "+ SH order 2"}, {"SH", "order 2"},
-                                          {"prefiltered", "maps"}};
     for (int c = 0; c < PREVIEW_COLS; c++)
-        for (int k = 0; k < 2; k++)
-            text_centred(&cv, LABEL_W + c * L.cell_w + L.cell_w / 2, L.header_y + 10 * k,
-                         heads[c][k], white);
+        for (int k = 0; k < 2; k++) {
+            preview_column_head(d, c, k, h, sizeof h);
+            text_centred(&cv, LABEL_W + c * L.cell_w + L.cell_w / 2, L.header_y + 10 * k, h,
+                         white);
+        }
     const char *spec = o.specular == PREVIEW_SPECULAR_GGX ? "GGX" : "Blinn-Phong";
     for (int r = 0; r < PREVIEW_ROWS; r++) {
         int32_t x0, y0;
@@ -960,6 +1018,24 @@ envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
         text(&cv, MARGIN, y0 + S / 2 + 8, l3, grey);
         for (int c = 0; c < PREVIEW_COLS; c++) {
             preview_sphere_origin(S, r, c, &x0, &y0);
+            int32_t cx = x0 + S / 2;
+            if (!d->served[r][c]) { /* the disc's rim, dim, and what the method is for */
+                for (int32_t j = 0; j < S; j++)
+                    for (int32_t i = 0; i < S; i++) {
+                        double n[3];
+                        if (preview_sphere_normal(S, d->view, i, j, n) &&
+                            (!preview_sphere_normal(S, d->view, i - 1, j, n) ||
+                             !preview_sphere_normal(S, d->view, i + 1, j, n) ||
+                             !preview_sphere_normal(S, d->view, i, j - 1, n) ||
+                             !preview_sphere_normal(S, d->view, i, j + 1, n)))
+                            put(&cv, x0 + i, y0 + j, dim);
+                    }
+                for (int k = 0; k < 2; k++) {
+                    preview_cell_text(&o, d, r, c, k, s, sizeof s);
+                    text_centred(&cv, cx, y0 + S / 2 - 9 + 11 * k, s, grey);
+                }
+                continue;
+            }
             const double *sph = d->sphere[r][c];
             for (int32_t j = 0; j < S; j++)
                 for (int32_t i = 0; i < S; i++) {
@@ -971,12 +1047,7 @@ envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
                         col[k] = (float)tone(&o, scale * sph[3 * ((size_t)j * S + i) + k]);
                     put(&cv, x0 + i, y0 + j, col);
                 }
-            int32_t cx = x0 + S / 2;
-            if (c == 0)
-                snprintf(s, sizeof s, "%s", r == 0 && o.diffuse == PREVIEW_DIFFUSE_LAMBERT
-                                                ? "exact E/pi" : "brute force");
-            else
-                format_error(s, sizeof s, d->error[r][c]);
+            preview_cell_text(&o, d, r, c, 0, s, sizeof s);
             text_centred(&cv, cx, y0 + S + 4, s, c == 0 ? grey : white);
             snprintf(s, sizeof s, "%.3g s", d->seconds[r][c]);
             text_centred(&cv, cx, y0 + S + 14, s, grey);

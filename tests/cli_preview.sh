@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # envlight preview: the PNG decodes (python3 zlib: IHDR, IDAT, every row's filter byte) at the
-# documented size, the shading options run, usage errors exit 2, bad input exits 1 naming the
-# file, and a failed run leaves an existing output untouched.
+# documented size, the shading options run, stderr's notes carry the picture's texts and the
+# counts the methods returned, usage errors exit 2, bad input exits 1 naming the file, and a
+# failed run leaves an existing output untouched.
 . "$(dirname "$0")/clitest.sh"
 
 # png FILE SPHERE: a valid 8-bit RGB PNG of 88 + 5 (S + 24) x 66 + (W - 16) / 2 + 4 (S + 28)
@@ -38,9 +39,26 @@ empty out.txt
 run "$ENVLIGHT" preview - -o b.png $S --sphere-size 64 --tonemap reinhard --exposure -1 \
   --diffuse oren-nayar --specular blinn-phong --roughness 0.3,0.7 -n 8 -k 2
 png b.png 64
-# notes on stderr without --quiet: one line per approximation with its error and seconds
-run "$ENVLIGHT" preview - -o c.png --sky-width 128 --reference-width 64 --sphere-size 48
-has err.txt "median cut lights .*error .*%"
+# Notes on stderr without --quiet, printed once all is computed: one line per approximation
+# with the picture's texts (the count the method returned, "err X%" under each sphere it
+# serves) and DESIGN.md's diffuse error, which is the number `lights --json` reports. The fit
+# returns 2 lights on this sky where -k asks 4 (README "Lights"); --diffuse oren-nayar once
+# printed the irradiance map's error as -100 % before it was set.
+json_count_error() { "$ENVLIGHT" lights - --sky-width 128 --quiet --json "$@" | python3 -c '
+import json, sys; j = json.load(sys.stdin); print(j["count"], "%.3f" % (100 * j["error"]["diffuse"]))'; }
+read -r fit_n fit_e <<<"$(json_count_error --method fit -n 4)"
+read -r med_n med_e <<<"$(json_count_error -n 16)"
+checks=$((checks + 1)); [ "${fit_n:-4}" -lt 4 ] || fail "the fit returned ${fit_n:-?} lights: no test of the count"
+run "$ENVLIGHT" preview - -o c.png --sky-width 128 --reference-width 64 --sphere-size 48 \
+  --diffuse oren-nayar -k 4
+has err.txt "^envlight preview: median cut $med_n lights: diffuse err [0-9.]*% .*, glossy 0.50 err [0-9.]*% [^,]*, DESIGN.md diffuse error $med_e %$"
+has err.txt "^envlight preview: fit $fit_n lights + SH order 2: diffuse err [0-9.]*% .*, DESIGN.md diffuse error $fit_e %$"
+has err.txt "^envlight preview: SH order 2: diffuse err [0-9.]*% [^,]*, DESIGN.md diffuse error [0-9.]* %$"
+has err.txt "^envlight preview: prefiltered maps: diffuse err [0-9.]*% .*, mirror err [0-9.]*% [^,]*, DESIGN.md"
+hasnt err.txt "lights.*mirror err"
+hasnt err.txt "^envlight preview: SH order 2:.*glossy"
+hasnt err.txt "error *-"
+hasnt err.txt "n/a"
 has err.txt "wrote c.png"
 
 # Usage errors: exit 2.

@@ -1,6 +1,9 @@
 /* envlight preview (src/preview.c): the tone curves and the sRGB encoding against their
- * formulas, the picture's size, a constant map rendering every reference sphere at L, and a
- * one-bright-pixel map lighting the spheres brightest where n points at it. */
+ * formulas, the picture's size, a constant map rendering every reference sphere at L, a
+ * one-bright-pixel map lighting the spheres brightest where n points at it; what the picture
+ * tells: each method only in the rows it serves, the light counts the methods returned, the
+ * error on the displayed values (bounded for a sun in the mirror), and stderr's notes holding
+ * the picture's own texts. */
 #include "internal.h"
 #include "check.h"
 #include "preview.h"
@@ -169,6 +172,177 @@ static void test_one_bright_pixel(void)
     envl_envmap_free(m);
 }
 
+/* preview.h's picture error written out: display luminance of each pixel, then DESIGN.md's
+ * relative RMS over the disc's pixels. */
+static double shown_y(const preview_options *o, double ev, const double *p)
+{
+    double d[3];
+    for (int k = 0; k < 3; k++) {
+        double x = exp2(ev) * p[k];
+        d[k] = o->tonemap == PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
+    }
+    return 0.2126 * d[0] + 0.7152 * d[1] + 0.0722 * d[2];
+}
+
+static double picture_error(const preview_options *o, const preview_data *d, int row, int col)
+{
+    const int32_t S = d->size;
+    double se = 0, sr = 0;
+    int n = 0;
+    for (int32_t j = 0; j < S; j++)
+        for (int32_t i = 0; i < S; i++) {
+            double nn[3];
+            if (!preview_sphere_normal(S, d->view, i, j, nn))
+                continue;
+            size_t at = 3 * ((size_t)j * S + i);
+            double ya = shown_y(o, d->exposure_ev, d->sphere[row][col] + at);
+            double yr = shown_y(o, d->exposure_ev, d->sphere[row][0] + at);
+            se += (ya - yr) * (ya - yr);
+            sr += yr;
+            n++;
+        }
+    return sqrt(se / n) / (sr / n);
+}
+
+/* Which cells are drawn: the reference and the prefiltered maps everywhere, lights in the
+ * diffuse and glossy rows, SH in the diffuse row. A cell not served holds no sphere and no
+ * error, and the picture leaves its disc empty (background) with the note in its middle; every
+ * served cell's error is the formula above (same sums, so equal to rounding). */
+static void check_cells(const preview_options *o, const envl_envmap *m, const preview_data *d)
+{
+    static const int served[PREVIEW_ROWS][PREVIEW_COLS] = {
+        {1, 1, 1, 1, 1}, {1, 1, 1, 0, 1}, {1, 1, 1, 0, 1}, {1, 0, 0, 0, 1}};
+    const int32_t S = d->size;
+    float *rgb = NULL;
+    int32_t w, h;
+    CHECK_OK(preview_compose(m, o, d, &rgb, &w, &h));
+    for (int r = 0; r < PREVIEW_ROWS; r++)
+        for (int c = 0; c < PREVIEW_COLS; c++) {
+            CHECK(preview_serves(r, c) == served[r][c] && d->served[r][c] == served[r][c]);
+            if (c == 0)
+                continue;
+            if (served[r][c]) {
+                CHECK_NEAR(d->error[r][c], picture_error(o, d, r, c), 1e-12);
+                continue;
+            }
+            CHECK(d->error[r][c] == -1);
+            int lit = 0;
+            for (int32_t i = 0; i < 3 * S * S; i++)
+                lit += d->sphere[r][c][i] != 0;
+            CHECK(lit == 0);
+            int32_t x0, y0;
+            preview_sphere_origin(S, r, c, &x0, &y0);
+            const float *px = rgb ? rgb + 3 * ((size_t)(y0 + S / 6) * w + x0 + S / 2) : NULL;
+            CHECK(px && px[0] == 0.012f && px[1] == 0.012f && px[2] == 0.012f);
+            char t0[32], t1[32];
+            preview_cell_text(o, d, r, c, 0, t0, sizeof t0);
+            preview_cell_text(o, d, r, c, 1, t1, sizeof t1);
+            CHECK(!strcmp(t0, c == 3 ? "SH:" : "lights:"));
+            CHECK(!strcmp(t1, c == 3 ? "diffuse only" : "no mirror"));
+        }
+    free(rgb);
+}
+
+/* A sun in the mirror. Constant sky L = 1 (128 x 64) and one pixel of 10^4 at (47, 31), whose
+ * reflection lands near the ball's centre (it is 0.035 rad from v, 0.4 sphere pixel). The
+ * reference deposits that pixel's L dw whole into the sphere pixel reflecting its centre; the
+ * prefiltered mirror level (the map area-resampled to 512: each map pixel 4 x 4 texels) spreads
+ * it over the bilinear support of those texels, 5 texels = 0.061 rad, looked up at 16 points
+ * per sphere pixel. Near the centre R turns by 2 / sqrt(1 - r^2) >= 2 times the screen offset,
+ * so a sphere pixel spans >= 2 (2 / S) = 0.083 rad of R > 0.061: the sun region, the zeroed
+ * pixel of the reference's rest and the deposit meet at most 2 x 2 sphere pixels. Everywhere
+ * else both spheres are L (the level's area weights: float rounding, 1e-6). So with displayed
+ * luminance Y in [0, 1] (Reinhard, EV 0: Y(L) = 0.5), the error is at most
+ * sqrt((4 + N (1e-6)^2) / N) / (0.5 (N - 4) / N) over the N disc pixels. (The radiance measure
+ * gave thousands of percent here: the sun's pixel is ~3500 where the sky is 1.) */
+static void test_mirror_sun(void)
+{
+    const int32_t W = 128, H = 64, S = 48;
+    float *px = malloc(sizeof(float) * W * H * 3);
+    for (int i = 0; i < W * H * 3; i++)
+        px[i] = 1;
+    for (int k = 0; k < 3; k++)
+        px[3 * (31 * W + 47) + k] = 1e4f;
+    envl_envmap *m = map_from(px, W, H);
+    free(px);
+    preview_options o = {.sphere_size = S, .tonemap = PREVIEW_TONEMAP_REINHARD,
+                         .exposure_set = 1, .exposure_ev = 0, .median_count = 4,
+                         .fit_count = 1, .reference_width = 64};
+    preview_data d;
+    CHECK_OK(preview_compute(m, &o, NULL, &d));
+    int n = 0;
+    for (int32_t j = 0; j < S; j++)
+        for (int32_t i = 0; i < S; i++) {
+            double nn[3];
+            n += preview_sphere_normal(S, d.view, i, j, nn);
+        }
+    double bound = sqrt((4 + n * 1e-12) / n) / (0.5 * (n - 4) / n);
+    CHECK(d.error[3][4] >= 0 && d.error[3][4] <= bound);
+    check_cells(&o, m, &d);
+    preview_data_free(&d);
+    envl_envmap_free(m);
+}
+
+/* The built-in sky at 128 wide, -k 4, --diffuse oren-nayar: the fit stops at fewer lights
+ * (README "Lights"), and the header, the legend's count and stderr say how many it returned;
+ * stderr's notes are printed once everything is computed and hold, per column, the very texts
+ * under its spheres (no -100 % for an error not yet set) and DESIGN.md's diffuse error. */
+static void test_counts_and_notes(void)
+{
+    envl_envmap *m = NULL;
+    CHECK_OK(envl_envmap_sky(&(envl_sky_options){.width = 128}, &m));
+    preview_options o = {.sphere_size = 48, .fit_count = 4, .median_count = 8,
+                         .reference_width = 64, .diffuse = PREVIEW_DIFFUSE_OREN_NAYAR};
+    const char *path = tmp_path("preview_notes.txt");
+    FILE *f = fopen(path, "w+");
+    CHECK(f != NULL);
+    preview_data d;
+    CHECK_OK(preview_compute(m, &o, f, &d));
+    char notes[8192] = "";
+    if (f) {
+        rewind(f);
+        notes[fread(notes, 1, sizeof notes - 1, f)] = 0;
+        fclose(f);
+    }
+    CHECK(d.fit_lights == envl_lights_count(d.fit) && d.fit_lights < 4);
+    CHECK(d.median_lights == envl_lights_count(d.median) && d.median_lights == 8);
+    char h[32], want[64];
+    preview_column_head(&d, 2, 0, h, sizeof h);
+    snprintf(want, sizeof want, "fit %d light%s", (int)d.fit_lights, d.fit_lights == 1 ? "" : "s");
+    CHECK(!strcmp(h, want));
+    preview_column_head(&d, 1, 1, h, sizeof h);
+    CHECK(!strcmp(h, "8 lights"));
+    preview_defaults(&o);
+    for (int c = 1; c < PREVIEW_COLS; c++) {
+        char h0[32], h1[32], head[96], t[32], cell[96];
+        preview_column_head(&d, c, 0, h0, sizeof h0);
+        preview_column_head(&d, c, 1, h1, sizeof h1);
+        snprintf(head, sizeof head, "envlight preview: %s %s:", h0, h1);
+        const char *line = strstr(notes, head), *end = line ? strchr(line, '\n') : NULL;
+        CHECK(line && end);
+        if (!line || !end)
+            continue;
+        char buf[1024];
+        snprintf(buf, sizeof buf, "%.*s", (int)(end - line), line);
+        for (int r = 0; r < PREVIEW_ROWS; r++) {
+            preview_cell_text(&o, &d, r, c, 0, t, sizeof t);
+            if (r == 0)
+                snprintf(cell, sizeof cell, " diffuse %s ", t);
+            else if (r < 3)
+                snprintf(cell, sizeof cell, " glossy %.2f %s ", o.roughness[r - 1], t);
+            else
+                snprintf(cell, sizeof cell, " mirror %s ", t);
+            CHECK((strstr(buf, cell) != NULL) == (d.served[r][c] != 0));
+        }
+        CHECK(d.diffuse_error[c] >= 0);
+        snprintf(cell, sizeof cell, "DESIGN.md diffuse error %.3f %%", 100 * d.diffuse_error[c]);
+        CHECK(strstr(buf, cell) != NULL);
+    }
+    CHECK(!strstr(notes, "-100") && !strstr(notes, "n/a"));
+    preview_data_free(&d);
+    envl_envmap_free(m);
+}
+
 int main(void)
 {
     mkdir(ENVL_TEST_TMP, 0777);
@@ -177,5 +351,7 @@ int main(void)
     test_layout();
     test_constant_map();
     test_one_bright_pixel();
+    test_mirror_sun();
+    test_counts_and_notes();
     return check_report("test_preview");
 }
