@@ -608,6 +608,8 @@ int cli_pov(int argc, char **argv)
         ground = -1;
         ground_from = NULL;
     }
+    if (!cli_light_count_ok("pov", &lo)) /* the method is known now (given or the recipe's) */
+        return CLI_USAGE;
     if (lo.method == ENVL_METHOD_FIT)
         lo.remainder_bands = (ambient == AMB_NONE && !order_set) || order < 0
                                  ? ENVL_REMAINDER_NONE

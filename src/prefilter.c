@@ -1395,6 +1395,58 @@ static envl_result add_pending(exporter *x, const char *name, char **tmp_out)
     return ENVL_OK;
 }
 
+/* All temporaries complete: renames each over its target as one step for the folder. Each
+ * existing target is first hard-linked to a backup (TMP-old), so that when a rename fails
+ * half-way the targets already replaced get their old files back (a target that did not exist
+ * is removed again) and the folder is as it was; the backups go on success. On a file system
+ * without hard links (EPERM, ENOTSUP) a replaced file cannot be undone and is left new. */
+static envl_result put_in_place(exporter *x)
+{
+    enum { NEW_FILE, KEPT, NOT_KEPT };
+    char **old = calloc((size_t)x->n, sizeof *old);
+    int *state = calloc((size_t)x->n, sizeof *state);
+    envl_result rc = old && state ? ENVL_OK : envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    for (int32_t i = 0; i < x->n && !rc; i++) {
+        if (access(x->files[i].final, F_OK) != 0)
+            continue; /* NEW_FILE */
+        size_t ln = strlen(x->files[i].tmp) + 8;
+        if (!(old[i] = malloc(ln))) {
+            rc = envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+            break;
+        }
+        snprintf(old[i], ln, "%s-old", x->files[i].tmp);
+        if (!envl__io_fault() && link(x->files[i].final, old[i]) == 0) {
+            state[i] = KEPT;
+        } else if (errno == EPERM || errno == ENOTSUP || errno == EOPNOTSUPP) {
+            state[i] = NOT_KEPT;
+        } else {
+            rc = envl__fail(ENVL_ERR_IO, "%s: cannot keep the old file while replacing it: %s",
+                            x->files[i].final, strerror(errno));
+        }
+    }
+    int32_t done = 0; /* renamed into place */
+    while (!rc && done < x->n) {
+        if (envl__io_fault() || rename(x->files[done].tmp, x->files[done].final) != 0)
+            rc = envl__fail(ENVL_ERR_IO, "%s: cannot rename into place: %s",
+                            x->files[done].final, strerror(errno));
+        else
+            done++;
+    }
+    for (int32_t i = 0; state && i < x->n; i++) {
+        if (rc && i < done && state[i] == KEPT)
+            rename(old[i], x->files[i].final); /* undo: the old file back */
+        else if (rc && i < done && state[i] == NEW_FILE)
+            unlink(x->files[i].final);         /* undo: no file where there was none */
+        else if (state[i] == KEPT)
+            unlink(old[i]);
+        if (old)
+            free(old[i]);
+    }
+    free(old);
+    free(state);
+    return rc;
+}
+
 /* Writes one RGB image under `name` (extension added) into a temporary file. */
 static envl_result put_image(exporter *x, const char *stem, const float *rgb, int32_t w,
                              int32_t h)
@@ -1658,13 +1710,8 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
             rc = envl_file_write_atomic(tmp, x.json_buf, x.json_size);
     }
     free(x.json_buf);
-    /* All complete: rename every temporary over its target; else remove them all. */
+    rc = rc ? rc : put_in_place(&x);
     for (int32_t i = 0; i < x.n; i++) {
-        if (!rc) {
-            if (rename(x.files[i].tmp, x.files[i].final) != 0)
-                rc = envl__fail(ENVL_ERR_IO, "%s: cannot rename into place: %s",
-                                x.files[i].final, strerror(errno));
-        }
         if (rc)
             unlink(x.files[i].tmp);
         free(x.files[i].tmp);

@@ -57,6 +57,13 @@ for args in "-n 64 --method fit" "--method fit -n 33" "--method=fit --count 40";
   has err.txt "fit takes 1..32 lights"
   empty out.txt
 done
+# pov: the method given, or the custom recipe's fit (its default when -n alone is given)
+for args in "-n 64 --method fit" "-n 40"; do
+  expect 2 "pov $args" -- $T "$ENVLIGHT" pov - $args -o p.inc "${S[@]}"
+  has err.txt "fit takes 1..32 lights"
+  [ ! -e p.inc ] || fail "pov $args wrote p.inc"
+done
+expect 0 "pov median with 64 lights" -- $T "$ENVLIGHT" pov - -n 64 --method median -o p.inc "${S[@]}"
 expect 0 "fit with 32 lights" -- $T "$ENVLIGHT" lights - -n 32 --method fit "${S[@]}"
 expect 0 "median with 64 lights" -- $T "$ENVLIGHT" lights - -n 64 --method median "${S[@]}"
 
