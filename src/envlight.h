@@ -189,7 +189,8 @@ ENVL_API envl_result envl_file_write_atomic(const char *path, const void *data, 
 /* E(n) = sum over pixels of L dw max(0, n.d), in double, for `count` unit normals. */
 ENVL_API envl_result envl_irradiance_exact(const envl_envmap *map, int32_t count,
                                            const double *normals, double *rgb_out);
-/* The i-th of n points of the Fibonacci sphere (the error measure uses n = 1024). */
+/* The i-th of n points of the Fibonacci sphere (the error measure uses n = 1024); (0, 0, 0)
+ * unless 0 <= i < n. */
 ENVL_API void envl_fibonacci_direction(int32_t i, int32_t n, double direction[3]);
 #define ENVL_ERROR_NORMALS 1024
 /* Relative RMS of luminance: sqrt(mean((Ya - Ye)^2)) / mean(|Ye|) over `count` values. */
@@ -331,7 +332,7 @@ ENVL_API envl_result envl_sh_eval_irradiance(const envl_sh *sh, int32_t count,
                                              const double *normals, double *rgb_out);
 /* The basis itself: y[l (l+1) + m] = Y_lm(d) for l = 0..order. */
 ENVL_API void envl_sh_basis(int32_t order, const double direction[3], double *y);
-ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l */
+ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l; 0 for l < 0 (no such band) */
 
 /* ---- prefiltered maps, the split-sum BRDF table, requests (prefilter.c, brdf.c, png.c) ------
  * Conventions (README "Prefiltered maps"; DESIGN.md): every map is a lat-long image in the

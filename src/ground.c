@@ -15,6 +15,7 @@
  * stays exact. Left out: the scene's own objects (their shadows on the plane, occlusion near a
  * contact point) and the plane's finite size. */
 #include "envlight.h"
+#include "internal.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -58,7 +59,7 @@ envl_result envl_ground_plane_map(const envl_envmap *map, double albedo, int32_t
 {
     *out = NULL;
     if (!(albedo >= 0 && albedo <= 1))
-        return ENVL_ERR_ARGUMENT; /* the caller checks and names it */
+        return envl__fail(ENVL_ERR_ARGUMENT, "ground plane: albedo %g is not in 0..1", albedo);
     const double up[3] = {0, 0, 1};
     double e_up[3], ground[3];
     envl_result rc = envl_irradiance_exact(map, 1, up, e_up);

@@ -214,6 +214,10 @@ envl_result envl_irradiance_exact(const envl_envmap *m, int32_t count, const dou
 /* Fibonacci sphere: z_i = 1 - (2i + 1)/n, phi_i = 2 pi i / golden ratio. */
 void envl_fibonacci_direction(int32_t i, int32_t n, double d[3])
 {
+    if (n < 1 || i < 0 || i >= n) { /* no such point (n = 0 divided by zero) */
+        d[0] = d[1] = d[2] = 0.0;
+        return;
+    }
     const double golden = (1.0 + sqrt(5.0)) / 2.0;
     double z = 1.0 - (2.0 * i + 1.0) / n;
     double r = sqrt(fmax(0.0, 1.0 - z * z));

@@ -62,6 +62,8 @@ void envl_sh_eval(int32_t order, const double d[3], double *y)
  * A_l = 2 pi (-1)^(l/2 - 1) / ((l + 2)(l - 1)) * l! / (2^l ((l/2)!)^2). */
 double envl_sh_cosine_factor(int32_t l)
 {
+    if (l < 0) /* no such band ((l / 2 - 1) below would make A_-2 infinite) */
+        return 0.0;
     if (l == 0)
         return ENVL_SH_PI;
     if (l == 1)

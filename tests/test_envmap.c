@@ -173,6 +173,10 @@ static void test_arguments(void)
     /* 1x1 and 2x1 lat-long maps: the whole sphere in one or two pixels. */
     CHECK_OK(envl_envmap_from_pixels(px, 1, 1, 3, &(envl_load_options){.layout = 1}, &m));
     CHECK_REL(envl_envmap_solid_angle(m, 0), 4 * PI, 1e-12);
+    /* a bad albedo names itself (the message of an earlier failure used to show) */
+    envl_envmap *g = (envl_envmap *)1;
+    CHECK_RC(envl_ground_plane_map(m, 1.5, 1, &g, NULL), ENVL_ERR_ARGUMENT);
+    CHECK(g == NULL && strstr(envl_last_error(), "albedo 1.5") != NULL);
     envl_envmap_free(m);
 }
 

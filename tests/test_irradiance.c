@@ -91,6 +91,13 @@ static void test_fibonacci(void)
     /* z_i = 1 - (2i+1)/n sums to exactly 0; x, y sums are bounded by the golden-angle
      * equidistribution (small compared with n). */
     CHECK_NEAR(sum[2], 0, 1e-9);
+    /* no such point: i outside 0..n-1, or n < 1 (n = 0 divided by zero) */
+    const int32_t bad[4][2] = {{0, 0}, {0, -3}, {-1, 8}, {8, 8}};
+    for (int b = 0; b < 4; b++) {
+        double d[3] = {9, 9, 9};
+        envl_fibonacci_direction(bad[b][0], bad[b][1], d);
+        CHECK(d[0] == 0 && d[1] == 0 && d[2] == 0);
+    }
     CHECK_NEAR(sum[0] / 1024, 0, 0.01);
     CHECK_NEAR(sum[1] / 1024, 0, 0.01);
     /* mean of z^2 over the midpoints (2i+1)/n - 1: exactly 1/3 - 1/(3 n^2) */

@@ -54,6 +54,8 @@ static void test_cosine_lobe(void)
     CHECK_NEAR(envl_sh_cosine_lobe(4), -PI / 24, 1e-15);
     CHECK_NEAR(envl_sh_cosine_lobe(5), 0, 0);
     CHECK_NEAR(envl_sh_cosine_lobe(6), PI / 64, 1e-15);
+    /* no band below 0 (A_-2 was infinite, A_-1 0 by the odd rule) */
+    CHECK(envl_sh_cosine_lobe(-1) == 0 && envl_sh_cosine_lobe(-2) == 0);
 }
 
 static envl_envmap *constant_map(int w, int h, float v)
