@@ -107,6 +107,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     envl__io_fail_at = 0;
     bool failed = envl__io_calls >= step; /* the step was reached, so it failed */
+    /* .hdr refuses, before any write step, a pixel RGBE cannot hold (NaN, Inf, >= 2^127, < 0) */
+    bool unholdable = false;
+    for (size_t i = 0; kind == W_HDR && i < n; i++)
+        unholdable |= !(rgb[i] >= 0.0f && rgb[i] < 0x1p127f);
     free(rgb);
 
     uint8_t *now = NULL;
@@ -114,7 +118,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     bool unchanged = !envl__read_file(path, 1 << 24, &now, &now_size) &&
                      now_size == sizeof old - 1 && !memcmp(now, old, now_size);
     free(now);
-    if (failed) {
+    if (unholdable) {
+        check(rc == ENVL_ERR_NONFINITE && envl__io_calls == 0,
+              ".hdr must refuse what RGBE cannot hold before writing", kind, step);
+        check(unchanged, "the old file changed", kind, step);
+    } else if (failed) {
         const char *msg = envl_last_error();
         check(rc == ENVL_ERR_IO, "a failed write step must give ENVL_ERR_IO", kind, step);
         check(strstr(msg, path) == msg, "the message must name the file first", kind, step);

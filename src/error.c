@@ -49,6 +49,15 @@ envl_result envl__fail_prefix(envl_result code, const char *prefix)
     return code;
 }
 
+envl_result envl__fail_as(envl_result code, const char *name, const char *tmp)
+{
+    size_t t = strlen(tmp);
+    if (strncmp(last_error, tmp, t) || strncmp(last_error + t, ": ", 2))
+        return envl__fail_prefix(code, name);
+    memmove(last_error, last_error + t + 2, strlen(last_error + t + 2) + 1);
+    return envl__fail_prefix(code, name);
+}
+
 int32_t envl_abi_version(void) { return ENVL_ABI_VERSION; }
 
 const char *envl_version_string(void) { return ENVL_VERSION_STRING; }

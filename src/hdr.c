@@ -652,7 +652,8 @@ envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
  * mantissas = channel * (frac * 256 / d) truncated, exponent byte e + 128. Decoding with
  * (m + 0.5) 2^(E - 136) then errs by at most half a mantissa step, 2^(e-9) <= 2^-8 d.
  * Negative and NaN channels are written as 0; +Inf and values whose exponent would not fit
- * (max >= 2^127) are clamped to the largest RGBE value (mantissa 255, exponent byte 255). */
+ * (max >= 2^127) are clamped to the largest RGBE value (mantissa 255, exponent byte 255).
+ * envl_image_save refuses such pixels before it gets here (imageio.c, rgbe_holds). */
 static void float_to_rgbe(const float *c, uint8_t out[4])
 {
     double v[3];

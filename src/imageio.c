@@ -82,6 +82,20 @@ static const char *extension_format(const char *path)
     return NULL;
 }
 
+/* Radiance RGBE holds 0 and positive values below 2^127 (exponent byte e + 128 <= 255): a NaN,
+ * an infinity, a larger value or a negative one would be written as 0 or clamped, so the save
+ * is refused instead, naming the first such pixel (DESIGN.md: nothing written silently). */
+static envl_result rgbe_holds(const char *path, const float *rgb, int32_t w, int32_t h)
+{
+    for (size_t i = 0; i < (size_t)w * (size_t)h * 3; i++)
+        if (!(rgb[i] >= 0.0f && rgb[i] < 0x1p127f))
+            return envl__fail(ENVL_ERR_NONFINITE, "%s: pixel (%d, %d) has %g, which a Radiance "
+                              ".hdr cannot hold (0 <= value < 2^127): nothing written (.exr or "
+                              ".pfm hold it)", path, (int)(i / 3 % (size_t)w),
+                              (int)(i / 3 / (size_t)w), (double)rgb[i]);
+    return ENVL_OK;
+}
+
 envl_result envl_image_save(const char *path, const float *rgb, int32_t width, int32_t height,
                             const envl_save_options *options)
 {
@@ -96,6 +110,8 @@ envl_result envl_image_save(const char *path, const float *rgb, int32_t width, i
         return envl__fail(ENVL_ERR_ARGUMENT, "%s: unknown format '%s'", path, fmt);
     char *tmp;
     envl_result rc = envl__format_built(path, fmt);
+    if (!rc && !strcmp(fmt, "hdr"))
+        rc = rgbe_holds(path, rgb, width, height);
     if (!rc)
         rc = envl__atomic_begin(path, &tmp);
     if (rc)
@@ -111,7 +127,7 @@ envl_result envl_image_save(const char *path, const float *rgb, int32_t width, i
         rc = envl__write_pfm(tmp, rgb, width, height);
     if (rc) {
         /* Messages from the writers name the temporary file; name the target instead. */
-        envl__fail_prefix(rc, path);
+        envl__fail_as(rc, path, tmp);
         envl__atomic_end(path, tmp, false);
         return rc;
     }

@@ -35,6 +35,9 @@ envl_result envl__fail(envl_result code, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 /* Prefixes the current message with "prefix: " (e.g. the file name) and returns `code`. */
 envl_result envl__fail_prefix(envl_result code, const char *prefix);
+/* The message is about `name`, written through the temporary file `tmp`: a leading "tmp: "
+ * becomes "name: ", else "name: " is prefixed. Returns `code`. */
+envl_result envl__fail_as(envl_result code, const char *name, const char *tmp);
 
 /* ---- images as read from files (image.c) ---- */
 /* What a file said about itself, beyond its pixels. */

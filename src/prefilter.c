@@ -1461,7 +1461,7 @@ static envl_result put_image(exporter *x, const char *stem, const float *rgb, in
     else
         rc = envl_image_save(tmp, rgb, w, h, &(envl_save_options){.format = x->format});
     if (rc)
-        envl__fail_prefix(rc, x->files[x->n - 1].final);
+        envl__fail_as(rc, x->files[x->n - 1].final, tmp);
     return rc;
 }
 
@@ -1687,9 +1687,10 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
             char name[64], *tmp;
             snprintf(name, sizeof name, "brdf_lut.%s", x.format);
             rc = add_pending(&x, name, &tmp);
-            if (!rc)
-                rc = rgbm ? envl_png_save_srgb(tmp, rgb, s, s)
-                          : envl_image_save(tmp, rgb, s, s, &(envl_save_options){.format = fmt});
+            if (!rc &&
+                (rc = rgbm ? envl_png_save_srgb(tmp, rgb, s, s)
+                           : envl_image_save(tmp, rgb, s, s, &(envl_save_options){.format = fmt})))
+                envl__fail_as(rc, x.files[x.n - 1].final, tmp);
             free(rgb);
         }
         fprintf(j, " \"brdf_lut\": {\"file\": \"brdf_lut.%s\", \"size\": %d, \"samples\": %d, "
@@ -1706,8 +1707,8 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
     if (!rc) {
         char *tmp;
         rc = add_pending(&x, "prefilter.json", &tmp);
-        if (!rc)
-            rc = envl_file_write_atomic(tmp, x.json_buf, x.json_size);
+        if (!rc && (rc = envl_file_write_atomic(tmp, x.json_buf, x.json_size)))
+            envl__fail_as(rc, x.files[x.n - 1].final, tmp);
     }
     free(x.json_buf);
     rc = rc ? rc : put_in_place(&x);

@@ -836,6 +836,31 @@ static void stats(const envl_image *img, int *finite_nonneg, double *mn, double 
 }
 
 /* Size each header claims, and a fact from ../shared/data/README.md per file. */
+/* envl_image_save refuses, as .hdr, what RGBE cannot hold (the writer would clamp or zero it):
+ * nothing written, an existing file kept, the pixel named. */
+static void test_save_refuses(void)
+{
+    const char *path = tmp_path("refused.hdr");
+    float good[6] = {1, 2, 3, 4, 5, 6};
+    CHECK_OK(envl_image_save(path, good, 2, 1, NULL));
+    uint8_t *before, *after;
+    size_t nb, na;
+    CHECK_OK(envl__read_file(path, 1 << 20, &before, &nb));
+    const float bad[] = {0x1p127f, INFINITY, NAN, -1.0f};
+    for (int b = 0; b < 4; b++) {
+        float px[6] = {1, 2, 3, 4, 5, 6};
+        px[4] = bad[b]; /* pixel (1, 0) */
+        CHECK_RC(envl_image_save(path, px, 2, 1, NULL), ENVL_ERR_NONFINITE);
+        CHECK(strstr(envl_last_error(), path) && strstr(envl_last_error(), "pixel (1, 0)"));
+        CHECK_OK(envl__read_file(path, 1 << 20, &after, &na));
+        CHECK(na == nb && !memcmp(before, after, nb));
+        free(after);
+    }
+    free(before);
+    float edge[3] = {0, 0x1p127f * 0.99f, 0}; /* the largest RGBE exponent still holds it */
+    CHECK_OK(envl_image_save(path, edge, 1, 1, NULL));
+}
+
 static void test_real_files(void)
 {
     static const struct {
@@ -1006,6 +1031,7 @@ int main(void)
     test_mixed();
     test_malformed();
     test_round_trip();
+    test_save_refuses();
     test_real_files();
     test_threads();
     return check_report("test_hdr");

@@ -91,6 +91,7 @@ static void test_writer(int kind, const float *rgb, int32_t w, int32_t h)
         const char *msg = envl_last_error();
         CHECK_RC(rc, ENVL_ERR_IO);
         CHECK(strstr(msg, path) == msg);  /* names the target first */
+        CHECK(!strstr(msg, ".tmp-"));     /* and not the temporary file as well */
         CHECK(strstr(msg, "No space left on device") != NULL);
         size_t size = 0;
         uint8_t *now = slurp(path, &size);
@@ -204,6 +205,7 @@ static void test_export(const char *format)
         const char *msg = envl_last_error();
         CHECK_RC(rc, ENVL_ERR_IO);
         CHECK(strstr(msg, dir) == msg);
+        CHECK(!strstr(msg, ".tmp-") && !strstr(msg, "/.envl-")); /* the file, not its temporary */
         CHECK(strstr(msg, "No space left on device") != NULL);
         take(dir, &now);
         CHECK(same(&old, &now)); /* also: no temporary file */
@@ -233,7 +235,8 @@ int main(void)
 {
     CHECK(envl__io_fail_at == 0); /* off unless a test sets it */
     /* 37 x 40: three 16-line ZIP chunks in EXR, RLE scanlines in Radiance; values over the
-     * range a map holds, with a negative, a NaN and an infinity (the writers clamp or keep). */
+     * range a map holds, with a negative, a NaN and an infinity (EXR and PFM keep them, PNG
+     * clamps them, .hdr refuses them). */
     enum { W = 37, H = 40 };
     static float rgb[W * H * 3];
     for (int i = 0; i < W * H * 3; i++)
@@ -241,8 +244,12 @@ int main(void)
     rgb[5] = -2.0f;
     rgb[7] = NAN;
     rgb[11] = INFINITY;
+    /* .hdr refuses those three (test_hdr): its copy holds 0, 1e30 and 0 there */
+    static float rgbe_ok[W * H * 3];
+    memcpy(rgbe_ok, rgb, sizeof rgb);
+    rgbe_ok[5] = 0.0f, rgbe_ok[7] = 1e30f, rgbe_ok[11] = 0.0f;
     for (int k = 0; k < W_COUNT; k++)
-        test_writer(k, rgb, W, H);
+        test_writer(k, strcmp(kind_ext[k], "hdr") ? rgb : rgbe_ok, W, H);
     test_export("exr");
     test_export("rgbm-png");
     return check_report("test_writers");
