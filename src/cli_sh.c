@@ -27,6 +27,22 @@ static void coef_array(json_writer *j, const char *key, const double *c, int n)
     json_array_end(j);
 }
 
+/* The hemispheric ends of the unconstrained linear fit, ambient +- deltas . axis (fit[0] sky,
+ * fit[1] ground), and which of them the library clamped to 0 (a channel below 0). */
+static void hemi_plain_fit(const envl_sh_summary *s, double fit[2][3], int clamped[2])
+{
+    clamped[0] = clamped[1] = 0;
+    for (int ch = 0; ch < 3; ch++) {
+        double c1 = 0;
+        for (int a = 0; a < 3; a++)
+            c1 += s->deltas[a][ch] * s->hemi_axis[a];
+        fit[0][ch] = s->ambient[ch] + c1;
+        fit[1][ch] = s->ambient[ch] - c1;
+        clamped[0] |= fit[0][ch] < 0;
+        clamped[1] |= fit[1][ch] < 0;
+    }
+}
+
 /* What a user must know about negative light: an expansion that goes negative (window none,
  * hann, lanczos) and a hemispheric end clamped to 0 (auto's width is in the output). */
 static void report_negative(const cli_common *c, const envl_sh *sh, const envl_sh_summary *s,
@@ -46,18 +62,9 @@ static void report_negative(const cli_common *c, const envl_sh *sh, const envl_s
         cli_error("%s: warning: the SH irradiance (window %s) is negative over part of the "
                   "sphere (least %.6g in a channel); --window auto avoids it", file,
                   envl_window_name(s->window), least);
-    /* sky, ground of the unconstrained linear fit: ambient +- deltas . axis */
     double fit[2][3];
-    int clamped[2] = {0, 0};
-    for (int ch = 0; ch < 3; ch++) {
-        double c1 = 0;
-        for (int a = 0; a < 3; a++)
-            c1 += s->deltas[a][ch] * s->hemi_axis[a];
-        fit[0][ch] = s->ambient[ch] + c1;
-        fit[1][ch] = s->ambient[ch] - c1;
-        clamped[0] |= fit[0][ch] < 0;
-        clamped[1] |= fit[1][ch] < 0;
-    }
+    int clamped[2];
+    hemi_plain_fit(s, fit, clamped);
     for (int end = 0; end < 2; end++)
         if (clamped[end])
             cli_error("%s: hemispheric %s: the plain linear fit gives %.6g %.6g %.6g; written as "
@@ -147,6 +154,15 @@ int cli_sh(int argc, char **argv)
             json_numbers(&j, "axis", s.hemi_axis, 3);
             json_numbers(&j, "sky", s.hemi_sky, 3);
             json_numbers(&j, "ground", s.hemi_ground, 3);
+            /* how negative light was handled: the ends the plain fit took below 0, set to 0 */
+            double fit[2][3];
+            int clamped[2];
+            hemi_plain_fit(&s, fit, clamped);
+            json_string(&j, "fit", "least squares over the sphere with sky, ground >= 0");
+            json_string(&j, "clamped", clamped[0] && clamped[1] ? "sky and ground"
+                                       : clamped[0]              ? "sky"
+                                       : clamped[1]              ? "ground"
+                                                                 : "none");
             json_object_end(&j);
             json_object(&j, "error");
             json_number(&j, "diffuse", s.diffuse_error);

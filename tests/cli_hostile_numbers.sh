@@ -70,7 +70,7 @@ run "$ENVLIGHT" sh - --sky-width 64 --json
 python3 - <<'PY' || fail "sh built-in sky: hemispheric ground"
 import json
 h = json.load(open("out.txt"))["hemispheric"]
-assert h["ground"] == [0, 0, 0] and min(h["sky"]) > 0, h
+assert h["ground"] == [0, 0, 0] and min(h["sky"]) > 0 and h["clamped"] == "ground", h
 PY
 has err.txt "hemispheric ground: the plain linear fit gives -1.13"
 
