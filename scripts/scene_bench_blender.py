@@ -39,6 +39,15 @@ import subprocess
 import sys
 import time
 
+# --help (after "--" under Blender, or as usual under python3) prints the above and ends here:
+# scripts/scene_bench.py --host blender is the command to run.
+if __name__ == "__main__" and {"-h", "--help"} & set(
+        sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]):
+    print("usage: blender -b --factory-startup --python %s -- SPEC.json\n(run by "
+          "scripts/scene_bench.py --host blender)\n\n%s"
+          % ("scripts/" + os.path.basename(__file__), __doc__))
+    sys.exit(0)
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
@@ -73,7 +82,8 @@ RECIPES = {
                       shadows="SOFT", ground_mode="AUTO", suns=True),
     "picked": dict(read_scene=True),
     # EEVEE-Next (Blender 4.2+): the plain HDR world and what the add-on picks there, against
-    # the same Cycles reference
+    # the same Cycles reference (scene.py's read_scene: eevee-residual[-ground], the 4 lamps
+    # fitted with an order-1 SH remainder, EEVEE_ORDER, as EEVEE's world diffuse is L1)
     "hdr-eevee": None,
     "picked-eevee": dict(read_scene=True),
 }

@@ -687,7 +687,15 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step):
     residual = sh_coeffs = None
     used = rest
     if plan.ground_albedo is not None and plan.camera_only:
-        used, _ = rest.ground_plane(plan.ground_albedo)
+        used, _ = env.ground_plane(plan.ground_albedo)
+        if rest is not env:
+            # the lower half is the bounce of the whole map's light, the suns' too (their lamps
+            # light the ground, whose bounce EEVEE does not trace): the map over the ground
+            # less the suns (above the horizon) = rest above, the whole bounce below. With
+            # rest's own bounce the sun's was lost: scene (a), sky, matte -19.6 %
+            px = np.maximum(used.pixels() - (env.pixels() - rest.pixels()), 0.0)
+            used.close()
+            used = pkg.from_pixels(px, layout="latlong")
     elif plan.ground_albedo is not None:
         used = rest.sky_hemisphere()
     try:
@@ -768,7 +776,8 @@ def create_lights(context, settings, progress=None):
     # after a cut. Over a ground, everything from the map as the scene sees it: its lower half
     # the ground's bounce (envlight.Envmap.ground_plane), so no light is put where the ground
     # hides it ----
-    order = settings.order if method == "fit" and mode in ("RESIDUAL", "SH") else None
+    order = plan.order if plan.order is not None else settings.order
+    order = order if method == "fit" and mode in ("RESIDUAL", "SH") else None
     residual = None
     sh_coeffs = None
     sh_figures = {}
