@@ -263,6 +263,8 @@ def plot(result, out_dir, host, family):
         if r["scene"] != "a" or r["error"] is None or r["seconds"] <= 0:
             continue
         fam = "default (picked)" if r["picked"] else family(r["recipe"])
+        if fam is None:   # not a lighting (the host's family says)
+            continue
         series.setdefault(fam, []).append((r["seconds"], max(100 * r["error"], 1e-3)))
     refs = [(m, e["reference"]["cpu_seconds"]["a"]) for m, e in result["maps"].items()
             if "a" in e["reference"].get("cpu_seconds", {})]

@@ -86,6 +86,9 @@ RECIPES = {
     # fitted with an order-1 SH remainder, EEVEE_ORDER, as EEVEE's world diffuse is L1)
     "hdr-eevee": None,
     "picked-eevee": dict(read_scene=True),
+    # not a recipe: the plain HDR world with max bounces 0, the direct light at the first hit
+    # alone. Its noise against the HDR world's gives the direct-light ceiling (direct_ceiling)
+    "hdr-direct": None,
 }
 EEVEE = ("hdr-eevee", "picked-eevee")
 EEVEE_SPP = 64
@@ -93,7 +96,8 @@ QUICK_RECIPES = ["hdr", "picked"]
 
 
 def family(recipe):
-    return recipe
+    """The plot's series of a recipe; None: not drawn (hdr-direct is not a lighting)."""
+    return None if recipe == "hdr-direct" else recipe
 
 
 def default_maps(data_dir):
@@ -126,6 +130,12 @@ def describe(result):
         "sqrt(2) x the recipe's floor), time from the 1-sample and %d-sample renders "
         "(scripts/scene_bench_blender.py)" % (rs["recipe_spp"], rs["recipe_spp"],
                                               100 * rs["target_error"], rs["recipe_spp"]),
+        "- hdr-direct (not a lighting): the HDR world with max bounces 0, the direct light at "
+        "the first hit alone. With the HDR world's noise n and its noise d, the direct-light "
+        "ceiling n^2 / (n^2 - d^2) is what a recipe gains that makes that direct light "
+        "noiseless and leaves the other paths as they are (time to an error goes as the "
+        "variance): where it is under %gx, no such recipe meets the goal. An estimate: a "
+        "recipe also changes the light sampled at later bounces" % TARGET_SPEEDUP,
         "- goal: the picked recipe >= %gx sooner than the HDR world in Cycles on every map and "
         "scene, no object's mean off by more than %.0f %%; in EEVEE-Next within %.0f %% of the "
         "Cycles reference on scene (a) (EEVEE: %d samples, one render, CPU time of the "
@@ -148,8 +158,10 @@ def target_row(r):
             100 * worst[1])
     ok_s = r["speedup"] is not None and r["speedup"] >= TARGET_SPEEDUP
     ok_b = abs(worst[1]) <= TARGET_BIAS
-    return ok_s and ok_b, "(%s) %s: %.1fx %s, worst bias %s %+.2f %% %s" % (
+    ceiling = r.get("direct_ceiling")
+    return ok_s and ok_b, "(%s) %s: %.1fx %s%s, worst bias %s %+.2f %% %s" % (
         r["scene"], r["picked_as"], r["speedup"] or 0.0, "ok" if ok_s else "short",
+        "" if ceiling is None else " (direct-light ceiling %.1fx)" % ceiling,
         worst[0], 100 * worst[1], "ok" if ok_b else "over")
 
 
@@ -172,6 +184,11 @@ def report_lines(result, checks):
                 r = by.get((m, sc, k))
                 if r is None:
                     cells.append("-")
+                    continue
+                if k == "hdr-direct":   # not a lighting: its noise and the ceiling it gives
+                    cells.append("noise %.1f / ceiling %s" % (
+                        100 * r["noise"], "-" if r.get("direct_ceiling") is None
+                        else "%.1fx" % r["direct_ceiling"]))
                     continue
                 wk, wb = max(r["biases"].items(), key=lambda kv: abs(kv[1]))
                 cells.append("%.1f / %.1f / %s %+.1f / %s%s" % (
@@ -203,14 +220,27 @@ def time_to(run, e, floor=None):
     return run["one_sample_seconds"] + max(per, 0.0) * (s - 1)
 
 
+def direct_ceiling(hdr, direct):
+    """The most a recipe can gain that makes the direct light at the first hit noiseless and
+    leaves every other path as the HDR world's: variance falls as 1 / samples, so the time to
+    an error scales with the variance, and the HDR world's variance n^2 splits into the direct
+    light's d^2 (hdr-direct's noise, max bounces 0) and the rest's n^2 - d^2 (independent
+    samples): ceiling = n^2 / (n^2 - d^2). An estimate, not a bound: a recipe also changes how
+    the light is sampled at later bounces (where it beats the ceiling, that is where)."""
+    n2, d2 = hdr["noise"] ** 2, direct["noise"] ** 2
+    return n2 / (n2 - d2) if n2 > d2 else math.inf
+
+
 def speedups(runs):
     """Each row's speedup against the `hdr` row of the same scene: t_hdr(E) / t(E) at
     E = max(TARGET_E, sqrt(2) floor). The HDR world is the reference's own estimator, so its
     floor is 0 by construction (what the measure shows there is noise it underestimates:
-    fireflies)."""
+    fireflies). With an hdr-direct row, every row gets the scene's direct_ceiling."""
     base = next((r for r in runs if r["recipe"] == "hdr"), None)
+    direct = next((r for r in runs if r["recipe"] == "hdr-direct"), None)
     for run in runs:
-        if base is None:
+        run["direct_ceiling"] = direct_ceiling(base, direct) if base and direct else None
+        if base is None or run is direct:
             run["speedup"] = None
             continue
         e = max(TARGET_E, math.sqrt(2) * run["floor"]) if run is not base else TARGET_E
@@ -488,6 +518,7 @@ def _in_blender():
             continue   # EEVEE-Next is Blender 4.2+; its goal is on scene (a) (a render costs
             #            ~20 CPU s on llvmpipe here)
         scene.render.engine = "BLENDER_EEVEE_NEXT" if eevee else "CYCLES"
+        cy.max_bounces = 0 if recipe == "hdr-direct" else 4   # the direct light alone
         scene.world = world
         bpy.ops.envlight.remove()
         report, picked_as = "", None
