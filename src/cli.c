@@ -1,6 +1,7 @@
 /* envlight: the command-line tool. Dispatches to the subcommands (cli_*.c) and holds the
  * option handling they share. */
 #include "cli.h"
+#include "escape.h"
 
 #include <errno.h>
 #include <stdarg.h>
@@ -9,22 +10,24 @@
 
 void cli_error(const char *fmt, ...)
 {
+    char msg[2048]; /* formatted first: a file name's control characters shown as \xHH */
     va_list ap;
     va_start(ap, fmt);
-    fputs("envlight: ", stderr);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
+    vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
+    escape_controls(msg, sizeof msg);
+    fprintf(stderr, "envlight: %s\n", msg);
 }
 
 int cli_usage(const char *command, const char *fmt, ...)
 {
+    char msg[2048]; /* as cli_error: control characters shown as \xHH */
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "envlight %s: ", command);
-    vfprintf(stderr, fmt, ap);
-    fprintf(stderr, "\n(see 'envlight %s --help')\n", command);
+    vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
+    escape_controls(msg, sizeof msg);
+    fprintf(stderr, "envlight %s: %s\n(see 'envlight %s --help')\n", command, msg, command);
     return CLI_USAGE;
 }
 

@@ -1,5 +1,6 @@
 /* Result codes, their names, and the thread's last error message. */
 #include "internal.h"
+#include "escape.h"
 
 #include <stdarg.h>
 #include <stdio.h>
@@ -30,6 +31,7 @@ envl_result envl__fail(envl_result code, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(last_error, sizeof last_error, fmt, ap);
     va_end(ap);
+    escape_controls(last_error, sizeof last_error);
     return code;
 }
 

@@ -59,6 +59,7 @@ for args in "-n 64 --method fit" "--method fit -n 33" "--method=fit --count 40";
 done
 # pov: the method given, or the custom recipe's fit (its default when -n alone is given)
 for args in "-n 64 --method fit" "-n 40"; do
+  rm -f p.inc
   expect 2 "pov $args" -- $T "$ENVLIGHT" pov - $args -o p.inc "${S[@]}"
   has err.txt "fit takes 1..32 lights"
   [ ! -e p.inc ] || fail "pov $args wrote p.inc"
@@ -105,6 +106,21 @@ checks=$((checks + 1))
 printf 'PF\n1 1\n%s\n' "$(printf 'x%.0s' $(seq 60))" > long.pfm && head -c 12 /dev/zero >> long.pfm
 expect 1 "PFM scale, long" -- $T "$ENVLIGHT" info long.pfm
 has err.txt "PFM scale 'xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx...' must be a non-zero number"
+# every message shows control characters as \xHH: a file name's (the library's message and the
+# command line's own), a .hdr FORMAT line's
+ESC=$'e\x1b[2Jx\ny.hdr'
+expect 1 "a file name with an escape sequence" -- $T "$ENVLIGHT" info "$ESC"
+has err.txt 'e\\x1b\[2Jx\\x0ay.hdr'
+checks=$((checks + 1))
+! LC_ALL=C grep -q $'[\x01-\x09\x0b-\x1f\x7f]' err.txt || fail "raw control bytes on stderr"
+expect 2 "a usage error naming an escape sequence" -- $T "$ENVLIGHT" info --layout-in "$ESC"
+checks=$((checks + 1))
+! LC_ALL=C grep -q $'[\x01-\x09\x0b-\x1f\x7f]' err.txt || fail "raw control bytes on stderr"
+printf '#?RADIANCE\nFORMAT=\033[2J\007\n\n-Y 1 +X 1\n' > fmt.hdr && head -c 4 /dev/zero >> fmt.hdr
+expect 1 ".hdr FORMAT with escapes" -- $T "$ENVLIGHT" info fmt.hdr
+has err.txt "header line 2 contains the binary byte 0x1b"
+checks=$((checks + 1))
+! LC_ALL=C grep -q $'[\x01-\x09\x0b-\x1f\x7f]' err.txt || fail "raw control bytes on stderr"
 
 # ---- the "read as layout" note: only when the guess is uncertain
 note="read as layout"
