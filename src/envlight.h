@@ -39,7 +39,7 @@ typedef int32_t envl_result;
     X(ENVL_ERR_UNSUPPORTED, 4, "unsupported file variant")                                     \
     X(ENVL_ERR_LIMIT, 5, "exceeds a configured limit")                                         \
     X(ENVL_ERR_MEMORY, 6, "out of memory")                                                     \
-    X(ENVL_ERR_NONFINITE, 7, "non-finite or negative values: pixels (strict mode), a result that overflows, a pixel a format cannot hold")
+    X(ENVL_ERR_NONFINITE, 7, "non-finite, overflowing or negative values where none may be")
 #define ENVL_RESULT_ENUM_(name, value, text) name = value,
 enum { ENVL_RESULT_TABLE(ENVL_RESULT_ENUM_) };
 #undef ENVL_RESULT_ENUM_
