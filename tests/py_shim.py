@@ -382,6 +382,13 @@ def test_sh_of_a_constant_map():
             assert sh.window_factors == [1.0, 1.0, 1.0]
         with env.sh(4, window="hann") as sh4:
             assert sh4.summary["window"] == "hann" and sh4.radiance.shape == (25, 3)
+    # the default window is auto, as `envlight sh`'s: never negative (a spike over a dim map
+    # rings below 0 without a window)
+    px = np.full((32, 64, 3), 0.01, np.float32)
+    px[10, 20] = 1e4
+    with envlight.from_pixels(px) as env, env.sh(2) as auto, env.sh(2, window="none") as plain:
+        assert auto.summary["window"] == "auto" and auto.summary["min_irradiance"] >= 0
+        assert plain.summary["min_irradiance"] < 0
     y = envlight.sh_basis(2, (0, 0, 1))
     assert y[0] == pytest.approx(0.282095, abs=1e-6) and y[2] == pytest.approx(0.488603, abs=1e-6)
     assert envlight.cosine_lobe(2) == pytest.approx(math.pi / 4)

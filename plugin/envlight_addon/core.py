@@ -712,7 +712,8 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step):
                 if res.remainder is not None:
                     sh_coeffs = np.asarray(res.remainder_radiance) * strength
                 else:
-                    with pkg.from_pixels(res.residual) as rmap, rmap.sh(2) as sh:
+                    # the plain expansion: the world's clamp at 0 handles (and reports) negatives
+                    with pkg.from_pixels(res.residual) as rmap, rmap.sh(2, window="none") as sh:
                         sh_coeffs = np.asarray(sh.radiance) * strength
     finally:
         for m in {id(used): used, id(rest): rest}.values():

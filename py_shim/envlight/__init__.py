@@ -509,9 +509,11 @@ class Envmap(_Handle):
         # the residual has the map's size (the lights object does not export it)
         return LightsResult(h, lib.envl_envmap_width(m), lib.envl_envmap_height(m))
 
-    def sh(self, order=2, window="none"):
-        """Real SH projection of the map (order 0..32; window 'none', 'hann', 'lanczos',
-        'auto'). Returns an SHResult (a context manager)."""
+    def sh(self, order=2, window="auto"):
+        """Real SH projection of the map (order 0..32; window 'auto', the default as in
+        `envlight sh`: the least windowing that keeps the irradiance non-negative in every
+        channel; 'none' (can go negative: summary["min_irradiance"] says), 'hann', 'lanczos').
+        Returns an SHResult (a context manager)."""
         o = _lib.SHOptions()
         o.bands = A.integer(order, "Envmap.sh: order", 0, A.SH_MAX_ORDER) + 1
         o.window = A.enum(window, "Envmap.sh: window", lib.envl_window_from_name,
