@@ -201,6 +201,14 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
         rc = envl__fail(ENVL_ERR_ARGUMENT, "%s: width %d must be positive", file, (int)o->width);
         goto fail;
     }
+    /* the width asked for makes a W x W/2 map: max_pixels bounds it as it bounds a file */
+    int64_t max_px = o->max_pixels > 0 ? o->max_pixels : ENVL_DEFAULT_MAX_PIXELS;
+    if (o->width > 0 && (int64_t)o->width * (o->width > 1 ? o->width / 2 : 1) > max_px) {
+        rc = envl__fail(ENVL_ERR_LIMIT, "%s: width %d makes a %d x %d map: more than max_pixels "
+                        "%lld", file, (int)o->width, (int)o->width, (int)(o->width / 2),
+                        (long long)max_px);
+        goto fail;
+    }
 
     if (layout == ENVL_LAYOUT_LATLONG) {
         int32_t w = o->width ? o->width : img->width;
@@ -213,8 +221,10 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
         } else {
             rc = envl__latlong_resample(img->px, img->width, img->height, w, h,
                                         o->rotate_degrees, &m->px);
-            if (rc)
+            if (rc) {
+                envl__fail_prefix(rc, file);
                 goto fail;
+            }
         }
         m->width = w;
         m->height = h;

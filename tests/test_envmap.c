@@ -163,6 +163,17 @@ static void test_arguments(void)
     CHECK_RC(envl_envmap_from_pixels(px, 0, 1, 3, NULL, &m), ENVL_ERR_FORMAT);
     envl_load_options o = {.max_pixels = 100};
     CHECK_RC(envl_envmap_from_pixels(px, 1000, 1000, 3, &o, &m), ENVL_ERR_LIMIT);
+    /* a width whose W x W/2 map is over max_pixels: refused before any allocation (40000
+     * wide was 9.6 GB), with the default limit 2^28 too */
+    CHECK_RC(envl_envmap_from_pixels(px, 1, 1, 3, &(envl_load_options){.width = 40000}, &m),
+             ENVL_ERR_LIMIT);
+    CHECK(strstr(envl_last_error(), "width 40000 makes a 40000 x 20000 map") != NULL);
+    CHECK_RC(envl_envmap_from_pixels(px, 1, 1, 3, &(envl_load_options){.width = 20,
+                                                                       .max_pixels = 199}, &m),
+             ENVL_ERR_LIMIT);
+    CHECK_OK(envl_envmap_from_pixels(px, 1, 1, 3, &(envl_load_options){.width = 20,
+                                                                       .max_pixels = 200}, &m));
+    envl_envmap_free(m);
     CHECK_RC(envl_envmap_load("/nonexistent/x.hdr", NULL, &m), ENVL_ERR_IO);
     CHECK(strstr(envl_last_error(), "/nonexistent/x.hdr") != NULL);
     CHECK_RC(envl_envmap_load("/", NULL, &m), ENVL_ERR_IO);
