@@ -118,9 +118,17 @@ def check():
     return r
 
 
+# Preferences > Get Extensions > Install from Disk runs this operator (its file browser
+# sets filepath; enable_on_install is the dialog's "Enable Add-on" box)
+zip_path = os.environ.get("ENVL_INSTALL_FROM_DISK")
+if zip_path:
+    installed = sorted(bpy.ops.extensions.package_install_files(
+        filepath=zip_path, repo="user_default", enable_on_install=True))
 # the installed library first: built on Debian 12, it must load in Debian 13 (issue 14)
 r = load_error(os.path.join(bpy.utils.user_resource("EXTENSIONS", path="user_default"),
                             "envlight", "lib", "libenvlight.so.1")) or check()
+if zip_path:
+    r["install_from_disk"] = installed
 with open(out, "w") as f:
     json.dump(r, f)
 '''
@@ -275,6 +283,39 @@ def test_install_file_enable_and_run_in_blender_4(addon_zip):
     assert r["world_property"] and r["operator"], r
     assert r["shim_file"] == os.path.join(ext, "envlight", "__init__.py"), r
     assert r["library_path"] == os.path.join(ext, "lib", "libenvlight.so.1"), r
+    assert r["operator_result"] == ["FINISHED"], (r, p.stderr[-2000:])
+    assert r["suns"] >= 1 and r["residual_images"], r
+    assert not r["global_envlight_imported"], r
+
+
+def test_install_from_disk_in_blender_4(addon_zip):
+    """Preferences > Get Extensions > Install from Disk (the operator its button runs,
+    extensions.package_install_files, with "Enable Add-on" ticked) in a fresh user folder:
+    installed into user_default, enabled at once, and Create Lights runs from the extension's
+    own library."""
+    path, _ = addon_zip
+    folder = os.path.join(TMP, "b4_disk")
+    work = os.path.join(folder, "work")
+    broken = os.path.join(folder, "broken")
+    os.makedirs(os.path.join(broken, "envlight"))
+    os.makedirs(work)
+    with open(os.path.join(broken, "envlight", "__init__.py"), "w") as f:
+        f.write('raise ImportError("the global envlight package must not be used")\n')
+    script = os.path.join(folder, "check.py")
+    with open(script, "w") as f:
+        f.write(CHECK % {"module": MODULE})
+    env = dict(blender_env(folder), ENVL_INSTALL_FROM_DISK=path)
+    out = os.path.join(folder, "result.json")
+    p = run([BLENDER4, "-b", "--python-exit-code", "1", "--python", script, "--", out, broken,
+             work], env=env)
+    with open(out) as f:
+        r = json.load(f)
+    print(json.dumps(r, indent=1))
+    assert r["install_from_disk"] == ["FINISHED"], (r, p.stdout[-2000:])
+    assert "load_error" not in r, r
+    assert r["extension_dir"].endswith("/extensions/user_default/envlight"), r
+    assert r["enabled_at_start"] and r["enabled"], r   # enabled by the install itself
+    assert r["library_path"] == os.path.join(r["extension_dir"], "lib", "libenvlight.so.1"), r
     assert r["operator_result"] == ["FINISHED"], (r, p.stderr[-2000:])
     assert r["suns"] >= 1 and r["residual_images"], r
     assert not r["global_envlight_imported"], r
