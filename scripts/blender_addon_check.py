@@ -285,6 +285,49 @@ def render_sphere(scene, path, spec):
     return seconds
 
 
+def probes():
+    """The scene's light probe objects (the add-on's volume probe)."""
+    return [{"name": o.name, "tagged": bool(o.get("envlight")), "type": o.data.type,
+             "data_tagged": bool(o.data.get("envlight")),
+             "location": list(o.location), "scale": list(o.scale),
+             "normal_bias": getattr(o.data, "normal_bias", None),
+             "resolution": [getattr(o.data, "resolution_" + a, None) for a in "xyz"]}
+            for o in bpy.data.objects if o.type == "LIGHT_PROBE"]
+
+
+def eevee_ground_ring(scene, r0, r1, size=64, width=4.0):
+    """Mean luminance of the ground (z = 0) between r0 and r1 from the origin, in an EEVEE
+    render from straight above (orthographic, `width` across, so pixel (i, j) is the ground
+    point x = (j + 0.5) / size * width - width / 2, y likewise from the top)."""
+    cam = bpy.data.cameras.new("EnvLightCheckTop")
+    cam.type = "ORTHO"
+    cam.ortho_scale = width
+    obj = bpy.data.objects.new("EnvLightCheckTop", cam)
+    scene.collection.objects.link(obj)
+    obj.location = (0, 0, 10)
+    old_cam, scene.camera = scene.camera, obj
+    scene.render.resolution_x = scene.render.resolution_y = size
+    scene.render.resolution_percentage = 100
+    scene.render.filter_size = 0.01
+    scene.eevee.taa_render_samples = 16
+    scene.view_settings.view_transform = "Standard"
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    path = os.path.join(os.path.dirname(spec_from_argv()["out"]), "eevee_top.exr")
+    bpy.ops.render.render()
+    bpy.data.images["Render Result"].save_render(path)
+    img = bpy.data.images.load(path)
+    buf = np.empty(size * size * 4, np.float32)
+    img.pixels.foreach_get(buf)
+    bpy.data.images.remove(img)
+    y = buf.reshape(size, size, 4)[..., :3] @ np.array([0.2126, 0.7152, 0.0722])
+    c = (np.arange(size) + 0.5) / size * width - width / 2
+    r = np.hypot(c[None, :], c[:, None])
+    scene.camera = old_cam
+    bpy.data.objects.remove(obj)
+    return float(y[(r > r0) & (r < r1)].mean())
+
+
 def undo_redo():
     """The state before Create Lights (an undo step, as after any edit in the UI), after it
     (called with undo=True, as a button press: one undo step), after Edit > Undo, after Redo."""
@@ -376,6 +419,7 @@ def main():
                      # the plan Create Lights made from the scene (or the panel)
                      "plan": {k: (core.last_result or {}).get(k) for k in (
                          "recipe", "reasons", "skipped", "ground_object", "ground_albedo")},
+                     "probes": probes(),
                      "panel_recipe": s.result_recipe,
                      "panel_skipped": s.result_skipped})
     result["runs"] = runs
@@ -385,6 +429,15 @@ def main():
         spec2 = dict(spec, render=dict(spec.get("render", {}),
                                        seed=spec.get("render", {}).get("seed", 0) + 1))
         render_sphere(scene, spec["render_after_2"], spec2)
+    if spec.get("probe_effect"):
+        # the ground around a sphere at the origin (radius 1, on z = 0), with the baked probe
+        # and once its object is deleted (the bake lives on it)
+        r0, r1 = spec["probe_effect"]
+        with_probe = eevee_ground_ring(scene, r0, r1)
+        for o in [o for o in bpy.data.objects if o.type == "LIGHT_PROBE" and o.get("envlight")]:
+            bpy.data.objects.remove(o, do_unlink=True)
+        result["probe_effect"] = {"with": with_probe,
+                                  "without": eevee_ground_ring(scene, r0, r1)}
     if spec.get("panorama"):
         render_panorama(scene, spec["panorama"])
     if spec.get("bad_file"):
@@ -400,7 +453,9 @@ def main():
         s.source = "WORLD"
     if spec.get("remove"):
         bpy.ops.envlight.remove()
-        result["after_remove"] = {"lamps": lamps(), "world": world_state(scene.world)}
+        result["after_remove"] = {"lamps": lamps(), "world": world_state(scene.world),
+                                  "probes": probes(),
+                                  "lightprobe_data": [d.name for d in bpy.data.lightprobes]}
     with open(spec["out"], "w") as f:
         json.dump(result, f, indent=1)
     print("ENVLIGHT_CHECK_DONE", spec["out"])

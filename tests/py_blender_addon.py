@@ -739,7 +739,12 @@ def test_reads_an_eevee_scene(addon_zip, spot_hdr):
     res, _ = run_blender("scene_eevee", {"hdr": path, "engine": engine,
                                          "objects": [GROUND_OBJ, MATTE_OBJ]}, addon_zip)
     run = res["runs"][0]
-    assert run["rc"] == ["FINISHED"] and run["plan"]["recipe"] == "eevee-residual-ground"
+    # EEVEE-Next (4.2+) also bakes a volume probe (test_eevee_volume_probe_is_baked_and_removed)
+    probe = "-probe" if engine == "BLENDER_EEVEE_NEXT" else ""
+    assert run["rc"] == ["FINISHED"] and run["plan"]["recipe"] == "eevee-residual-ground" + probe
+    assert len(run["probes"]) == (1 if probe else 0), run["probes"]
+    if not probe:   # legacy EEVEE (3.x): its irradiance volumes are not EEVEE-Next's
+        assert "volume probe: EEVEE-Next's (Blender 4.2+) only" in run["plan"]["skipped"]
     labels = run["world"]["labels"]
     assert "EnvLight Residual" in labels and "EnvLight Camera or Glossy" not in labels
     suns = [l for l in run["lamps"] if l["tagged"]]
@@ -766,7 +771,8 @@ def test_eevee_fits_its_lamps_with_an_order_1_remainder(addon_zip):
     envlight.save_image(path, img)
     engine = "BLENDER_EEVEE_NEXT" if BLENDER_VERSION >= "4.2" else "BLENDER_EEVEE"
     res, _ = run_blender("scene_eevee_order", {"hdr": path, "engine": engine,
-                                               "objects": [GROUND_OBJ, MATTE_OBJ]}, addon_zip)
+                                               "objects": [GROUND_OBJ, MATTE_OBJ],
+                                               "settings": {"volume_probe": "OFF"}}, addon_zip)
     run = res["runs"][0]
     plan = run["plan"]
     assert run["rc"] == ["FINISHED"] and plan["recipe"] == "eevee-residual-ground"
@@ -840,3 +846,55 @@ def test_workbench_computes_nothing_and_changes_nothing(addon_zip, spot_hdr):
     assert not [l for l in run["lamps"] if l["tagged"]]
     assert run["world"] == res["world_state_before"]
     assert "Workbench" in run["panel"]["message"] and "nothing computed" in log
+
+
+def test_eevee_volume_probe_is_baked_and_removed(addon_zip, spot_hdr):
+    """Read Scene in EEVEE-Next (4.2+; Volume Probe Auto): a volume probe around the objects
+    other than the ground, tagged in the EnvLight collection, its Normal Bias
+    scene.PROBE_NORMAL_BIAS, baked, and gone after Remove. Its box for a
+    sphere of radius 1 on the ground at z = 0 (scene.py's PROBE_*): the sphere's extent 2,
+    1 x that wider on each side, 0.25 x its height below and above: centre (0, 0, 1), half
+    size (3, 3, 1.5), probes 0.125 x 2 = 0.25 apart: 24 x 24 x 12. Baked, it lights the
+    ground around the sphere with the sun's light the white sphere bounces there, which
+    EEVEE's lamps and world alone do not: the ring 1.0-1.6 m from the contact point is
+    brighter in an EEVEE render with the probe than once it is deleted."""
+    if BLENDER_VERSION < "4.2":
+        pytest.skip("SKIP: Blender %s: the volume probe is EEVEE-Next's (4.2+)" % BLENDER_VERSION)
+    path, _, _ = spot_hdr
+    res, log = run_blender("scene_probe", {
+        "hdr": path, "engine": "BLENDER_EEVEE_NEXT", "objects": [GROUND_OBJ, MATTE_OBJ],
+        "probe_effect": [1.0, 1.6], "remove": True},
+        addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["FINISHED"], log[-2000:]
+    probes = run["probes"]
+    assert len(probes) == 1 and probes[0]["tagged"] and probes[0]["data_tagged"], probes
+    p = probes[0]
+    assert p["type"] == "VOLUME" and p["resolution"] == [24, 24, 12], p
+    assert p["normal_bias"] == pytest.approx(1.0), p
+    assert run["plan"]["recipe"] == "eevee-residual-ground-probe", run["plan"]
+    assert np.allclose(p["location"], [0, 0, 1], atol=1e-5), p
+    assert np.allclose(p["scale"], [3, 3, 1.5], atol=1e-5), p
+    assert any(r.startswith("EEVEE: a volume probe of 24 x 24 x 12 around 1 object, baked")
+               for r in run["plan"]["reasons"]), run["plan"]
+    assert any(n.startswith("EEVEE: volume probe 24 x 24 x 12 baked in") for n in run["notes"])
+    effect = res["probe_effect"]
+    print("ground ring luminance with / without the probe:", effect)
+    assert effect["with"] > 1.02 * effect["without"], effect
+    assert res["after_remove"]["probes"] == [] and res["after_remove"]["lightprobe_data"] == []
+
+
+def test_eevee_says_the_volume_probe_is_off(addon_zip, spot_hdr):
+    """The panel's Volume Probe Off overrides Read Scene: no probe, the recipe without it, and
+    the report says so."""
+    if BLENDER_VERSION < "4.2":
+        pytest.skip("SKIP: Blender %s: the volume probe is EEVEE-Next's (4.2+)" % BLENDER_VERSION)
+    path, _, _ = spot_hdr
+    res, _ = run_blender("scene_probe_off", {"hdr": path, "engine": "BLENDER_EEVEE_NEXT",
+                                             "objects": [GROUND_OBJ, MATTE_OBJ],
+                                             "settings": {"volume_probe": "OFF"}}, addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["FINISHED"] and run["probes"] == []
+    assert run["plan"]["recipe"] == "eevee-residual-ground", run["plan"]
+    assert "volume probe: off (the panel's Volume Probe)" in run["plan"]["skipped"]
+    assert not any("volume probe" in r for r in run["plan"]["reasons"])

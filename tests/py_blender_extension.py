@@ -254,9 +254,14 @@ def test_library_needs_only_the_c_runtime(addon_zip):
         assert syms and not [s for s in syms if not s.startswith(("envl_", "_init", "_fini"))]
 
 
-def test_install_file_enable_and_run_in_blender_4(addon_zip):
-    path, _ = addon_zip
-    folder = os.path.join(TMP, "b4")
+def check_installed(name, install=None, from_disk=None):
+    """Blender 4 with the user folders TMP/name, after `install` (a command run there first):
+    the CHECK script (from_disk: the zip it first installs as Install from Disk does), with a
+    broken global `envlight` first on sys.path. -> (CHECK's result, the Blender process),
+    having asserted what every install must give: the library built on Debian 12 loads in
+    Debian 13's Blender (self-contained), the extension in user_default, enabled, its own
+    shim and library, Create Lights working, the global `envlight` never imported."""
+    folder = os.path.join(TMP, name)
     work = os.path.join(folder, "work")
     broken = os.path.join(folder, "broken")
     os.makedirs(os.path.join(broken, "envlight"))
@@ -267,58 +272,44 @@ def test_install_file_enable_and_run_in_blender_4(addon_zip):
     with open(script, "w") as f:
         f.write(CHECK % {"module": MODULE})
     env = blender_env(folder)
-    p = run([BLENDER4, "--command", "extension", "install-file", "-r", "user_default", "-e",
-             path], env=env)
+    if install:
+        run([BLENDER4] + install, env=env)
+    if from_disk:
+        env["ENVL_INSTALL_FROM_DISK"] = from_disk
     out = os.path.join(folder, "result.json")
     p = run([BLENDER4, "-b", "--python-exit-code", "1", "--python", script, "--", out, broken,
              work], env=env)
     with open(out) as f:
         r = json.load(f)
     print(json.dumps(r, indent=1))
-    # built on Debian 12, self-contained: it loads in Debian 13's Blender
     assert "load_error" not in r, r
     ext = r["extension_dir"]
     assert ext.endswith("/extensions/user_default/envlight"), r
-    assert r["enabled_at_start"] and r["enabled"], r  # install-file -e saved it enabled
+    assert r["enabled_at_start"] and r["enabled"], r
     assert r["world_property"] and r["operator"], r
     assert r["shim_file"] == os.path.join(ext, "envlight", "__init__.py"), r
     assert r["library_path"] == os.path.join(ext, "lib", "libenvlight.so.1"), r
     assert r["operator_result"] == ["FINISHED"], (r, p.stderr[-2000:])
     assert r["suns"] >= 1 and r["residual_images"], r
     assert not r["global_envlight_imported"], r
+    return r, p
+
+
+def test_install_file_enable_and_run_in_blender_4(addon_zip):
+    """`blender --command extension install-file -r user_default -e`: enabled at start
+    (install-file -e saves it enabled), and all check_installed asks."""
+    path, _ = addon_zip
+    check_installed("b4", install=["--command", "extension", "install-file", "-r",
+                                   "user_default", "-e", path])
 
 
 def test_install_from_disk_in_blender_4(addon_zip):
     """Preferences > Get Extensions > Install from Disk (the operator its button runs,
     extensions.package_install_files, with "Enable Add-on" ticked) in a fresh user folder:
-    installed into user_default, enabled at once, and Create Lights runs from the extension's
-    own library."""
+    installed into user_default, enabled at once, and all check_installed asks."""
     path, _ = addon_zip
-    folder = os.path.join(TMP, "b4_disk")
-    work = os.path.join(folder, "work")
-    broken = os.path.join(folder, "broken")
-    os.makedirs(os.path.join(broken, "envlight"))
-    os.makedirs(work)
-    with open(os.path.join(broken, "envlight", "__init__.py"), "w") as f:
-        f.write('raise ImportError("the global envlight package must not be used")\n')
-    script = os.path.join(folder, "check.py")
-    with open(script, "w") as f:
-        f.write(CHECK % {"module": MODULE})
-    env = dict(blender_env(folder), ENVL_INSTALL_FROM_DISK=path)
-    out = os.path.join(folder, "result.json")
-    p = run([BLENDER4, "-b", "--python-exit-code", "1", "--python", script, "--", out, broken,
-             work], env=env)
-    with open(out) as f:
-        r = json.load(f)
-    print(json.dumps(r, indent=1))
+    r, p = check_installed("b4_disk", from_disk=path)
     assert r["install_from_disk"] == ["FINISHED"], (r, p.stdout[-2000:])
-    assert "load_error" not in r, r
-    assert r["extension_dir"].endswith("/extensions/user_default/envlight"), r
-    assert r["enabled_at_start"] and r["enabled"], r   # enabled by the install itself
-    assert r["library_path"] == os.path.join(r["extension_dir"], "lib", "libenvlight.so.1"), r
-    assert r["operator_result"] == ["FINISHED"], (r, p.stderr[-2000:])
-    assert r["suns"] >= 1 and r["residual_images"], r
-    assert not r["global_envlight_imported"], r
 
 
 def test_same_zip_installs_the_legacy_way_in_blender_3(addon_zip):

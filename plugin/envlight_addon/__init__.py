@@ -46,6 +46,14 @@ GROUND = [
     ("ON", "Albedo", "The scene stands on a ground plane (z = 0) of the albedo below"),
     ("NONE", "None", "No ground treatment: the map's lower half lights the scene as it is"),
 ]
+VOLUME_PROBE = [
+    ("AUTO", "Auto", "Read Scene decides (EEVEE-Next: baked around the objects); without Read "
+     "Scene: none"),
+    ("ON", "On", "EEVEE-Next (4.2+): bake a volume light probe around the objects (not the "
+     "ground): the light they bounce onto one another and the sky they hide"),
+    ("OFF", "Off", "No volume probe: EEVEE lights the objects with the lamps and the world "
+     "alone"),
+]
 
 
 class EnvLightSettings(bpy.types.PropertyGroup):
@@ -79,6 +87,7 @@ class EnvLightSettings(bpy.types.PropertyGroup):
     ground_mode: EnumProperty(name="Ground", items=GROUND, default="AUTO")
     ground_albedo: FloatProperty(name="Ground Albedo", default=0.5, min=0.0, max=1.0,
                                  subtype="FACTOR")
+    volume_probe: EnumProperty(name="Volume Probe", items=VOLUME_PROBE, default="AUTO")
     # results, shown by the panel
     has_result: BoolProperty(default=False)
     result_count: IntProperty(name="Lamps")
@@ -208,6 +217,8 @@ class WORLD_PT_envlight(bpy.types.Panel):
             col.prop(s, "ground_albedo")
         if s.world_mode == "SH":
             layout.prop(s, "keep_background")
+        if context.scene.render.engine == "BLENDER_EEVEE_NEXT":
+            layout.prop(s, "volume_probe")
         row = layout.row(align=True)
         row.operator(ENVLIGHT_OT_create_lights.bl_idname, icon="LIGHT_SUN")
         row.operator(ENVLIGHT_OT_remove.bl_idname, text="", icon="TRASH")

@@ -331,15 +331,18 @@ def read_source(pkg, world):
 # ---- removing what we made ---------------------------------------------------------------------
 
 def remove_created(world):
-    """Deletes what a previous run created (tagged objects, lamps, nodes, residual images)
-    and re-activates the user's World Output."""
+    """Deletes what a previous run created (tagged objects, lamps, the volume probe, nodes,
+    residual images) and re-activates the user's World Output."""
     removed = 0
     for obj in [o for o in bpy.data.objects if tagged(o)]:
         data = obj.data
         bpy.data.objects.remove(obj, do_unlink=True)
         removed += 1
         if data is not None and tagged(data) and data.users == 0:
-            bpy.data.lights.remove(data)
+            if isinstance(data, bpy.types.LightProbe):
+                bpy.data.lightprobes.remove(data)
+            else:
+                bpy.data.lights.remove(data)
     for coll in [c for c in bpy.data.collections if tagged(c)]:
         if len(coll.objects) == 0 and len(coll.children) == 0:
             bpy.data.collections.remove(coll)
@@ -357,6 +360,9 @@ def remove_created(world):
         restore_sun_extraction(world)
     for img in [i for i in bpy.data.images if tagged(i) and i.users == 0]:
         bpy.data.images.remove(img)
+    # a probe whose object was deleted by hand: its data is ours and used by nothing
+    for probe in [d for d in bpy.data.lightprobes if tagged(d) and d.users == 0]:
+        bpy.data.lightprobes.remove(probe)
     return removed
 
 
@@ -412,13 +418,8 @@ def sun_rotation(direction):
     return mathutils.Vector(direction).to_track_quat("Z", "Y").to_euler()
 
 
-def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLight Light"):
-    """Sun lamps in the EnvLight collection: energy * color = strength * rgb * (1 - w / 4 pi)
-    (energy = the largest channel, so colour <= 1), w = the light's solid angle: a Blender sun
-    is given by its irradiance at normal incidence, which for a disc of solid angle w holding
-    the power rgb is rgb (1 - w / 4 pi), the light's first moment (lights.c). Angle from the
-    light's angle (soft), 0 (sharp), or no shadows (none). glossy False: the lamps light no
-    glossy reflection (Object.visible_glossy, Cycles), where glossy rays see the map itself."""
+def _collection(scene):
+    """The EnvLight collection (made and linked to the scene when missing)."""
     coll = next((c for c in bpy.data.collections if tagged(c) and c.name.startswith(COLLECTION)),
                 None)
     if coll is None:
@@ -426,6 +427,17 @@ def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLig
         coll[TAG] = True
     if coll.name not in scene.collection.children:
         scene.collection.children.link(coll)
+    return coll
+
+
+def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLight Light"):
+    """Sun lamps in the EnvLight collection: energy * color = strength * rgb * (1 - w / 4 pi)
+    (energy = the largest channel, so colour <= 1), w = the light's solid angle: a Blender sun
+    is given by its irradiance at normal incidence, which for a disc of solid angle w holding
+    the power rgb is rgb (1 - w / 4 pi), the light's first moment (lights.c). Angle from the
+    light's angle (soft), 0 (sharp), or no shadows (none). glossy False: the lamps light no
+    glossy reflection (Object.visible_glossy, Cycles), where glossy rays see the map itself."""
+    coll = _collection(scene)
     made = []
     for i, light in enumerate(lights):
         rgb = [strength * c * (1.0 - light.solid_angle / (4.0 * math.pi)) for c in light.rgb]
@@ -455,6 +467,39 @@ def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLig
         coll.objects.link(obj)
         made.append(obj)
     return made
+
+
+def bake_probe(scene, probe):
+    """EEVEE-Next's volume probe over the box `probe` = (centre, half size, resolution),
+    tagged, in the EnvLight collection, then baked (Object > Bake Light Cache for it alone):
+    the light the objects bounce onto one another and the sky they hide, which EEVEE's
+    lamps and world light alone leave out. -> (the report's note, None), or (None, a warning)
+    when the bake fails (the probe is then removed)."""
+    centre, half, res = probe
+    coll = _collection(scene)
+    data = bpy.data.lightprobes.new("EnvLight Volume Probe", "VOLUME")
+    data[TAG] = True
+    data.resolution_x, data.resolution_y, data.resolution_z = res
+    data.normal_bias = scene_reader.PROBE_NORMAL_BIAS
+    obj = bpy.data.objects.new(data.name, data)
+    obj[TAG] = True
+    obj.location = centre
+    obj.scale = half          # a volume probe spans its object's unit cube (-1..1)
+    coll.objects.link(obj)
+    t = time.perf_counter()
+    try:
+        with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj],
+                                       scene=scene):
+            r = bpy.ops.object.lightprobe_cache_bake(subset="ACTIVE")
+    except RuntimeError as e:   # the operator's poll or its own error report
+        r = {str(e).strip() or "error"}
+    if r != {"FINISHED"}:
+        # the lamps and the world are made and valid: the probe alone is given up
+        bpy.data.objects.remove(obj, do_unlink=True)
+        bpy.data.lightprobes.remove(data)
+        return None, "EEVEE could not bake the volume probe (%s): none made" % ", ".join(r)
+    return "EEVEE: volume probe %d x %d x %d baked in %.1f s" % (
+        res[0], res[1], res[2], time.perf_counter() - t), None
 
 
 # ---- world nodes ------------------------------------------------------------------------------
@@ -747,7 +792,7 @@ def create_lights(context, settings, progress=None):
     t0 = time.perf_counter()
     step = progress or (lambda v: None)
     warnings = []
-    plan = (scene_reader.read_scene(scene) if settings.read_scene
+    plan = (scene_reader.read_scene(scene, settings.volume_probe) if settings.read_scene
             else scene_reader.plan_from_settings(settings, scene))
     mode = plan.world_mode
     method = plan.method
@@ -880,6 +925,10 @@ def create_lights(context, settings, progress=None):
             notes.append(sun_note)
     elif mode != "LIGHTS":
         warnings.append("the world does not use nodes: world left as it was")
+    if plan.probe is not None:
+        note, warning = bake_probe(scene, plan.probe)
+        notes += [note] if note else []
+        warnings += [warning] if warning else []
     step(1.0)
     result = {
         "count": len(suns), "diffuse_error": summary["diffuse_error"],
