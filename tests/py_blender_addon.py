@@ -739,12 +739,7 @@ def test_reads_an_eevee_scene(addon_zip, spot_hdr):
     res, _ = run_blender("scene_eevee", {"hdr": path, "engine": engine,
                                          "objects": [GROUND_OBJ, MATTE_OBJ]}, addon_zip)
     run = res["runs"][0]
-    # EEVEE-Next (4.2+) also bakes a volume probe (test_eevee_volume_probe_is_baked_and_removed)
-    probe = "-probe" if engine == "BLENDER_EEVEE_NEXT" else ""
-    assert run["rc"] == ["FINISHED"] and run["plan"]["recipe"] == "eevee-residual-ground" + probe
-    assert len(run["probes"]) == (1 if probe else 0), run["probes"]
-    if not probe:   # legacy EEVEE (3.x): its irradiance volumes are not EEVEE-Next's
-        assert "volume probe: EEVEE-Next's (Blender 4.2+) only" in run["plan"]["skipped"]
+    assert run["rc"] == ["FINISHED"] and run["plan"]["recipe"] == "eevee-residual-ground"
     labels = run["world"]["labels"]
     assert "EnvLight Residual" in labels and "EnvLight Camera or Glossy" not in labels
     suns = [l for l in run["lamps"] if l["tagged"]]
@@ -772,7 +767,7 @@ def test_eevee_fits_its_lamps_with_an_order_1_remainder(addon_zip):
     engine = "BLENDER_EEVEE_NEXT" if BLENDER_VERSION >= "4.2" else "BLENDER_EEVEE"
     res, _ = run_blender("scene_eevee_order", {"hdr": path, "engine": engine,
                                                "objects": [GROUND_OBJ, MATTE_OBJ],
-                                               "settings": {"volume_probe": "OFF"}}, addon_zip)
+                                               }, addon_zip)
     run = res["runs"][0]
     plan = run["plan"]
     assert run["rc"] == ["FINISHED"] and plan["recipe"] == "eevee-residual-ground"
@@ -849,7 +844,7 @@ def test_workbench_computes_nothing_and_changes_nothing(addon_zip, spot_hdr):
 
 
 def test_eevee_volume_probe_is_baked_and_removed(addon_zip, spot_hdr):
-    """Read Scene in EEVEE-Next (4.2+; Volume Probe Auto): a volume probe around the objects
+    """Bake Volume Probe with Read Scene in EEVEE-Next (4.2+): a volume probe around the objects
     other than the ground, tagged in the EnvLight collection, its Normal Bias
     scene.PROBE_NORMAL_BIAS, baked, and gone after Remove. Its box for a
     sphere of radius 1 on the ground at z = 0 (scene.py's PROBE_*): the sphere's extent 2,
@@ -863,7 +858,7 @@ def test_eevee_volume_probe_is_baked_and_removed(addon_zip, spot_hdr):
     path, _, _ = spot_hdr
     res, log = run_blender("scene_probe", {
         "hdr": path, "engine": "BLENDER_EEVEE_NEXT", "objects": [GROUND_OBJ, MATTE_OBJ],
-        "probe_effect": [1.0, 1.6], "remove": True},
+        "settings": {"volume_probe": True}, "probe_effect": [1.0, 1.6], "remove": True},
         addon_zip)
     run = res["runs"][0]
     assert run["rc"] == ["FINISHED"], log[-2000:]
@@ -885,16 +880,20 @@ def test_eevee_volume_probe_is_baked_and_removed(addon_zip, spot_hdr):
 
 
 def test_eevee_says_the_volume_probe_is_off(addon_zip, spot_hdr):
-    """The panel's Volume Probe Off overrides Read Scene: no probe, the recipe without it, and
-    the report says so."""
-    if BLENDER_VERSION < "4.2":
-        pytest.skip("SKIP: Blender %s: the volume probe is EEVEE-Next's (4.2+)" % BLENDER_VERSION)
+    """Read Scene bakes no probe unless Bake Volume Probe is on, and says so; on with legacy
+    EEVEE (3.x) it says the probe is EEVEE-Next's."""
     path, _, _ = spot_hdr
-    res, _ = run_blender("scene_probe_off", {"hdr": path, "engine": "BLENDER_EEVEE_NEXT",
-                                             "objects": [GROUND_OBJ, MATTE_OBJ],
-                                             "settings": {"volume_probe": "OFF"}}, addon_zip)
+    next_ = BLENDER_VERSION >= "4.2"
+    res, _ = run_blender("scene_probe_off", {
+        "hdr": path, "engine": "BLENDER_EEVEE_NEXT" if next_ else "BLENDER_EEVEE",
+        "objects": [GROUND_OBJ, MATTE_OBJ], "settings": {} if next_ else {"volume_probe": True}},
+        addon_zip)
     run = res["runs"][0]
     assert run["rc"] == ["FINISHED"] and run["probes"] == []
     assert run["plan"]["recipe"] == "eevee-residual-ground", run["plan"]
-    assert "volume probe: off (the panel's Volume Probe)" in run["plan"]["skipped"]
+    skipped = [s for s in run["plan"]["skipped"] if s.startswith("volume probe")]
+    assert skipped == ["volume probe: off (Bake Volume Probe: the objects' bounce light and the "
+                       "sky they hide; in the scene benchmark nearer Cycles on some maps, "
+                       "further on others)"] if next_ else \
+        ["volume probe: EEVEE-Next's (Blender 4.2+) only"], skipped
     assert not any("volume probe" in r for r in run["plan"]["reasons"])

@@ -46,16 +46,6 @@ GROUND = [
     ("ON", "Albedo", "The scene stands on a ground plane (z = 0) of the albedo below"),
     ("NONE", "None", "No ground treatment: the map's lower half lights the scene as it is"),
 ]
-VOLUME_PROBE = [
-    ("AUTO", "Auto", "Read Scene decides (EEVEE-Next: baked around the objects); without Read "
-     "Scene: none"),
-    ("ON", "On", "EEVEE-Next (4.2+): bake a volume light probe around the objects (not the "
-     "ground): the light they bounce onto one another and the sky they hide"),
-    ("OFF", "Off", "No volume probe: EEVEE lights the objects with the lamps and the world "
-     "alone"),
-]
-
-
 class EnvLightSettings(bpy.types.PropertyGroup):
     read_scene: BoolProperty(
         name="Read Scene", default=True,
@@ -87,7 +77,11 @@ class EnvLightSettings(bpy.types.PropertyGroup):
     ground_mode: EnumProperty(name="Ground", items=GROUND, default="AUTO")
     ground_albedo: FloatProperty(name="Ground Albedo", default=0.5, min=0.0, max=1.0,
                                  subtype="FACTOR")
-    volume_probe: EnumProperty(name="Volume Probe", items=VOLUME_PROBE, default="AUTO")
+    volume_probe: BoolProperty(
+        name="Bake Volume Probe", default=False,
+        description="EEVEE-Next (4.2+): bake a volume light probe around the objects (not the "
+        "ground): the light they bounce onto one another and the sky they hide; with or "
+        "without Read Scene. Nearer Cycles on some maps, further on others (README)")
     # results, shown by the panel
     has_result: BoolProperty(default=False)
     result_count: IntProperty(name="Lamps")

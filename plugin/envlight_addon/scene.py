@@ -54,6 +54,8 @@ PROBE_MAX = 32
 #: potsdamer_platz 10.6 / 4.3 / 4.9 %, rooitou_park 6.8 / 8.2 / 10.4 % (without a probe:
 #: 4.4, 6.6, 10.9 %)
 PROBE_NORMAL_BIAS = 1.0
+PROBE_OFF = ("volume probe: off (Bake Volume Probe: the objects' bounce light and the sky they "
+             "hide; in the scene benchmark nearer Cycles on some maps, further on others)")
 
 ENGINES = {"CYCLES": "Cycles", "BLENDER_EEVEE_NEXT": "EEVEE", "BLENDER_EEVEE": "EEVEE",
            "BLENDER_WORKBENCH": "Workbench"}
@@ -256,9 +258,9 @@ def set_probe(p, scene):
                      % (res[0], res[1], res[2], len(rest), "s" if len(rest) > 1 else ""))
 
 
-def read_scene(scene, volume_probe="AUTO"):
+def read_scene(scene, volume_probe=False):
     """The Plan for `scene` (its engine, objects, materials, shadows, ground); volume_probe:
-    the panel's Volume Probe (AUTO: EEVEE-Next bakes one, ON, OFF)."""
+    the panel's Bake Volume Probe."""
     p = Plan()
     engine = scene.render.engine
     p.engine = engine
@@ -314,11 +316,12 @@ def read_scene(scene, volume_probe="AUTO"):
                          "as cheap there")
         p.recipe = "eevee-residual" + ("-ground" if p.ground_albedo is not None else "")
         # EEVEE has no light bouncing between objects, and its world light is not occluded
-        # by them, unless a volume probe is baked (EEVEE-Next)
-        if volume_probe == "OFF":
-            p.skipped.append("volume probe: off (the panel's Volume Probe)")
-        else:
+        # by them, unless a volume probe is baked (EEVEE-Next): the panel's choice, as the
+        # scene benchmark found it nearer Cycles on some maps and further on others
+        if volume_probe:
             set_probe(p, scene)
+        else:
+            p.skipped.append(PROBE_OFF)
         if p.probe is not None:
             p.recipe += "-probe"
         return p
@@ -362,11 +365,10 @@ def plan_from_settings(settings, scene):
         p.reasons.append("ground albedo %.2f (the panel)" % p.ground_albedo)
     elif settings.ground_mode == "AUTO":
         set_ground(p, find_ground(_visible_meshes(scene)))
-    if settings.volume_probe == "ON":
+    if settings.volume_probe:
         set_probe(p, scene)
-    elif p.engine == "BLENDER_EEVEE_NEXT":
-        p.skipped.append("volume probe: off (the panel's Volume Probe: %s)"
-                         % settings.volume_probe.title())
+    elif p.engine in ("BLENDER_EEVEE_NEXT", "BLENDER_EEVEE"):
+        p.skipped.append(PROBE_OFF)
     p.recipe = "custom"
     p.reasons.append("the panel's settings (Read Scene off)")
     return p
