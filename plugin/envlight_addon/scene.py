@@ -31,8 +31,9 @@ LUMINANCE = (0.2126, 0.7152, 0.0722)
 #: against a path-traced reference, relative RMS over the objects' pixels, and its worst map;
 #: a figure of the benchmark's scenes, not of the user's map
 EXPECTED_ERROR = {
-    "eevee-residual-ground": (0.0646, 0.1326),
-    "sun-residual": (0.0000, 0.0009),
+    "eevee-residual-ground": (0.0573, 0.1091),
+    "eevee-residual-ground-probe": (0.0820, 0.1810),   # with Bake Volume Probe, scene (a)
+    "sun-residual": (0.0000, 0.0008),
 }
 
 #: the fit's SH remainder order for EEVEE: its world diffuse light is an L1 SH
