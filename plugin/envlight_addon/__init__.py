@@ -46,6 +46,8 @@ GROUND = [
     ("ON", "Albedo", "The scene stands on a ground plane (z = 0) of the albedo below"),
     ("NONE", "None", "No ground treatment: the map's lower half lights the scene as it is"),
 ]
+
+
 class EnvLightSettings(bpy.types.PropertyGroup):
     read_scene: BoolProperty(
         name="Read Scene", default=True,

@@ -50,8 +50,8 @@ PROBE_BELOW = 0.25
 PROBE_STEP = 0.125
 PROBE_MAX = 32
 #: the probe's Normal Bias (EEVEE's default 0.3): a surface reads the grid this far out along
-#: its normal, past the probes beside it that its own object half-blinds. Scene (a), picked
-#: recipe, error against Cycles: the built-in sky 7.2 / 4.4 / 5.9 % at 0.3 / 1 / 2,
+#: its normal, past the probes beside it that its own object half-blinds. Scene (a), the EEVEE
+#: recipe with the probe, error against Cycles: the built-in sky 7.2 / 4.4 / 5.9 % at 0.3 / 1 / 2,
 #: potsdamer_platz 10.6 / 4.3 / 4.9 %, rooitou_park 6.8 / 8.2 / 10.4 % (without a probe:
 #: 4.4, 6.6, 10.9 %)
 PROBE_NORMAL_BIAS = 1.0
@@ -321,7 +321,7 @@ def read_scene(scene, volume_probe=False):
         # scene benchmark found it nearer Cycles on some maps and further on others
         if volume_probe:
             set_probe(p, scene)
-        else:
+        elif engine == "BLENDER_EEVEE_NEXT":
             p.skipped.append(PROBE_OFF)
         if p.probe is not None:
             p.recipe += "-probe"
@@ -368,7 +368,7 @@ def plan_from_settings(settings, scene):
         set_ground(p, find_ground(_visible_meshes(scene)))
     if settings.volume_probe:
         set_probe(p, scene)
-    elif p.engine in ("BLENDER_EEVEE_NEXT", "BLENDER_EEVEE"):
+    elif p.engine == "BLENDER_EEVEE_NEXT":
         p.skipped.append(PROBE_OFF)
     p.recipe = "custom"
     p.reasons.append("the panel's settings (Read Scene off)")
