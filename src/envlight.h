@@ -28,6 +28,11 @@ extern "C" {
 /* Bumped whenever a struct layout or a function signature changes (the ctypes shim checks it). */
 #define ENVL_ABI_VERSION 1
 
+/* pi, the one definition every part of envlight uses. */
+#define ENVL_PI 3.14159265358979323846
+/* The most worker threads any call uses (every `threads` option: 0 = all cores, capped here). */
+#define ENVL_MAX_THREADS 256
+
 /* ---- results ------------------------------------------------------------------------------ */
 typedef int32_t envl_result;
 /* X-macro: code, value, short description. One table, so codes and names never drift apart. */
@@ -86,7 +91,7 @@ typedef struct envl_load_options {
                                  NaN and negatives -> 0, +Inf -> largest finite value */
     int32_t apply_exposure;   /* nonzero: divide Radiance pixels by the file's EXPOSURE; 0 */
     const char *exr_part;     /* multipart EXR: part name; default: first part with colour */
-    int32_t threads;          /* worker threads; default: all cores */
+    int32_t threads;          /* worker threads; default: all cores (at most ENVL_MAX_THREADS) */
 } envl_load_options;
 
 /* What was read and what the map holds. Strings are NUL-terminated, truncated if long. */

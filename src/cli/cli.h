@@ -11,7 +11,6 @@
 #define CLI_FAIL 1
 #define CLI_USAGE 2
 
-#define CLI_PI 3.14159265358979323846
 
 /* Options every subcommand that reads an environment accepts. */
 typedef struct cli_common {

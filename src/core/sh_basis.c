@@ -46,7 +46,7 @@ void envl_sh_eval(int32_t order, const double d[3], double *y)
                 p_prev2 = p_prev;
                 p_prev = p;
             }
-            double k = sqrt((2.0 * l + 1.0) / (4.0 * ENVL_SH_PI) * fact_ratio);
+            double k = sqrt((2.0 * l + 1.0) / (4.0 * ENVL_PI) * fact_ratio);
             if (m == 0) {
                 y[l * (l + 1)] = k * p;
             } else {
@@ -65,9 +65,9 @@ double envl_sh_cosine_factor(int32_t l)
     if (l < 0) /* no such band ((l / 2 - 1) below would make A_-2 infinite) */
         return 0.0;
     if (l == 0)
-        return ENVL_SH_PI;
+        return ENVL_PI;
     if (l == 1)
-        return 2.0 * ENVL_SH_PI / 3.0;
+        return 2.0 * ENVL_PI / 3.0;
     if (l % 2)
         return 0.0;
     /* l! / (2^l ((l/2)!)^2) = C(l, l/2) / 2^l, built as a product to avoid overflow. */
@@ -75,5 +75,5 @@ double envl_sh_cosine_factor(int32_t l)
     for (int32_t k = 1; k <= l / 2; k++)
         c *= (double)(l / 2 + k) / (double)k / 4.0;
     double sign = ((l / 2 - 1) % 2) ? -1.0 : 1.0;
-    return 2.0 * ENVL_SH_PI * sign / ((l + 2.0) * (l - 1.0)) * c;
+    return 2.0 * ENVL_PI * sign / ((l + 2.0) * (l - 1.0)) * c;
 }

@@ -8,8 +8,6 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define ENVL_PI 3.14159265358979323846
-
 /* Rec. 709 luminance (DESIGN.md), inline for the per-pixel loops; envl_luminance is the same
  * formula for callers of the library. */
 static inline double envl__lum(double r, double g, double b)
@@ -141,6 +139,13 @@ typedef void (*envl_range_fn)(void *ctx, int64_t begin, int64_t end);
 /* Calls fn on contiguous blocks of [0, n) on up to `threads` threads; returns when all are
  * done. Deterministic: block boundaries depend only on n and threads. */
 void envl__parallel_for(int64_t n, int32_t threads, envl_range_fn fn, void *ctx);
+
+/* Number of worker threads for `requested` (0 = all cores), at most ENVL_MAX_THREADS. */
+int32_t envl__threads(int32_t requested);
+
+/* ---- the frame's geometry (frame.c) ---- */
+/* A light's angular diameter from its solid angle: 2 acos(1 - omega / 2 pi), capped at pi. */
+void envl__light_set_angle(envl_light *l);
 
 /* ---- envmap (envmap.c) ---- */
 /* Takes ownership of img (img->px is moved). */

@@ -364,14 +364,6 @@ static envl_result cut_regions(envl_envmap *m, int32_t method, int32_t n, region
     return ENVL_OK;
 }
 
-/* Angular diameter of a cone of the light's solid angle: 2 acos(1 - omega / 2 pi), capped at
- * pi (DESIGN.md). */
-void envl__light_set_angle(envl_light *l)
-{
-    double c = 1.0 - l->solid_angle / (2.0 * ENVL_PI);
-    l->angle = fmin(ENVL_PI, 2.0 * acos(c < -1 ? -1 : c > 1 ? 1 : c));
-}
-
 /* A region's light: rgb = sum of L dw, at the energy-weighted centroid of its pixels' 3D
  * directions (the region's centre when it holds no light); both from the region table. */
 static void region_light(const envl_envmap *m, const region *r, envl_light *l)

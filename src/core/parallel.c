@@ -4,6 +4,7 @@
 #include "internal.h"
 
 #include <pthread.h>
+#include <unistd.h>
 
 typedef struct block {
     envl_range_fn fn;
@@ -21,7 +22,7 @@ static void *run_block(void *arg)
 
 void envl__parallel_for(int64_t n, int32_t threads, envl_range_fn fn, void *ctx)
 {
-    enum { MAX = 64 };
+    enum { MAX = ENVL_MAX_THREADS };
     if (threads > MAX)
         threads = MAX;
     if (threads > n)
@@ -42,4 +43,14 @@ void envl__parallel_for(int64_t n, int32_t threads, envl_range_fn fn, void *ctx)
         else
             run_block(&blocks[t]); /* no thread to be had: do it here */
     }
+}
+
+/* The one place a thread count is resolved: `requested` if > 0, else the online cores, both
+ * capped at ENVL_MAX_THREADS. */
+int32_t envl__threads(int32_t requested)
+{
+    if (requested > 0)
+        return requested > ENVL_MAX_THREADS ? ENVL_MAX_THREADS : requested;
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n < 1 ? 1 : n > ENVL_MAX_THREADS ? ENVL_MAX_THREADS : (int32_t)n;
 }

@@ -20,14 +20,13 @@
 #include <math.h>
 #include <stdlib.h>
 
-#define GROUND_PI 3.14159265358979323846
 
 /* The fraction of row r's solid angle below the horizon: the row spans the elevations
  * [t1, t0], t = pi (0.5 - v) (DESIGN.md), and dw ~ cos t dt, so the part below 0 is
  * -sin t1 / (sin t0 - sin t1). */
 static double row_below(int32_t r, int32_t h)
 {
-    double t0 = GROUND_PI * (0.5 - (double)r / h), t1 = GROUND_PI * (0.5 - (r + 1.0) / h);
+    double t0 = ENVL_PI * (0.5 - (double)r / h), t1 = ENVL_PI * (0.5 - (r + 1.0) / h);
     return t0 <= 0 ? 1 : t1 >= 0 ? 0 : -sin(t1) / (sin(t0) - sin(t1));
 }
 
@@ -66,7 +65,7 @@ envl_result envl_ground_plane_map(const envl_envmap *map, double albedo, int32_t
     if (rc)
         return rc;
     for (int k = 0; k < 3; k++)
-        ground[k] = albedo * e_up[k] / GROUND_PI;
+        ground[k] = albedo * e_up[k] / ENVL_PI;
     if (ground_rgb)
         for (int k = 0; k < 3; k++)
             ground_rgb[k] = ground[k];

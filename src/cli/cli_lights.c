@@ -45,7 +45,7 @@ static void write_json(FILE *f, const envl_info *info, const envl_lights *ls)
         json_numbers(&j, "rgb", l.rgb, 3);
         json_number(&j, "solid_angle", l.solid_angle);
         json_number(&j, "angle", l.angle);
-        json_number(&j, "angle_degrees", l.angle * 180.0 / CLI_PI);
+        json_number(&j, "angle_degrees", l.angle * 180.0 / ENVL_PI);
         double rect[4] = {l.rect[0], l.rect[1], l.rect[2], l.rect[3]};
         json_numbers(&j, "rect", rect, 4);
         json_object_end(&j);
@@ -102,7 +102,7 @@ static void write_table(FILE *f, const envl_info *info, const envl_lights *ls)
         envl_lights_get(ls, i, &l);
         fprintf(f, "%4d  %8.4f %8.4f %8.4f  %11.5g %11.5g %11.5g  %9.3g %8.3f\n", (int)i,
                 l.direction[0], l.direction[1], l.direction[2], l.rgb[0], l.rgb[1], l.rgb[2],
-                l.solid_angle, l.angle * 180.0 / CLI_PI);
+                l.solid_angle, l.angle * 180.0 / ENVL_PI);
     }
     fprintf(f, "power %.6g %.6g %.6g = lights %.6g %.6g %.6g + residual %.6g %.6g %.6g\n",
             s.power[0], s.power[1], s.power[2], s.lights_power[0], s.lights_power[1],

@@ -276,7 +276,7 @@ int cli_prefilter(int argc, char **argv)
     for (int32_t i = 0; i < nsun; i++)
         printf("sun_light_%02d direction %.4f %.4f %.4f  rgb %.5g %.5g %.5g  angle %.3f deg\n",
                (int)i, sun[i].direction[0], sun[i].direction[1], sun[i].direction[2],
-               sun[i].rgb[0], sun[i].rgb[1], sun[i].rgb[2], sun[i].angle * 180 / CLI_PI);
+               sun[i].rgb[0], sun[i].rgb[1], sun[i].rgb[2], sun[i].angle * 180 / ENVL_PI);
     int32_t bs;
     if (envl_products_brdf(p, &bs, NULL))
         printf("brdf_lut     %d x %d  %.3f s\n", (int)bs, (int)bs, s.seconds_brdf);
@@ -322,8 +322,8 @@ int cli_brdf_lut(int argc, char **argv)
                 return cli_usage("brdf-lut", "--samples takes 1..16777216");
             bo.samples = (int32_t)n;
         } else if ((r = cli_value(argc, argv, &i, "--threads", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 1, 256, &n))
-                return cli_usage("brdf-lut", "--threads takes 1..256");
+            if (r < 0 || cli_parse_int(v, 1, ENVL_MAX_THREADS, &n))
+                return cli_usage("brdf-lut", "--threads takes 1..%d", ENVL_MAX_THREADS);
             bo.threads = (int32_t)n;
         } else if (!strcmp(a, "--multiscatter")) {
             bo.multiscatter = 1;

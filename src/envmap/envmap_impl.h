@@ -45,11 +45,4 @@ void envl__column_energies(const envl_envmap *m, int32_t x0, int32_t x1, int32_t
 int32_t envl__median_column(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0, int32_t y1,
                             double half, double *left);
 
-/* A light's angular diameter from its solid angle: 2 acos(1 - omega / 2 pi), capped at pi
- * (DESIGN.md; lights.c). */
-void envl__light_set_angle(envl_light *l);
-
-/* Number of worker threads for `requested` (0 = all cores). */
-int32_t envl__threads(int32_t requested);
-
 #endif

@@ -177,8 +177,8 @@ int cli_common_option(const char *command, int argc, char **argv, int *i, cli_co
     if ((r = VALUE("--threads")) != 0) {
         if (r < 0)
             return r;
-        if (cli_parse_int(v, 1, 256, &n))
-            return cli_usage(command, "--threads takes 1..256, not '%s'", v), -2;
+        if (cli_parse_int(v, 1, ENVL_MAX_THREADS, &n))
+            return cli_usage(command, "--threads takes 1..%d, not '%s'", ENVL_MAX_THREADS, v), -2;
         c->load.threads = (int32_t)n;
         return 1;
     }
@@ -300,62 +300,3 @@ int cli_output_close(cli_output *o)
     free(o->buf);
     return rc ? cli_fail() : CLI_OK;
 }
-
-#ifndef ENVL_NO_MAIN /* the option-parsing fuzzer has its own entry point */
-static const char main_help[] =
-    "envlight: HDR environment images into lights, spherical harmonics and prefiltered maps.\n"
-    "\n"
-    "Usage: envlight COMMAND [options]   ('envlight COMMAND --help' for each)\n"
-    "\n"
-    "Commands:\n"
-    "  info FILE [--json]          size, layout, channels, statistics, power, brightest direction\n"
-    "  convert IN OUT              convert between .hdr/.exr/.pfm and into the canonical lat-long\n"
-    "  lights [FILE]               directional lights: median cut, variance cut, fit + SH remainder\n"
-    "  sh [FILE]                   spherical harmonics of any order, windowed, artist forms\n"
-    "  pov [FILE] -o OUT.inc       POV-Ray include: light_sources, ambient, sky\n"
-    "  prefilter [FILE] -o DIR     irradiance map, GGX specular chain, RGBM atlas\n"
-    "  brdf-lut -o FILE            split-sum GGX BRDF table\n"
-    "  preview [FILE] -o OUT.png   reference vs approximations on spheres, side by side\n"
-    "  bench [FILES...]            accuracy against time, as Markdown tables\n"
-    "  version                     library version\n"
-    "\n"
-    "FILE '-' (or no FILE where it makes sense) is the built-in procedural sky.\n"
-    "Exit status: 0 success, 1 bad input or failure, 2 bad usage.\n";
-
-int main(int argc, char **argv)
-{
-    if (argc < 2) {
-        fputs(main_help, stderr);
-        return CLI_USAGE;
-    }
-    const char *cmd = argv[1];
-    if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
-        fputs(main_help, stdout);
-        return CLI_OK;
-    }
-    if (!strcmp(cmd, "version") || !strcmp(cmd, "--version")) {
-        printf("envlight %s (ABI %d)\n", envl_version_string(), (int)envl_abi_version());
-        return CLI_OK;
-    }
-    if (!strcmp(cmd, "info"))
-        return cli_info(argc - 1, argv + 1);
-    if (!strcmp(cmd, "convert"))
-        return cli_convert(argc - 1, argv + 1);
-    if (!strcmp(cmd, "lights"))
-        return cli_lights(argc - 1, argv + 1);
-    if (!strcmp(cmd, "sh"))
-        return cli_sh(argc - 1, argv + 1);
-    if (!strcmp(cmd, "pov"))
-        return cli_pov(argc - 1, argv + 1);
-    if (!strcmp(cmd, "prefilter"))
-        return cli_prefilter(argc - 1, argv + 1);
-    if (!strcmp(cmd, "brdf-lut"))
-        return cli_brdf_lut(argc - 1, argv + 1);
-    if (!strcmp(cmd, "bench"))
-        return cli_bench(argc - 1, argv + 1);
-    if (!strcmp(cmd, "preview"))
-        return cli_preview(argc - 1, argv + 1);
-    fprintf(stderr, "envlight: unknown command '%s'\n\n%s", cmd, main_help);
-    return CLI_USAGE;
-}
-#endif

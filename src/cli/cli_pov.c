@@ -218,7 +218,7 @@ static double ridge_from_sh(int order, const double *sh, ridge *r)
     for (int k = 0; k < r->terms; k++) {
         /* Fibonacci spiral on the upper hemisphere (antipodal directions would be redundant). */
         double z = r->terms == 1 ? 1 : 1 - (k + 0.5) / r->terms;
-        double s = sqrt(1 - z * z), ph = k * CLI_PI * (3 - sqrt(5.0));
+        double s = sqrt(1 - z * z), ph = k * ENVL_PI * (3 - sqrt(5.0));
         r->dir[k][0] = s * cos(ph);
         r->dir[k][1] = s * sin(ph);
         r->dir[k][2] = z;
@@ -239,7 +239,7 @@ static double ridge_from_sh(int order, const double *sh, ridge *r)
                         s += y[k][base + i] * y[k][base + j];
                     g[i * m + j] = s;
                 }
-                rhs[i] = (2 * l + 1) / (4 * CLI_PI) * sh[3 * (base + i) + ch];
+                rhs[i] = (2 * l + 1) / (4 * ENVL_PI) * sh[3 * (base + i) + ch];
             }
             if (solve(m, g, rhs))
                 return -1;
@@ -713,7 +713,7 @@ int cli_pov(int argc, char **argv)
                  * (the isotropic-sky formula turned over): bands 0 and 1 exactly. */
                 const double y00 = 0.28209479177387814, y1 = 0.4886025119029199;
                 for (int ch = 0; ch < 3; ch++) {
-                    double a = CLI_PI * ground_radiance[ch] / 2;
+                    double a = ENVL_PI * ground_radiance[ch] / 2;
                     ground_sh[ch] = a / y00;
                     ground_sh[3 * 2 + ch] = -a / y1;
                 }
@@ -775,7 +775,7 @@ int cli_pov(int argc, char **argv)
     const double up[3] = {0, 0, 1};
     if (envl_irradiance_exact(lit, 1, up, e_up) == ENVL_OK &&
         envl_luminance(e_up[0], e_up[1], e_up[2]) > 0)
-        exposure_auto = POV_AUTO_WHITE * CLI_PI / envl_luminance(e_up[0], e_up[1], e_up[2]);
+        exposure_auto = POV_AUTO_WHITE * ENVL_PI / envl_luminance(e_up[0], e_up[1], e_up[2]);
     double seconds = now() - t0;
 
     /* The sky image: the lat-long .hdr input as it is, else the canonical map (rotation
@@ -939,13 +939,13 @@ int cli_pov(int argc, char **argv)
                 if (a == 0)
                     pov_vector(f, l.direction);
                 else if (a == 1)
-                    pov_rgb(f, l.rgb, 1 / CLI_PI);
+                    pov_rgb(f, l.rgb, 1 / ENVL_PI);
                 else if (a == 2)
                     pov_rgb(f, l.rgb, 1);
                 else if (a == 3)
                     fprintf(f, "%.9g", l.solid_angle);
                 else
-                    fprintf(f, "%.9g", l.angle * 180 / CLI_PI);
+                    fprintf(f, "%.9g", l.angle * 180 / ENVL_PI);
                 fputs(j + 1 < s.count ? ",\n" : "\n", f);
             }
             fputs("};\n", f);

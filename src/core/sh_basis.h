@@ -2,9 +2,7 @@
 #ifndef ENVL_SH_BASIS_H
 #define ENVL_SH_BASIS_H
 
-#include <stdint.h>
-
-#define ENVL_SH_PI 3.14159265358979323846
+#include "envlight.h"
 
 /* (order + 1)^2 */
 int32_t envl_sh_count(int32_t order);

@@ -19,7 +19,6 @@
 #include <string.h>
 #include <time.h>
 
-#define PI 3.14159265358979323846
 #define ON_SIGMA 0.3 /* Oren-Nayar surface roughness (radians) */
 
 static double now(void)
@@ -171,7 +170,7 @@ static double oren_nayar(const double n[3], const double v[3], const double l[3]
     if (si > 1e-9 && sr > 1e-9) /* cos(phi_i - phi_r) of l and v projected on the plane */
         cphi = (dot3(l, v) - ci * cr) / (si * sr);
     double sa_tb = ci < cr ? si * sr / cr : sr * si / ci; /* sin(max) tan(min) */
-    return ci * (A + B * fmax(0, cphi) * sa_tb) / PI;
+    return ci * (A + B * fmax(0, cphi) * sa_tb) / ENVL_PI;
 }
 
 typedef struct lobe {
@@ -211,7 +210,7 @@ static lobe make_lobe(int specular, double roughness)
         double t = (i + 0.5) / n;
         s += lobe_w(&b, 1 - t * t) * 2 * t;
     }
-    b.norm = 2 * PI * s / n;
+    b.norm = 2 * ENVL_PI * s / n;
     return b;
 }
 
@@ -397,7 +396,7 @@ static void add_points(const split *sp, int model, const lobe *b, const double v
 {
     for (int32_t i = 0; i < sp->count; i++) {
         const double *d = sp->dir + 3 * i;
-        double f = model == 0 ? fmax(0, dot3(x, d)) / PI
+        double f = model == 0 ? fmax(0, dot3(x, d)) / ENVL_PI
                    : model == 1 ? oren_nayar(x, v, d) : lobe_w(b, dot3(x, d)) / b->norm;
         for (int k = 0; k < 3; k++)
             out[k] += f * sp->rgb[3 * i + k];
@@ -466,7 +465,7 @@ static void shade_lights(const envl_lights *l, int row, const lobe *b,
                 e[k] -= c * li.rgb[k];
         }
         for (int k = 0; k < 3; k++)
-            out[k] += e[k] / PI;
+            out[k] += e[k] / ENVL_PI;
     } else {
         remainder_radiance(l, r, rem);
         for (int k = 0; k < 3; k++)
@@ -617,7 +616,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
             rc = envl_irradiance_exact(rm, np, p.n, refv);
             for (int32_t i = 0; i < np; i++) {
                 for (int k = 0; k < 3; k++)
-                    refv[3 * i + k] /= PI;
+                    refv[3 * i + k] /= ENVL_PI;
                 add_points(&sp, 0, NULL, d->view, p.n + 3 * i, refv + 3 * i);
             }
         } else if (row == 0) {
@@ -667,7 +666,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
             double x[3] = {0, 0, 0};
             add_points(&sp, 0, NULL, d->view, fib + 3 * i, x);
             for (int k = 0; k < 3; k++)
-                e[3 * i + k] += PI * x[k];
+                e[3 * i + k] += ENVL_PI * x[k];
         }
         if (!rc)
             d->reference_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, e, full);
@@ -690,7 +689,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
             if (row == 0 && o.diffuse == PREVIEW_DIFFUSE_LAMBERT) {
                 envl_lights_irradiance(*l, np, p.n, buf);
                 for (int32_t i = 0; i < 3 * np; i++)
-                    buf[i] /= PI;
+                    buf[i] /= ENVL_PI;
             } else {
                 for (int32_t i = 0; i < np; i++)
                     shade_lights(*l, row, &lobes[row], d->view, p.n + 3 * i, p.r + 3 * i,
@@ -709,7 +708,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
         envl_sh_get_summary(sh, &s);
         envl_sh_eval_irradiance(sh, np, p.n, buf);
         for (int32_t i = 0; i < 3 * np; i++)
-            buf[i] /= PI;
+            buf[i] /= ENVL_PI;
         STORE(0, 3, buf);
         d->seconds[0][3] = s.seconds;
         d->diffuse_error[3] = s.diffuse_error;
@@ -726,7 +725,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
         for (int32_t i = 0; i < np; i++) {
             envl_latlong_sample(im.rgb, im.width, im.height, p.n + 3 * i, buf + 3 * i);
             for (int k = 0; k < 3; k++)
-                buf[3 * i + k] /= PI;
+                buf[3 * i + k] /= ENVL_PI;
         }
         STORE(0, 4, buf);
         d->seconds[0][4] = im.seconds;
@@ -850,7 +849,7 @@ static void marker(const mapview *m, const double dir[3], int32_t radius, int ci
     }
     int32_t steps = 8 * radius + 8;
     for (int32_t i = 0; i < steps; i++) {
-        double a = 2 * PI * i / steps;
+        double a = 2 * ENVL_PI * i / steps;
         map_put(m, x + (int32_t)lround(radius * cos(a)), y + (int32_t)lround(radius * sin(a)),
                 c);
     }
