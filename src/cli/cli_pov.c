@@ -19,12 +19,12 @@
  * C[0][0] = (sky + ground) / 2, C[0][1] = (sky - ground) / 2.
  */
 #include "cli.h"
+#include "clock.h"
 #include "pov_recipe.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 #include <unistd.h>
 
 #define POV_MAX_ORDER 8
@@ -318,13 +318,6 @@ static double ridge_least(const ridge *r, int *negative)
 
 enum { AMB_SH, AMB_HEMI, AMB_NONE };
 enum { SHADOW_NONE, SHADOW_HARD, SHADOW_SOFT };
-
-static double now(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return t.tv_sec + 1e-9 * t.tv_nsec;
-}
 
 /* Diffuse error of what is emitted: lights (+ the ambient rd, may be NULL) against the exact
  * irradiance ref at DESIGN.md's 1024 normals; emit receives the emitted irradiance. */
@@ -631,7 +624,7 @@ int cli_pov(int argc, char **argv)
     envl_envmap *map;
     if (cli_load(file, &c, &map))
         return CLI_FAIL;
-    double t0 = now();
+    double t0 = envl__seconds();
     int rc = CLI_FAIL;
     envl_lights *ls = NULL;
     envl_sh *sh = NULL;
@@ -776,7 +769,7 @@ int cli_pov(int argc, char **argv)
     if (envl_irradiance_exact(lit, 1, up, e_up) == ENVL_OK &&
         envl_luminance(e_up[0], e_up[1], e_up[2]) > 0)
         exposure_auto = POV_AUTO_WHITE * ENVL_PI / envl_luminance(e_up[0], e_up[1], e_up[2]);
-    double seconds = now() - t0;
+    double seconds = envl__seconds() - t0;
 
     /* The sky image: the lat-long .hdr input as it is, else the canonical map (rotation
      * applied) or the residual, written next to the include. */

@@ -1,5 +1,6 @@
 /* envlight prefilter: irradiance map, GGX specular chain, RGBM atlas; envlight brdf-lut. */
 #include "cli.h"
+#include "clock.h"
 #include "json.h"
 
 #include <errno.h>
@@ -7,7 +8,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <time.h>
 
 static const char prefilter_help[] =
     "Usage: envlight prefilter [FILE] -o DIR [--irradiance] [--specular] [--levels K]\n"
@@ -339,14 +339,12 @@ int cli_brdf_lut(int argc, char **argv)
     int png = !strcasecmp(ext, "png");
     if (!png && strcasecmp(ext, "exr") && strcasecmp(ext, "pfm") && strcasecmp(ext, "hdr"))
         return cli_usage("brdf-lut", "FILE must end in .exr, .pfm, .hdr or .png");
-    struct timespec t0, t1;
-    clock_gettime(CLOCK_MONOTONIC, &t0);
+    double t0 = envl__seconds();
     float *rg;
     int32_t s;
     if (envl_brdf_lut(&bo, &rg, &s))
         return cli_fail();
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    double seconds = (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec);
+    double seconds = envl__seconds() - t0;
     int32_t samples = bo.samples ? bo.samples : 4096;
     /* Integration error estimate: a grid of texels again with 4x the samples. */
     double err = 0;

@@ -13,20 +13,13 @@
  *    w(u) = u ((1 + u) / 2)^(e / 2) (since (n.h)^2 = (1 + R.l) / 2 for h = normalize(R + l)).
  * Only the public API is used. */
 #include "preview.h"
+#include "clock.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #define ON_SIGMA 0.3 /* Oren-Nayar surface roughness (radians) */
-
-static double now(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return t.tv_sec + 1e-9 * t.tv_nsec;
-}
 
 void preview_defaults(preview_options *o)
 {
@@ -611,7 +604,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
     if (!rc && !(dirs = map_dirs(rm)))
         rc = ENVL_ERR_MEMORY;
     for (int row = 0; row < PREVIEW_ROWS && !rc; row++) {
-        double t0 = now();
+        double t0 = envl__seconds();
         if (row == 0 && o.diffuse == PREVIEW_DIFFUSE_LAMBERT) {
             rc = envl_irradiance_exact(rm, np, p.n, refv);
             for (int32_t i = 0; i < np; i++) {
@@ -650,7 +643,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
             for (int32_t i = 0; i < sp.count; i++)
                 deposit(&p, S, d->view, sp.dir + 3 * i, sp.rgb + 3 * i, refv);
         }
-        d->seconds[row][0] = now() - t0;
+        d->seconds[row][0] = envl__seconds() - t0;
         STORE(row, 0, refv);
     }
     /* How far the resampled copy's diffuse reference is from the full map's (DESIGN.md). */

@@ -2,6 +2,7 @@
  * Times are medians of several runs, each from scratch (cached tables dropped). Speed targets
  * are ratios against a baseline measured in the same run: one pass summing the map's floats. */
 #include "cli.h"
+#include "clock.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -13,17 +14,9 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
-#include <time.h>
 #include <unistd.h>
 
 extern char **environ;
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
 
 static int cmp_double(const void *a, const void *b)
 {
@@ -43,7 +36,7 @@ static double baseline_pass(const envl_envmap *m, volatile double *sink)
 {
     const float *p = envl_envmap_pixels(m);
     size_t n = (size_t)envl_envmap_width(m) * envl_envmap_height(m) * 3;
-    double t0 = now(), a = 0, b = 0, c = 0, d = 0;
+    double t0 = envl__seconds(), a = 0, b = 0, c = 0, d = 0;
     size_t i = 0;
     for (; i + 4 <= n; i += 4) {
         a += p[i];
@@ -54,7 +47,7 @@ static double baseline_pass(const envl_envmap *m, volatile double *sink)
     for (; i < n; i++)
         a += p[i];
     *sink += a + b + c + d;
-    return now() - t0;
+    return envl__seconds() - t0;
 }
 
 static double peak_rss_mib(void)
@@ -484,7 +477,7 @@ static double time_process(char *const argv[], int *missing)
     posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
     posix_spawn_file_actions_addopen(&fa, 2, "/dev/null", O_WRONLY, 0);
     pid_t pid;
-    double t0 = now();
+    double t0 = envl__seconds();
     int err = posix_spawnp(&pid, argv[0], &fa, NULL, argv, environ);
     posix_spawn_file_actions_destroy(&fa);
     if (err) {
@@ -495,7 +488,7 @@ static double time_process(char *const argv[], int *missing)
     while (waitpid(pid, &status, 0) < 0)
         if (errno != EINTR)
             return -1;
-    double t = now() - t0;
+    double t = envl__seconds() - t0;
     return WIFEXITED(status) && WEXITSTATUS(status) == 0 ? t : -1;
 }
 
@@ -567,13 +560,13 @@ static int bench_load(int width, const char *real, const bench_opts *o)
             break;
         double t[16];
         for (int r = -1; r < o->runs && rc == CLI_OK; r++) { /* r = -1: warm-up */
-            double t0 = now();
+            double t0 = envl__seconds();
             if (envl_envmap_load(path, NULL, &m)) {
                 rc = cli_fail();
                 break;
             }
             if (r >= 0)
-                t[r] = now() - t0;
+                t[r] = envl__seconds() - t0;
             envl_envmap_free(m);
         }
         if (rc)
@@ -645,7 +638,7 @@ static void mem_row(const char *stage, const char *holds, double peak, double af
  * returned: CLI_FAIL means the pipeline failed. */
 static int memory_child(int width, const char *dir)
 {
-    double overall = 0, t0 = now();
+    double overall = 0, t0 = envl__seconds();
     int exact = reset_peak();
     envl_envmap *m;
     cli_common c = {.quiet = 1, .sky = {.width = width}}; /* no load width: no copy of the sky */
@@ -701,7 +694,7 @@ static int memory_child(int width, const char *dir)
 
     printf("\npeak resident memory of the pipeline: %.0f MiB = %.2f x the map's floats "
            "(target <= 3: %s); %.1f s\n",
-           overall, overall / map_mib, overall <= 3 * map_mib ? "met" : "NOT met", now() - t0);
+           overall, overall / map_mib, overall <= 3 * map_mib ? "met" : "NOT met", envl__seconds() - t0);
     fflush(stdout);
     return CLI_OK;
 }

@@ -7,6 +7,7 @@
  * wraps across the seam. The first region starts at the darkest column, so a sun on the seam
  * is never cut in two. */
 #include "envmap_impl.h"
+#include "clock.h"
 #include "nnls.h"
 #include "sh_basis.h"
 #include "sun_split.h"
@@ -14,7 +15,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 struct envl_lights {
     envl_lights_summary summary;
@@ -39,13 +39,6 @@ int32_t envl_method_from_name(const char *name)
         if (!strcmp(name, method_names[i]))
             return i;
     return -1;
-}
-
-static double now_seconds(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
 typedef struct region {
@@ -1142,11 +1135,11 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
     memcpy(s->power, m->info.power, sizeof s->power);
     size_t npx = (size_t)m->width * m->height * 3;
     envl_result rc = ENVL_OK;
-    double t0 = now_seconds();
+    double t0 = envl__seconds();
     if (!(envl__lum(s->power[0], s->power[1], s->power[2]) > 0)) {
         /* A black map: no lights, an all-zero residual, no error. */
         s->no_light = 1;
-        s->seconds = now_seconds() - t0;
+        s->seconds = envl__seconds() - t0;
         *out = ls;
         return ENVL_OK;
     }
@@ -1180,7 +1173,7 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
     }
     if (rc)
         goto fail;
-    s->seconds = now_seconds() - t0;
+    s->seconds = envl__seconds() - t0;
 
     for (int32_t i = 0; i < s->count; i++)
         for (int k = 0; k < 3; k++)

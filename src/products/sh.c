@@ -8,13 +8,13 @@
  * interval: error ~ (pi/H)^(2 GAUSS)). So a constant map gives exactly L00 = 2 sqrt(pi) L and
  * zero elsewhere, up to rounding, at any resolution. */
 #include "envmap_impl.h"
+#include "clock.h"
 #include "sh_basis.h"
 
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #define GAUSS 4
 #define MIN_DIRECTIONS 4096 /* where "non-negative" is checked */
@@ -374,8 +374,7 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
     if (bands < 1 || bands > 33 || o->window < 0 || o->window >= ENVL_WINDOW_COUNT)
         return envl__fail(ENVL_ERR_ARGUMENT, "sh: order %d (0..32) or window %d out of range",
                           (int)bands - 1, (int)o->window);
-    struct timespec ts0, ts1;
-    clock_gettime(CLOCK_MONOTONIC, &ts0);
+    double t0 = envl__seconds();
     envl_sh *sh = calloc(1, sizeof *sh);
     int32_t L = bands - 1, n = envl_sh_count(L);
     double *raw = malloc(sizeof(double) * n * 3);
@@ -436,8 +435,7 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
         s->window_width = 1.0 / hi;
         s->min_irradiance = min_irradiance(sh, dirs, buf, y, NULL);
     }
-    clock_gettime(CLOCK_MONOTONIC, &ts1);
-    s->seconds = (ts1.tv_sec - ts0.tv_sec) + 1e-9 * (ts1.tv_nsec - ts0.tv_nsec);
+    s->seconds = envl__seconds() - t0;
 
     /* Artist forms from bands 0 and 1 (the least-squares linear fit over the sphere, by
      * orthogonality): E(n) ~ Y00 E00 + 0.488603 (E11 x + E1-1 y + E10 z). */

@@ -1,0 +1,398 @@
+/* The prefiltered products as files: EXR / HDR / PFM / RGBM PNG; lat-long, cube faces,
+ * vertical cross or RGBM atlas; and the prefilter.json sidecar that describes them. */
+#include "prefilter_impl.h"
+#include "json.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+static const char *export_names[ENVL_EXPORT_COUNT] = {"latlong", "cube", "cross", "atlas"};
+
+const char *envl_export_layout_name(int32_t l)
+{
+    return l >= 0 && l < ENVL_EXPORT_COUNT ? export_names[l] : NULL;
+}
+
+int32_t envl_export_layout_from_name(const char *name)
+{
+    for (int32_t i = 0; name && i < ENVL_EXPORT_COUNT; i++)
+        if (!strcmp(name, export_names[i]))
+            return i;
+    return -1;
+}
+
+/* ---- export ----
+ * Files in DIR: irradiance.EXT, specular_NN.EXT (NN = index of the level in the products),
+ * brdf_lut.EXT (float RG, blue 0; .png: sRGB); layout cube: NAME_px.EXT ... NAME_nz.EXT (faces
+ * seen from inside, canonical axes, orientation as layout.c's strips); cross: NAME.EXT as a
+ * vertical cross; atlas: specular_atlas.EXT. prefilter.json describes them all. */
+
+typedef struct pending {
+    char *tmp, *final;
+} pending;
+
+typedef struct exporter {
+    const char *dir, *format; /* format: exr hdr pfm png */
+    int rgbm;
+    pending *files;
+    int32_t n, cap;
+    FILE *json;               /* the sidecar being written (memory stream) */
+    char *json_buf;
+    size_t json_size;
+} exporter;
+
+static envl_result add_pending(exporter *x, const char *name, char **tmp_out)
+{
+    if (x->n == x->cap) {
+        int32_t cap = x->cap ? 2 * x->cap : 16;
+        pending *f = realloc(x->files, sizeof(pending) * cap);
+        if (!f)
+            return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+        x->files = f, x->cap = cap;
+    }
+    size_t ln = strlen(x->dir) + strlen(name) + 64;
+    char *fin = malloc(ln), *tmp = malloc(ln);
+    if (!fin || !tmp) {
+        free(fin);
+        free(tmp);
+        return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    }
+    snprintf(fin, ln, "%s/%s", x->dir, name);
+    snprintf(tmp, ln, "%s/.envl-%ld-%d-%s", x->dir, (long)getpid(), (int)x->n, name);
+    x->files[x->n].tmp = tmp;
+    x->files[x->n].final = fin;
+    x->n++;
+    *tmp_out = tmp;
+    return ENVL_OK;
+}
+
+/* All temporaries complete: renames each over its target as one step for the folder. Each
+ * existing target is first hard-linked to a backup (TMP-old), so that when a rename fails
+ * half-way the targets already replaced get their old files back (a target that did not exist
+ * is removed again) and the folder is as it was; the backups go on success. On a file system
+ * without hard links (EPERM, ENOTSUP) a replaced file cannot be undone and is left new. */
+static envl_result put_in_place(exporter *x)
+{
+    enum { NEW_FILE, KEPT, NOT_KEPT };
+    char **old = calloc((size_t)x->n, sizeof *old);
+    int *state = calloc((size_t)x->n, sizeof *state);
+    envl_result rc = old && state ? ENVL_OK : envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    for (int32_t i = 0; i < x->n && !rc; i++) {
+        if (access(x->files[i].final, F_OK) != 0)
+            continue; /* NEW_FILE */
+        size_t ln = strlen(x->files[i].tmp) + 8;
+        if (!(old[i] = malloc(ln))) {
+            rc = envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+            break;
+        }
+        snprintf(old[i], ln, "%s-old", x->files[i].tmp);
+        if (!envl__io_fault() && link(x->files[i].final, old[i]) == 0) {
+            state[i] = KEPT;
+        } else if (errno == EPERM || errno == ENOTSUP || errno == EOPNOTSUPP) {
+            state[i] = NOT_KEPT;
+        } else {
+            rc = envl__fail(ENVL_ERR_IO, "%s: cannot keep the old file while replacing it: %s",
+                            x->files[i].final, strerror(errno));
+        }
+    }
+    int32_t done = 0; /* renamed into place */
+    while (!rc && done < x->n) {
+        if (envl__io_fault() || rename(x->files[done].tmp, x->files[done].final) != 0)
+            rc = envl__fail(ENVL_ERR_IO, "%s: cannot rename into place: %s",
+                            x->files[done].final, strerror(errno));
+        else
+            done++;
+    }
+    for (int32_t i = 0; state && i < x->n; i++) {
+        if (rc && i < done && state[i] == KEPT)
+            rename(old[i], x->files[i].final); /* undo: the old file back */
+        else if (rc && i < done && state[i] == NEW_FILE)
+            unlink(x->files[i].final);         /* undo: no file where there was none */
+        else if (state[i] == KEPT)
+            unlink(old[i]);
+        if (old)
+            free(old[i]);
+    }
+    free(old);
+    free(state);
+    return rc;
+}
+
+/* Writes one RGB image under `name` (extension added) into a temporary file. */
+static envl_result put_image(exporter *x, const char *stem, const float *rgb, int32_t w,
+                             int32_t h)
+{
+    char name[512], *tmp;
+    snprintf(name, sizeof name, "%s.%s", stem, x->format);
+    envl_result rc = add_pending(x, name, &tmp);
+    if (rc)
+        return rc;
+    if (x->rgbm)
+        rc = envl_png_save_rgbm(tmp, rgb, w, h, ENVL_RGBM_RANGE);
+    else
+        rc = envl_image_save(tmp, rgb, w, h, &(envl_save_options){.format = x->format});
+    if (rc)
+        envl__fail_as(rc, x->files[x->n - 1].final, tmp);
+    return rc;
+}
+
+/* A lat-long map in the export layout (not atlas); lists its files in the JSON. */
+static envl_result put_map(exporter *x, int32_t layout, const char *stem, const float *rgb,
+                           int32_t w, int32_t h)
+{
+    char name[512];
+    if (layout == ENVL_EXPORT_LATLONG || layout == ENVL_EXPORT_ATLAS) {
+        fprintf(x->json, "\"files\": [\"%s.%s\"], \"layout\": \"latlong\"", stem, x->format);
+        return put_image(x, stem, rgb, w, h);
+    }
+    envl_image src = {.width = w, .height = h, .px = (float *)rgb};
+    envl_image img = {0};
+    int32_t face = w / 4 > 0 ? w / 4 : 1;
+    envl_result rc = envl__latlong_to_layout(
+        &src, layout == ENVL_EXPORT_CUBE ? ENVL_LAYOUT_STRIP_H : ENVL_LAYOUT_CROSS_V, face, &img);
+    if (rc)
+        return rc;
+    if (layout == ENVL_EXPORT_CROSS) {
+        fprintf(x->json, "\"files\": [\"%s.%s\"], \"layout\": \"cross\", \"face_size\": %d", stem,
+                x->format, (int)face);
+        rc = put_image(x, stem, img.px, img.width, img.height);
+        envl__image_free(&img);
+        return rc;
+    }
+    /* Strip order (layout.c): front +X, back -X, left +Y, right -Y, top +Z, bottom -Z. */
+    static const char *suffix[6] = {"px", "nx", "py", "ny", "pz", "nz"};
+    float *f = malloc(sizeof(float) * 3 * (size_t)face * face);
+    if (!f) {
+        envl__image_free(&img);
+        return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    }
+    fprintf(x->json, "\"files\": [");
+    for (int k = 0; k < 6 && !rc; k++) {
+        for (int32_t r = 0; r < face; r++)
+            memcpy(f + 3 * (size_t)r * face, img.px + 3 * ((size_t)r * img.width + k * face),
+                   sizeof(float) * 3 * face);
+        snprintf(name, sizeof name, "%s_%s", stem, suffix[k]);
+        fprintf(x->json, "%s\"%s.%s\"", k ? ", " : "", name, x->format);
+        rc = put_image(x, name, f, face, face);
+    }
+    fprintf(x->json, "], \"layout\": \"cube\", \"face_size\": %d", (int)face);
+    free(f);
+    envl__image_free(&img);
+    return rc;
+}
+
+static void json_num(FILE *f, const char *key, double v)
+{
+    if (isfinite(v))
+        fprintf(f, ", \"%s\": %.9g", key, v);
+    else
+        fprintf(f, ", \"%s\": null", key);
+}
+
+static int cmp_level(const void *a, const void *b)
+{
+    const envl_level *x = *(const envl_level *const *)a, *y = *(const envl_level *const *)b;
+    return x->roughness < y->roughness ? -1 : x->roughness > y->roughness;
+}
+
+/* The atlas: W = width of the lowest-roughness level; slot k (k-th level by increasing
+ * roughness) is (W >> k) x (W >> (k + 1)) at x = 0, rows [W >> (k + 1), W >> k) from the top;
+ * the image is W x W, the lowest roughness fills the bottom half; unused pixels are 0. */
+static envl_result put_atlas(exporter *x, const envl_products *p)
+{
+    const envl_level **lv = malloc(sizeof(envl_level *) * (size_t)p->n_levels);
+    if (!lv)
+        return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    for (int32_t i = 0; i < p->n_levels; i++)
+        lv[i] = &p->levels[i];
+    qsort(lv, (size_t)p->n_levels, sizeof *lv, cmp_level);
+    int32_t W = lv[0]->width;
+    float *atlas = calloc((size_t)W * W * 3, sizeof(float));
+    envl_result rc = atlas ? ENVL_OK : envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    fprintf(x->json, "\"atlas\": {\"file\": \"specular_atlas.%s\", \"width\": %d, \"height\": %d, "
+            "\"pixel_layout\": \"slot k (levels by increasing roughness) is a lat-long image of "
+            "(W >> k) x (W >> (k+1)) pixels at column 0, rows W >> (k+1) .. (W >> k) - 1 counted "
+            "from the top: the lowest roughness fills the bottom half, each next level is half "
+            "the size of the previous; unused pixels are 0\", \"slots\": [", x->format, (int)W,
+            (int)W);
+    int32_t slots = 0;
+    for (int32_t k = 0; !rc && k < p->n_levels && (W >> (k + 1)) >= 1; k++) {
+        int32_t sw = W >> k, shh = W >> (k + 1);
+        float *px;
+        rc = envl__latlong_resample(lv[k]->rgb, lv[k]->width, lv[k]->height, sw, shh, 0.0, &px);
+        if (rc)
+            break;
+        for (int32_t r = 0; r < shh; r++)
+            memcpy(atlas + 3 * (size_t)(shh + r) * W, px + 3 * (size_t)r * sw,
+                   sizeof(float) * 3 * sw);
+        free(px);
+        fprintf(x->json, "%s{\"roughness\": %.9g, \"x\": 0, \"y\": %d, \"width\": %d, "
+                "\"height\": %d}", k ? ", " : "", lv[k]->roughness, (int)shh, (int)sw, (int)shh);
+        slots++;
+    }
+    fprintf(x->json, "]}");
+    if (!rc && slots < p->n_levels)
+        rc = envl__fail(ENVL_ERR_ARGUMENT, "atlas: %d levels do not fit a %d-pixel atlas",
+                        (int)p->n_levels, (int)W);
+    if (!rc)
+        rc = put_image(x, "specular_atlas", atlas, W, W);
+    free(atlas);
+    free(lv);
+    return rc;
+}
+
+envl_result envl_products_export(const envl_products *p, const char *dir,
+                                 const envl_export_options *options)
+{
+    static const envl_export_options defaults;
+    const envl_export_options *o = options ? options : &defaults;
+    if (!p || !dir || !*dir)
+        return envl__fail(ENVL_ERR_ARGUMENT, "export: need products and a directory");
+    const char *fmt = o->format ? o->format : "exr";
+    int rgbm = !strcmp(fmt, "rgbm-png");
+    if (!rgbm && strcmp(fmt, "exr") && strcmp(fmt, "hdr") && strcmp(fmt, "pfm"))
+        return envl__fail(ENVL_ERR_ARGUMENT, "export: unknown format '%s' (exr, hdr, pfm, "
+                          "rgbm-png)", fmt);
+    if (envl__format_built(dir, rgbm ? "png" : fmt)) /* refused before anything is written */
+        return ENVL_ERR_UNSUPPORTED;
+    if (o->layout < 0 || o->layout >= ENVL_EXPORT_COUNT)
+        return envl__fail(ENVL_ERR_ARGUMENT, "export: unknown layout %d", (int)o->layout);
+    if (o->layout == ENVL_EXPORT_ATLAS && p->n_levels == 0)
+        return envl__fail(ENVL_ERR_ARGUMENT, "export: the atlas needs specular levels");
+    exporter x = {.dir = dir, .format = rgbm ? "png" : fmt, .rgbm = rgbm};
+    x.json = open_memstream(&x.json_buf, &x.json_size);
+    if (!x.json)
+        return envl__fail(ENVL_ERR_MEMORY, "export: cannot buffer the sidecar");
+    FILE *j = x.json;
+    const resolved *r = &p->opt;
+    fprintf(j, "{\"source\": ");
+    json_write_escaped(j, p->file); /* json.h: valid UTF-8 whatever the bytes */
+    fprintf(j, ",\n \"frame\": \"blender-z-up\", \"latlong\": \"column c, row r (0 = top) of W x "
+            "H: u = (c+0.5)/W, v = (r+0.5)/H, phi = pi (1 - 2u), theta = pi (0.5 - v), d = (cos "
+            "theta cos phi, cos theta sin phi, sin theta)\",\n \"format\": \"%s\", \"layout\": "
+            "\"%s\", \"units\": \"radiance as in the source (irradiance map: irradiance)\",\n",
+            fmt, envl_export_layout_name(o->layout));
+    if (o->layout == ENVL_EXPORT_CUBE || o->layout == ENVL_EXPORT_CROSS)
+        fprintf(j, " \"cube_faces\": \"seen from inside; px = +X (front): right -Y, up +Z; nx = "
+                "-X: right +Y, up +Z; py = +Y: right +X, up +Z; ny = -Y: right -X, up +Z; pz = +Z:"
+                " right -Y, up -X; nz = -Z: right -Y, up +X; the cross: top, left front right, "
+                "bottom, back (turned 180 degrees)\",\n");
+    if (rgbm)
+        fprintf(j, " \"rgbm\": {\"range\": %g, \"decode\": \"rgb = %g * rgbm.rgb * rgbm.a "
+                "(bytes / 255, linear)\", \"encode\": \"a = ceil(255 min(max(rgb) / %g, 1)) / "
+                "255, rgb8 = round(255 rgb / (%g a)); values above %g clamp\"},\n",
+                ENVL_RGBM_RANGE, ENVL_RGBM_RANGE, ENVL_RGBM_RANGE, ENVL_RGBM_RANGE,
+                ENVL_RGBM_RANGE);
+    fprintf(j, " \"ggx\": {\"alpha\": \"roughness^2\", \"prefiltered_radiance\": \"P(R) = sum "
+            "L(l) D(h) max(R.l,0) dw / sum D(h) max(R.l,0) dw, h = normalize(R + l), N = V = R\", "
+            "\"roughness_mapping\": \"chain level k of K: roughness = k / (K - 1)\", "
+            "\"levels\": %d, \"base_width\": %d, \"min_width\": %d, \"samples\": %d, "
+            "\"filtered\": %s},\n", (int)r->levels, (int)r->width, (int)r->min_width,
+            (int)r->samples, r->unfiltered ? "false" : "true");
+    if (r->sun_lights) {
+        fprintf(j, " \"sun_lights\": {\"split\": \"pixels above 50x the mean luminance, one "
+                "light per 8-connected group; not in the irradiance map nor in the levels of "
+                "roughness > 0 (the roughness-0 level keeps them)\", \"add\": \"irradiance map: "
+                "+ rgb max(n.l, 0); level of roughness r: P(R) + rgb w(R.l) / N(alpha), w(u) = u / "
+                "q^2, q = ((1 + u) / 2)(alpha^2 - 1) + 1, N(alpha) = (2 pi / B^2)(ln(alpha^2 / A) + "
+                "A / alpha^2 - 1), A = (1 + alpha^2) / 2, B = (alpha^2 - 1) / 2 (pi at alpha = 1)\","
+                " \"count\": %d, \"lights\": [", (int)p->n_sun);
+        for (int32_t i = 0; i < p->n_sun; i++) {
+            const envl_light *l = p->sun + i;
+            fprintf(j, "%s\n  {\"direction\": [%.9g, %.9g, %.9g], \"rgb\": [%.9g, %.9g, %.9g], "
+                    "\"solid_angle\": %.9g, \"angle\": %.9g}", i ? "," : "", l->direction[0],
+                    l->direction[1], l->direction[2], l->rgb[0], l->rgb[1], l->rgb[2],
+                    l->solid_angle, l->angle);
+        }
+        fprintf(j, "]},\n");
+    }
+    envl_result rc = ENVL_OK;
+    if (p->has_irradiance) {
+        fprintf(j, " \"irradiance\": {\"method\": \"%s\"",
+                envl_irradiance_method_name(p->irr.method));
+        if (p->irr.method == ENVL_IRRADIANCE_SH)
+            fprintf(j, ", \"sh_order\": %d", (int)r->irr_order);
+        fprintf(j, ", \"width\": %d, \"height\": %d", (int)p->irr.width, (int)p->irr.height);
+        json_num(j, "diffuse_error", p->irr.diffuse_error >= 0 ? p->irr.diffuse_error : NAN);
+        json_num(j, "seconds", p->irr.seconds);
+        fprintf(j, ", ");
+        rc = put_map(&x, o->layout == ENVL_EXPORT_ATLAS ? ENVL_EXPORT_LATLONG : o->layout,
+                     "irradiance", p->irr.rgb, p->irr.width, p->irr.height);
+        fprintf(j, "},\n");
+    }
+    if (!rc && p->n_levels) {
+        fprintf(j, " \"specular\": [");
+        for (int32_t i = 0; !rc && i < p->n_levels; i++) {
+            const envl_level *l = &p->levels[i];
+            fprintf(j, "%s\n  {\"roughness\": %.9g, \"alpha\": %.9g, \"width\": %d, \"height\": "
+                    "%d, \"samples\": %d, \"filtered\": %s", i ? "," : "", l->roughness,
+                    l->alpha, (int)l->width, (int)l->height, (int)l->samples,
+                    l->filtered ? "true" : "false");
+            json_num(j, "energy_scale", l->energy_scale);
+            json_num(j, "glossy_error", l->glossy_error >= 0 ? l->glossy_error : NAN);
+            json_num(j, "seconds", l->seconds);
+            if (o->layout != ENVL_EXPORT_ATLAS) {
+                char stem[32];
+                snprintf(stem, sizeof stem, "specular_%02d", (int)i);
+                fprintf(j, ", ");
+                rc = put_map(&x, o->layout, stem, l->rgb, l->width, l->height);
+            }
+            fprintf(j, "}");
+        }
+        fprintf(j, "],\n");
+        if (!rc && o->layout == ENVL_EXPORT_ATLAS) {
+            fprintf(j, " ");
+            rc = put_atlas(&x, p);
+            fprintf(j, ",\n");
+        }
+    }
+    if (!rc && p->brdf) {
+        int32_t s = p->brdf_size;
+        float *rgb = malloc(sizeof(float) * 3 * (size_t)s * s);
+        if (!rgb) {
+            rc = envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+        } else {
+            for (size_t i = 0; i < (size_t)s * s; i++)
+                rgb[3 * i] = p->brdf[2 * i], rgb[3 * i + 1] = p->brdf[2 * i + 1],
+                rgb[3 * i + 2] = 0;
+            char name[64], *tmp;
+            snprintf(name, sizeof name, "brdf_lut.%s", x.format);
+            rc = add_pending(&x, name, &tmp);
+            if (!rc &&
+                (rc = rgbm ? envl_png_save_srgb(tmp, rgb, s, s)
+                           : envl_image_save(tmp, rgb, s, s, &(envl_save_options){.format = fmt})))
+                envl__fail_as(rc, x.files[x.n - 1].final, tmp);
+            free(rgb);
+        }
+        fprintf(j, " \"brdf_lut\": {\"file\": \"brdf_lut.%s\", \"size\": %d, \"samples\": %d, "
+                "\"multiscatter\": %s, \"encoding\": \"%s\", \"axes\": \"column i: NoV = (i + "
+                "0.5) / S; row j from the top: roughness = (j + 0.5) / S\", \"channels\": \"%s\"},\n",
+                x.format, (int)s, (int)p->brdf_samples, p->brdf_multiscatter ? "true" : "false",
+                rgbm ? "sRGB 8-bit" : "float, blue = 0",
+                p->brdf_multiscatter ? "R = B, G = A + B: specular = mix(R, G, F0) * (1 + F0 (1 / "
+                                       "G - 1))"
+                                     : "R = A (scale), G = B (bias): specular = F0 A + B");
+    }
+    fprintf(j, " \"seconds\": %.9g}\n", p->summary.seconds);
+    fclose(x.json);
+    if (!rc) {
+        char *tmp;
+        rc = add_pending(&x, "prefilter.json", &tmp);
+        if (!rc && (rc = envl_file_write_atomic(tmp, x.json_buf, x.json_size)))
+            envl__fail_as(rc, x.files[x.n - 1].final, tmp);
+    }
+    free(x.json_buf);
+    rc = rc ? rc : put_in_place(&x);
+    for (int32_t i = 0; i < x.n; i++) {
+        if (rc)
+            unlink(x.files[i].tmp);
+        free(x.files[i].tmp);
+        free(x.files[i].final);
+    }
+    free(x.files);
+    return rc;
+}

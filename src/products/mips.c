@@ -1,0 +1,106 @@
+/* The area-averaged mip pyramid of a lat-long map (built once per map and cached in it) and
+ * the energy of a lat-long image. */
+#include "prefilter_impl.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- the mip pyramid ---- */
+
+/* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */
+envl_result envl__build_pyramid(const float *px, int32_t w, int32_t h, float **buf_out,
+                                 int32_t *n_out, int32_t mw[40], int32_t mh[40], size_t off[40])
+{
+    int32_t n = 1;
+    size_t total = 0;
+    mw[0] = w, mh[0] = h, off[0] = 0;
+    while ((w > 1 || h > 1) && n < 40) {
+        w = w > 1 ? w / 2 : 1;
+        h = h > 1 ? h / 2 : 1;
+        mw[n] = w, mh[n] = h, off[n] = total;
+        total += (size_t)w * h * 3;
+        n++;
+    }
+    float *buf = n > 1 ? NULL : malloc(sizeof(float));
+    if (n == 1 && !buf)
+        return envl__fail(ENVL_ERR_MEMORY, "mip pyramid: out of memory");
+    const float *prev = px;
+    for (int32_t k = 1; k < n; k++) {
+        float *lev;
+        /* Levels nest (each texel edge of level k is one of level k - 1, in azimuth and in
+         * z), so resampling the previous level is the same as resampling the map. */
+        envl_result rc = envl__latlong_resample(prev, mw[k - 1], mh[k - 1], mw[k], mh[k],
+                                                0.0, &lev);
+        if (rc) {
+            free(buf);
+            return rc;
+        }
+        if (k == 1) {
+            /* Level 1 sits at offset 0: its buffer grows to hold every level (for a large
+             * block realloc remaps the pages: no second copy of level 1 at the peak). */
+            buf = realloc(lev, sizeof(float) * total);
+            if (!buf) {
+                free(lev);
+                return envl__fail(ENVL_ERR_MEMORY, "mip pyramid: out of memory");
+            }
+        } else {
+            memcpy(buf + off[k], lev, sizeof(float) * (size_t)mw[k] * mh[k] * 3);
+            free(lev);
+        }
+        prev = buf + off[k];
+    }
+    *buf_out = buf;
+    *n_out = n;
+    return ENVL_OK;
+}
+
+envl_result envl_envmap_mips(envl_envmap *m, int32_t *levels)
+{
+    if (!m)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_mips: map is NULL");
+    if (!m->mip_levels) {
+        int32_t n, mw[40], mh[40];
+        size_t off[40];
+        float *buf;
+        envl_result rc = envl__build_pyramid(m->px, m->width, m->height, &buf, &n, mw, mh, off);
+        if (rc)
+            return rc;
+        m->mip_px = buf;
+        for (int32_t k = 0; k < n; k++)
+            m->mip_w[k] = mw[k], m->mip_h[k] = mh[k], m->mip_offset[k] = off[k];
+        m->mip_levels = n;
+    }
+    if (levels)
+        *levels = m->mip_levels;
+    return ENVL_OK;
+}
+
+void envl_envmap_drop_mips(envl_envmap *m)
+{
+    if (!m)
+        return;
+    free(m->mip_px);
+    m->mip_px = NULL;
+    m->mip_levels = 0;
+}
+
+const float *envl__mip_level(const envl_envmap *m, int32_t k)
+{
+    return k == 0 ? m->px : m->mip_px + m->mip_offset[k];
+}
+
+/* Integral of L dw of a lat-long image, per channel. */
+void envl__image_energy(const float *px, int32_t w, int32_t h, double e[3])
+{
+    e[0] = e[1] = e[2] = 0;
+    for (int32_t r = 0; r < h; r++) {
+        double row[3] = {0, 0, 0};
+        const float *p = px + (size_t)r * w * 3;
+        for (int32_t c = 0; c < w; c++)
+            for (int k = 0; k < 3; k++)
+                row[k] += p[3 * c + k];
+        double om = envl_latlong_solid_angle(w, h, r);
+        for (int k = 0; k < 3; k++)
+            e[k] += om * row[k];
+    }
+}

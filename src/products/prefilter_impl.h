@@ -1,0 +1,102 @@
+/* Prefiltering's insides, shared by its files (not installed):
+ *   prefilter_options.c  the defaults resolved in one pass, each level's width and samples
+ *   mips.c               the map's cached mip pyramid, the energy of a lat-long image
+ *   specular.c           a GGX specular level (filtered importance sampling)
+ *   bright_lobes.c       bright pixels as point lobes, sun lights added to P(R) or E(n)
+ *   glossy_reference.c   the brute-force reference and the error of a product against it
+ *   irradiance_map.c     irradiance maps
+ *   request.c            envl_compute: only what a request asks for, measured when asked
+ *   export/prefilter_files.c  the products as files with prefilter.json */
+#ifndef ENVL_PREFILTER_IMPL_H
+#define ENVL_PREFILTER_IMPL_H
+
+#include "clock.h"
+#include "envmap_impl.h"
+#include "sun_split.h"
+
+/* ---- options (prefilter_options.c) ---- */
+/* Every option of envl_prefilter_options with its default filled in. */
+typedef struct resolved {
+    int32_t levels, width, min_width, samples, unfiltered;
+    int32_t irr_method, irr_width, irr_order, threads, sun_lights;
+} resolved;
+/* The one defaults pass: fills *r from o (NULL: all defaults) and checks the ranges. The
+ * threads default to the map's (m may be NULL: all cores). */
+envl_result envl__prefilter_resolve(const envl_prefilter_options *o, const envl_envmap *m,
+                                    resolved *r);
+/* Width of the level of `roughness`: base width >> floor(roughness (levels - 1)), at least the
+ * minimum width. */
+int32_t envl__level_width(const resolved *r, double roughness);
+/* GGX samples per texel of a filtered level w wide. */
+int32_t envl__level_samples(const resolved *r, int32_t w);
+
+/* ---- the mip pyramid (mips.c) ---- */
+/* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */
+envl_result envl__build_pyramid(const float *px, int32_t w, int32_t h, float **buf_out,
+                                int32_t *n_out, int32_t mw[40], int32_t mh[40], size_t off[40]);
+/* Level k of the map's cached pyramid (0: the map). */
+const float *envl__mip_level(const envl_envmap *m, int32_t k);
+/* Integral of L dw of a w x h lat-long image, per channel. */
+void envl__image_energy(const float *px, int32_t w, int32_t h, double e[3]);
+
+/* ---- bright pixels (bright_lobes.c) ---- */
+/* A map's split (sun_split.c) with the pyramid of its residual. */
+typedef struct split {
+    envl_sun_split sun;       /* the lobes and the residual (sun_split.c) */
+    float *mip;               /* the residual's pyramid, levels 1 .. levels - 1 */
+    int32_t levels, mw[40], mh[40];
+    size_t off[40];
+} split;
+envl_result envl__split_make(const envl_envmap *m, split *s);
+void envl__split_free(split *s);
+/* Adds the lobes' part of a level (w x h, alpha) to px, energy-scaled per channel to sum E. */
+envl_result envl__add_lobes(const envl_sun_split *s, int32_t mh, double alpha, int32_t w,
+                            int32_t h, int32_t threads, float *px);
+/* Adds what n lights give to P(R) at roughness > 0, or to E(n) for roughness < 0, in `count`
+ * directions (out: count x 3). */
+void envl__sun_lights_add(const envl_light *l, int32_t n, double roughness, int32_t count,
+                          const double *dirs, double *out);
+
+/* ---- a specular level (specular.c) ---- */
+/* The level of `roughness`, `width` wide (0: its resolved width); sp: the map's split (NULL:
+ * made here when needed). *out: malloc'd RGB. */
+envl_result envl__specular_level(envl_envmap *m, const resolved *o, double roughness,
+                                 int32_t width, const split *sp, float **out, envl_level *st);
+
+/* ---- the reference and the error (glossy_reference.c) ---- */
+/* The ENVL_ERROR_NORMALS Fibonacci directions (malloc'd; NULL when out of memory). */
+double *envl__fibonacci_dirs(void);
+/* The error of a lat-long product read bilinearly, plus n_sun sun lights as they add to P(R) at
+ * `roughness` (or to E(n) for roughness < 0), against ref at dirs. */
+envl_result envl__sampled_error(const double *dirs, const double *ref, const float *rgb,
+                                int32_t w, int32_t h, const envl_light *sun, int32_t n_sun,
+                                double roughness, double *error);
+
+/* ---- irradiance maps (irradiance_map.c) ---- */
+/* `sh` may be given (an SH object of the right order, shared with the diffuse product);
+ * *projected is set when an SH projection was made here. */
+envl_result envl__irradiance_map(envl_envmap *m, const resolved *o, const envl_sh *sh,
+                                 float **out, envl_irradiance_map *st, int *projected);
+/* Every value of a float product is finite (checked before anything is written). */
+int envl__floats_finite(const float *v, size_t n);
+
+/* ---- the products of a request (request.c) ---- */
+struct envl_products {
+    envl_products_summary summary;
+    resolved opt;
+    int32_t n_levels;
+    envl_level *levels;
+    float **level_px;
+    int32_t has_irradiance;
+    envl_irradiance_map irr;
+    float *irr_px;
+    envl_sh *sh;
+    envl_lights *lights;
+    envl_light *sun;          /* options.sun_lights: the split-off pixels as lights */
+    int32_t n_sun;
+    float *brdf;
+    int32_t brdf_size, brdf_multiscatter, brdf_samples;
+    char file[1024];
+};
+
+#endif
