@@ -2,7 +2,7 @@
 # The specular chain against the targets (README "Accuracy against time (specular)"):
 # for each 2048 x 1024 map, the levels of roughness 0.1, 0.25, 0.5, 0.75, 1 with default sizes
 # and samples, (a) the sun baked into the levels, (b) --sun-lights, (c) plain GGX importance
-# sampling with 1024 samples per texel; glossy error (DESIGN.md) and seconds of each level, and
+# sampling with 1024 samples per texel; glossy error (docs/design.md) and seconds of each level, and
 # the ratio of (c)'s total time to (b)'s, all measured in the same run. Prints a markdown table.
 # Usage: scripts/specular_bench.sh ENVLIGHT [MAP...]   (MAP '-' = the built-in sky at 2048)
 case "${1:-}" in  # --help: the usage and the header above, nothing run

@@ -146,7 +146,7 @@ ENVL_API const float *envl_envmap_pixels(const envl_envmap *map);
 ENVL_API double envl_envmap_solid_angle(const envl_envmap *map, int32_t row);
 ENVL_API void envl_envmap_direction(const envl_envmap *map, int32_t column, int32_t row,
                                     double direction[3]);
-/* Same formulas for any lat-long size (DESIGN.md). */
+/* Same formulas for any lat-long size (docs/design.md). */
 ENVL_API double envl_latlong_solid_angle(int32_t width, int32_t height, int32_t row);
 ENVL_API void envl_latlong_direction(int32_t width, int32_t height, double column, double row,
                                      double direction[3]);
@@ -190,7 +190,7 @@ ENVL_API void envl_free(void *memory);
  * an existing file is either replaced whole or left as it was. */
 ENVL_API envl_result envl_file_write_atomic(const char *path, const void *data, size_t size);
 
-/* ---- exact irradiance and the error measure (DESIGN.md) ------------------------------------- */
+/* ---- exact irradiance and the error measure (docs/design.md) ------------------------------------- */
 /* E(n) = sum over pixels of L dw max(0, n.d), in double, for `count` unit normals. */
 ENVL_API envl_result envl_irradiance_exact(const envl_envmap *map, int32_t count,
                                            const double *normals, double *rgb_out);
@@ -256,7 +256,7 @@ typedef struct envl_lights_summary {
     double lights_power[3];   /* sum of the lights' rgb */
     double residual_power[3]; /* what the lights did not take; lights + residual = power */
     int32_t remainder_order;  /* fit with remainder: its order, else -1 */
-    double diffuse_error;     /* DESIGN.md's measure against the exact integrator (sun: of
+    double diffuse_error;     /* docs/design.md's measure against the exact integrator (sun: of
                                  the lights + the residual's exact irradiance) */
     double seconds;           /* time to compute the lights (the error measure excluded) */
     int32_t no_light;         /* 1: the map is black; there are no lights */
@@ -272,7 +272,7 @@ ENVL_API int32_t envl_lights_count(const envl_lights *lights);
 ENVL_API envl_result envl_lights_get(const envl_lights *lights, int32_t index, envl_light *out);
 ENVL_API envl_result envl_lights_get_summary(const envl_lights *lights,
                                              envl_lights_summary *out);
-/* Fit remainder: irradiance SH coefficients, (order+1)^2 x RGB, DESIGN.md's order; NULL and
+/* Fit remainder: irradiance SH coefficients, (order+1)^2 x RGB, docs/design.md's order; NULL and
  * order -1 when there is none. */
 ENVL_API const double *envl_lights_remainder(const envl_lights *lights, int32_t *order);
 /* The residual environment (same size as the map), RGB floats owned by the lights object. */
@@ -283,7 +283,7 @@ ENVL_API envl_result envl_lights_irradiance(const envl_lights *lights, int32_t c
 
 /* ---- spherical harmonics -------------------------------------------------------------------
  * Real SH without the Condon-Shortley phase; coefficient index l (l + 1) + m, l = 0..order;
- * for l <= 2 the basis of Ramamoorthi & Hanrahan 2001 (DESIGN.md). Irradiance coefficients are
+ * for l <= 2 the basis of Ramamoorthi & Hanrahan 2001 (docs/design.md). Irradiance coefficients are
  * radiance coefficients times A_l (A_0 = pi, A_1 = 2 pi / 3, A_2 = pi / 4, odd l > 1: 0, ...). */
 #define ENVL_WINDOW_NONE 0
 #define ENVL_WINDOW_HANN 1     /* w_l = (1 + cos(pi l / (order + 1))) / 2 */
@@ -308,7 +308,7 @@ typedef struct envl_sh_summary {
     double window_width;      /* Hann-type width used (auto), or order + 1; 0 for none */
     double min_irradiance;    /* least luminance irradiance of the (windowed) reconstruction over
                                  4096 directions */
-    double diffuse_error;     /* DESIGN.md's measure of the irradiance reconstruction */
+    double diffuse_error;     /* docs/design.md's measure of the irradiance reconstruction */
     double seconds;           /* projection + windowing */
     /* Artist forms (irradiance units, canonical frame): E(n) ~ ambient + deltas . n, and the
      * hemispheric pair: E = sky at n = axis, ground at n = -axis, linear between (the least
@@ -340,7 +340,7 @@ ENVL_API void envl_sh_basis(int32_t order, const double direction[3], double *y)
 ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l; 0 for l < 0 (no such band) */
 
 /* ---- prefiltered maps, the split-sum BRDF table, requests (prefilter.c, brdf.c, png.c) ------
- * Conventions (README "Prefiltered maps"; DESIGN.md): every map is a lat-long image in the
+ * Conventions (README "Prefiltered maps"; docs/design.md): every map is a lat-long image in the
  * canonical frame. GGX alpha = roughness^2. The prefiltered specular radiance of roughness r
  * (split sum, N = V = R, Karis 2013) is
  *   P(R) = sum L(l) D(h) max(R.l, 0) dw / sum D(h) max(R.l, 0) dw,  h = normalize(R + l).
@@ -390,14 +390,14 @@ typedef struct envl_level {
     double energy_scale;      /* factor applied so that the level's integral of L dw equals the
                                  map's (the continuous P(R) preserves it exactly); luminance
                                  ratio before the correction, 1 when none was needed */
-    double glossy_error;      /* DESIGN.md's glossy error (request.measure), else -1 */
+    double glossy_error;      /* docs/design.md's glossy error (request.measure), else -1 */
     double seconds;           /* to compute the level (the error measure excluded) */
 } envl_level;
 
 typedef struct envl_irradiance_map {
     int32_t method, width, height;
     const float *rgb;         /* owned by the products */
-    double diffuse_error;     /* DESIGN.md's diffuse error (request.measure), else -1 */
+    double diffuse_error;     /* docs/design.md's diffuse error (request.measure), else -1 */
     double seconds;
 } envl_irradiance_map;
 
@@ -492,7 +492,7 @@ ENVL_API envl_result envl_prefilter_reference(const envl_envmap *map, double rou
 /* Bilinear lookup of a lat-long RGB image in a direction (wraps in azimuth, clamps rows). */
 ENVL_API void envl_latlong_sample(const float *rgb, int32_t width, int32_t height,
                                   const double direction[3], double out[3]);
-/* DESIGN.md's glossy error of a lat-long level (sampled bilinearly) against the reference at
+/* docs/design.md's glossy error of a lat-long level (sampled bilinearly) against the reference at
  * the 1024 Fibonacci directions. */
 ENVL_API envl_result envl_glossy_error(const envl_envmap *map, double roughness,
                                        const float *rgb, int32_t width, int32_t height,

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The command-line contract (DESIGN.md): exit statuses 0 / 1 / 2, errors on stderr naming the
+# The command-line contract (docs/design.md): exit statuses 0 / 1 / 2, errors on stderr naming the
 # file and the cause, stdout carries only the requested output, outputs written atomically.
 . "$(dirname "$0")/clitest.sh"
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# envlight lights: the JSON and CSV contract of DESIGN.md, energy bookkeeping through the
+# envlight lights: the JSON and CSV contract of docs/design.md, energy bookkeeping through the
 # saved residual, the sun method, usage errors.
 . "$(dirname "$0")/clitest.sh"
 

@@ -3,7 +3,7 @@
 # not a hang: every command runs under `timeout`) with a message on stderr naming the file and
 # the cause, and writes nothing. The readers' own tests (test_hdr, test_pfm, test_exr) cover
 # every byte prefix and field; this checks that the CLI passes their errors on, for the cases
-# DESIGN.md lists. cli_basics.sh already covers: a missing file, a directory and an empty file
+# docs/design.md lists. cli_basics.sh already covers: a missing file, a directory and an empty file
 # given to `info`, an absurd PFM size, a damaged .exr, a bad PFM magic.
 . "$(dirname "$0")/clitest.sh"
 T="timeout 120"

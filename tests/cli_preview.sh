@@ -41,7 +41,7 @@ run "$ENVLIGHT" preview - -o b.png $S --sphere-size 64 --tonemap reinhard --expo
 png b.png 64
 # Notes on stderr without --quiet, printed once all is computed: one line per approximation
 # with the picture's texts (the count the method returned, "err X%" under each sphere it
-# serves) and DESIGN.md's diffuse error, which is the number `lights --json` reports. The fit
+# serves) and docs/design.md's diffuse error, which is the number `lights --json` reports. The fit
 # returns 2 lights on this sky where -k asks 4 (README "Lights"); --diffuse oren-nayar once
 # printed the irradiance map's error as -100 % before it was set.
 json_count_error() { "$ENVLIGHT" lights - --sky-width 128 --quiet --json "$@" | python3 -c '
@@ -51,10 +51,10 @@ read -r med_n med_e <<<"$(json_count_error -n 16)"
 checks=$((checks + 1)); [ "${fit_n:-4}" -lt 4 ] || fail "the fit returned ${fit_n:-?} lights: no test of the count"
 run "$ENVLIGHT" preview - -o c.png --sky-width 128 --reference-width 64 --sphere-size 48 \
   --diffuse oren-nayar -k 4
-has err.txt "^envlight preview: median cut $med_n lights: diffuse err [0-9.]*% .*, glossy 0.50 err [0-9.]*% [^,]*, DESIGN.md diffuse error $med_e %$"
-has err.txt "^envlight preview: fit $fit_n lights + SH order 2: diffuse err [0-9.]*% .*, DESIGN.md diffuse error $fit_e %$"
-has err.txt "^envlight preview: SH order 2: diffuse err [0-9.]*% [^,]*, DESIGN.md diffuse error [0-9.]* %$"
-has err.txt "^envlight preview: prefiltered maps: diffuse err [0-9.]*% .*, mirror err [0-9.]*% [^,]*, DESIGN.md"
+has err.txt "^envlight preview: median cut $med_n lights: diffuse err [0-9.]*% .*, glossy 0.50 err [0-9.]*% [^,]*, docs/design.md diffuse error $med_e %$"
+has err.txt "^envlight preview: fit $fit_n lights + SH order 2: diffuse err [0-9.]*% .*, docs/design.md diffuse error $fit_e %$"
+has err.txt "^envlight preview: SH order 2: diffuse err [0-9.]*% [^,]*, docs/design.md diffuse error [0-9.]* %$"
+has err.txt "^envlight preview: prefiltered maps: diffuse err [0-9.]*% .*, mirror err [0-9.]*% [^,]*, docs/design.md"
 hasnt err.txt "lights.*mirror err"
 hasnt err.txt "^envlight preview: SH order 2:.*glossy"
 hasnt err.txt "error *-"

@@ -478,7 +478,7 @@ def test_sh_world_evaluates_the_remainder(addon_zip, spot_hdr):
 
 # ---- the SH world never hands Blender negative radiance ----------------------------------------
 
-LUMA = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 (DESIGN.md)
+LUMA = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709 (docs/design.md)
 
 
 def sh2_basis_numpy(d):
@@ -583,7 +583,7 @@ def test_lights_only_and_sharp_and_no_shadows(addon_zip, spot_hdr):
 # ---- Cycles: a white diffuse sphere under the HDR world against lights + world ----------------
 
 def sphere_error(a_path, r_path, block=4):
-    """DESIGN.md's relative RMS of luminance over the sphere's pixels, on block x block means
+    """docs/design.md's relative RMS of luminance over the sphere's pixels, on block x block means
     (the shading of a white convex sphere is smooth, so averaging blocks divides the render
     noise by `block` and leaves the approximation's error)."""
     a = np.load(a_path + ".npy").astype(np.float64)  # written by blender_addon_check.py

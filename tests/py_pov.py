@@ -12,7 +12,7 @@ a generated include must show, at every pixel on the sphere, the radiance E(n) /
     the ridge functions they tabulate, computed here for each term and summed;
   * against the exact irradiance (envl_irradiance_exact through ctypes): the relative RMS
     of luminance over the sphere's pixels is at most the approximation's own error at the
-    same normals plus 2^-8, and at most the include's reported diffuse error (DESIGN.md's
+    same normals plus 2^-8, and at most the include's reported diffuse error (docs/design.md's
     measure, 1024 normals over the whole sphere) x 1.5 + 2^-8 (the pixels see one
     hemisphere, weighted by the projection, so the two RMS differ: the approximation's
     error on the pixels was at most 1.10 x the reported one in these cases; 1.5 is the

@@ -27,7 +27,7 @@ CLI = os.environ.get("ENVLIGHT")
 
 
 def solid_angles(h, w):
-    """Exact per-row solid angle of a w x h lat-long map (DESIGN.md), computed here in numpy."""
+    """Exact per-row solid angle of a w x h lat-long map (docs/design.md), computed here in numpy."""
     r = np.arange(h)
     return (2 * np.pi / w) * (np.sin(np.pi * (0.5 - r / h)) - np.sin(np.pi * (0.5 - (r + 1) / h)))
 

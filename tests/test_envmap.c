@@ -11,7 +11,7 @@ static double luminance_power(const envl_envmap *m)
     return envl_luminance(info.power[0], info.power[1], info.power[2]);
 }
 
-/* Solid angles of all pixels sum to 4 pi (DESIGN.md formula telescopes): relative 1e-9. */
+/* Solid angles of all pixels sum to 4 pi (docs/design.md formula telescopes): relative 1e-9. */
 static void test_solid_angles(void)
 {
     const int sizes[][2] = {{1, 1}, {2, 1}, {8192, 1}, {3, 7}, {512, 256}, {1024, 512}};
@@ -24,7 +24,7 @@ static void test_solid_angles(void)
     }
 }
 
-/* DESIGN.md: u = 0.5 -> +X, u = 0.25 -> +Y, u = 0.75 -> -Y, u = 0 -> -X, top row -> +Z. */
+/* docs/design.md: u = 0.5 -> +X, u = 0.25 -> +Y, u = 0.75 -> -Y, u = 0 -> -X, top row -> +Z. */
 static void test_directions(void)
 {
     double d[3], c, r;
@@ -50,7 +50,7 @@ static void test_directions(void)
     }
 }
 
-/* A one-pixel spot at a known pixel: brightest_direction is that pixel's DESIGN.md direction,
+/* A one-pixel spot at a known pixel: brightest_direction is that pixel's docs/design.md direction,
  * power is L * omega of its row. */
 static void test_spot(void)
 {

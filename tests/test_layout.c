@@ -2,7 +2,7 @@
  * accuracy against analytic scenes, round trips, cube-face continuity, OpenEXR envmaps.
  *
  * The test renders scenes into every layout with its own pixel -> direction functions, written
- * from the documented formulas (the comment block of layout.c, DESIGN.md, OpenEXR's
+ * from the documented formulas (the comment block of layout.c, docs/design.md, OpenEXR's
  * ImfEnvmap.cpp), not through the library.
  *
  * Error bounds. The scene is f(d) = k + b.d + d^T A d per channel. Along any great circle
@@ -44,7 +44,7 @@ static void scene_power(double p[3])
     p[2] = 4 * PI * 2.0 + 4 * PI / 3 * 1.0;
 }
 
-/* ---- DESIGN.md canonical lat-long, written here independently ---- */
+/* ---- docs/design.md canonical lat-long, written here independently ---- */
 static void ll_dir(int w, int h, double c, double r, double d[3])
 {
     double u = (c + 0.5) / w, v = (r + 0.5) / h;
@@ -469,7 +469,7 @@ static void test_accuracy(void)
     }
 }
 
-/* A bright spot rendered into a layout lands within one output pixel of DESIGN.md's pixel
+/* A bright spot rendered into a layout lands within one output pixel of docs/design.md's pixel
  * (and its centre less than one pixel-angle, pi/H, from the spot's direction). */
 static double spot_dir_[3];
 static void spot(const double d[3], double out[3])
@@ -550,7 +550,7 @@ static void test_orientation(void)
     for (int k = 0; k < 5; k++)
         for (int a = 0; a < 6; a++)
             check_spot(cubes[k], 32, axes[a], names[a]);
-    /* and where DESIGN.md puts them: +X is the centre pixel pair, +Y a quarter from the left */
+    /* and where docs/design.md puts them: +X is the centre pixel pair, +Y a quarter from the left */
     double c, r;
     ll_pix(256, 128, axes[0], &c, &r);
     CHECK_NEAR(c, 127.5, 1e-9);

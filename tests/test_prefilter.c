@@ -327,7 +327,7 @@ static void test_brdf(void)
     CHECK_RC(envl_brdf_lut(&(envl_brdf_options){.size = -1}, &t, &s), ENVL_ERR_ARGUMENT);
 }
 
-/* DESIGN.md's glossy error on a small smooth map (the 512 x 256 sky with its sun turned down
+/* docs/design.md's glossy error on a small smooth map (the 512 x 256 sky with its sun turned down
  * to nearly nothing), base 256 wide, 256 samples. */
 static void test_glossy_error(void)
 {
@@ -348,7 +348,7 @@ static void test_glossy_error(void)
         CHECK_NEAR(e2, l.glossy_error, 1e-12);
         printf("smooth sky: roughness %.2f %d x %d glossy error %.3f %%\n", l.roughness,
                (int)l.width, (int)l.height, 100 * l.glossy_error);
-        /* DESIGN.md's target is 1 %. At roughness 0.1 the lobe (~1 degree) is narrower than
+        /* docs/design.md's target is 1 %. At roughness 0.1 the lobe (~1 degree) is narrower than
          * the map's pixels (0.7 degrees) are apart, so the reference itself is a pixelated
          * picture of the horizon: 2 % there. */
         CHECK(l.glossy_error >= 0 && l.glossy_error <= (l.roughness < 0.2 ? 0.02 : 0.01));

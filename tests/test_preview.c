@@ -172,7 +172,7 @@ static void test_one_bright_pixel(void)
     envl_envmap_free(m);
 }
 
-/* preview.h's picture error written out: display luminance of each pixel, then DESIGN.md's
+/* preview.h's picture error written out: display luminance of each pixel, then docs/design.md's
  * relative RMS over the disc's pixels. */
 static double shown_y(const preview_options *o, double ev, const double *p)
 {
@@ -286,7 +286,7 @@ static void test_mirror_sun(void)
 /* The built-in sky at 128 wide, -k 4, --diffuse oren-nayar: the fit stops at fewer lights
  * (README "Lights"), and the header, the legend's count and stderr say how many it returned;
  * stderr's notes are printed once everything is computed and hold, per column, the very texts
- * under its spheres (no -100 % for an error not yet set) and DESIGN.md's diffuse error. */
+ * under its spheres (no -100 % for an error not yet set) and docs/design.md's diffuse error. */
 static void test_counts_and_notes(void)
 {
     envl_envmap *m = NULL;
@@ -335,7 +335,7 @@ static void test_counts_and_notes(void)
             CHECK((strstr(buf, cell) != NULL) == (d.served[r][c] != 0));
         }
         CHECK(d.diffuse_error[c] >= 0);
-        snprintf(cell, sizeof cell, "DESIGN.md diffuse error %.3f %%", 100 * d.diffuse_error[c]);
+        snprintf(cell, sizeof cell, "docs/design.md diffuse error %.3f %%", 100 * d.diffuse_error[c]);
         CHECK(strstr(buf, cell) != NULL);
     }
     CHECK(!strstr(notes, "-100") && !strstr(notes, "n/a"));

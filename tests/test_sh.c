@@ -1,11 +1,11 @@
-/* Spherical harmonics: the basis against DESIGN.md's formulas, A_l, the white furnace, a
+/* Spherical harmonics: the basis against docs/design.md's formulas, A_l, the white furnace, a
  * linear sky, windows, artist forms, and a single bright pixel. */
 #include "internal.h"
 #include "check.h"
 
 static const double PI = 3.14159265358979323846;
 
-/* DESIGN.md's l <= 2 basis (Ramamoorthi & Hanrahan 2001), and orthonormality at higher order
+/* docs/design.md's l <= 2 basis (Ramamoorthi & Hanrahan 2001), and orthonormality at higher order
  * by quadrature. */
 static void test_basis(void)
 {
@@ -20,7 +20,7 @@ static void test_basis(void)
                                   0.315392 * (3 * z * z - 1), 1.092548 * x * z,
                                   0.546274 * (x * x - yy * yy)};
         for (int k = 0; k < 9; k++)
-            CHECK_NEAR(y[k], expect[k], 1e-6); /* DESIGN.md's constants have 6 digits */
+            CHECK_NEAR(y[k], expect[k], 1e-6); /* docs/design.md's constants have 6 digits */
     }
     /* Orthonormality of order 8 over a fine lat-long quadrature (pixel centres, 512 x 256):
      * <Y_i, Y_j> = delta_ij to O(h^2) with h = pi/256. */

@@ -48,9 +48,9 @@ def sun_share(summary):
     total = lum(summary["power"])
     return lum(summary["lights_power"]) / total if total > 0 else 0.0
 
-# order-2 real SH basis constants (DESIGN.md, Ramamoorthi & Hanrahan 2001)
+# order-2 real SH basis constants (docs/design.md, Ramamoorthi & Hanrahan 2001)
 _Y00, _Y1, _Y2, _Y20, _Y22 = 0.282095, 0.488603, 1.092548, 0.315392, 0.546274
-# Rec. 709 luminance weights (DESIGN.md, the library's envl_luminance)
+# Rec. 709 luminance weights (docs/design.md, the library's envl_luminance)
 LUMINANCE = (0.2126, 0.7152, 0.0722)
 #: the label (after NODE_PREFIX) of the SH world's clamp at 0, the chain's last node
 SH_CLAMP = "SH Clamp"

@@ -286,7 +286,7 @@ def fibonacci_directions(n=_lib.ENVL_ERROR_NORMALS):
 
 
 def relative_rms_luminance(approx_rgb, exact_rgb):
-    """DESIGN.md's error: sqrt(mean((Ya - Ye)^2)) / mean(|Ye|) over (N, 3) irradiances."""
+    """docs/design.md's error: sqrt(mean((Ya - Ye)^2)) / mean(|Ye|) over (N, 3) irradiances."""
     na, a = _vectors(approx_rgb, "relative_rms_luminance: approx_rgb")
     ne, e = _vectors(exact_rgb, "relative_rms_luminance: exact_rgb")
     if na != ne or na == 0:
@@ -359,7 +359,7 @@ class Light:
     rect: Tuple[int, int, int, int]
 
     def blender_sun(self, mode="max"):
-        """(energy, color) of a Blender sun lamp with energy * color == rgb (DESIGN.md).
+        """(energy, color) of a Blender sun lamp with energy * color == rgb (docs/design.md).
         mode 'max': energy = the largest channel, colour <= 1; 'luminance': energy = Y."""
         if mode not in SUN_ENERGY_MODES:
             raise ArgumentError("Light.blender_sun: unknown mode %r (%s)"

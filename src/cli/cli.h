@@ -6,7 +6,7 @@
 
 #include <stdio.h>
 
-/* Exit statuses (DESIGN.md): 0 success, 1 bad input or failure, 2 bad usage. */
+/* Exit statuses (docs/design.md): 0 success, 1 bad input or failure, 2 bad usage. */
 #define CLI_OK 0
 #define CLI_FAIL 1
 #define CLI_USAGE 2

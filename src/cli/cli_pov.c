@@ -320,7 +320,7 @@ enum { AMB_SH, AMB_HEMI, AMB_NONE };
 enum { SHADOW_NONE, SHADOW_HARD, SHADOW_SOFT };
 
 /* Diffuse error of what is emitted: lights (+ the ambient rd, may be NULL) against the exact
- * irradiance ref at DESIGN.md's 1024 normals; emit receives the emitted irradiance. */
+ * irradiance ref at docs/design.md's 1024 normals; emit receives the emitted irradiance. */
 static double emitted_error(const envl_lights *ls, const ridge *rd, const double *ref,
                             double *emit)
 {
@@ -948,7 +948,7 @@ int cli_pov(int argc, char **argv)
         fprintf(f, "#declare EnvLight_Ambient_Mode = \"%s\";\n", amb_names[ambient]);
         if (ambient == AMB_SH) {
             fprintf(f, "#declare EnvLight_Ambient_SH_Order = %d;\n", amb_order);
-            fprintf(f, "// irradiance SH, canonical frame (Blender, +Z up), DESIGN.md's basis\n");
+            fprintf(f, "// irradiance SH, canonical frame (Blender, +Z up), docs/design.md's basis\n");
             fprintf(f, "#declare EnvLight_Ambient_SH = array[%d] {\n",
                     (amb_order + 1) * (amb_order + 1));
             for (int j = 0; j < (amb_order + 1) * (amb_order + 1); j++) {

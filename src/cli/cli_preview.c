@@ -13,7 +13,7 @@ static const char preview_help[] =
     "and fit K + SH remainder: diffuse, glossy; SH order 2: diffuse; prefiltered maps: all),\n"
     "each with its error and seconds under it. The error is on what the picture shows:\n"
     "sqrt(mean((Ya - Yr)^2)) / mean(Yr) over the sphere's pixels, Y the luminance of the\n"
-    "displayed (exposed, tone-mapped) colour. stderr repeats these and gives DESIGN.md's\n"
+    "displayed (exposed, tone-mapped) colour. stderr repeats these and gives docs/design.md's\n"
     "diffuse error of each product.\n"
     "  -n N                 median cut lights (default 16)\n"
     "  -k K                 fitted lights, 1..32 (default 4)\n"

@@ -1,4 +1,4 @@
-/* The canonical frame's geometry (DESIGN.md): lat-long pixels <-> directions, their solid
+/* The canonical frame's geometry (docs/design.md): lat-long pixels <-> directions, their solid
  * angles, luminance, and a light's cone from its solid angle. Every layer above uses these. */
 #include "internal.h"
 
@@ -41,7 +41,7 @@ void envl_latlong_pixel(int32_t width, int32_t height, const double d[3], double
 double envl_luminance(double r, double g, double b) { return envl__lum(r, g, b); }
 
 /* Angular diameter of a cone of the light's solid angle: 2 acos(1 - omega / 2 pi), capped at
- * pi (DESIGN.md). */
+ * pi (docs/design.md). */
 void envl__light_set_angle(envl_light *l)
 {
     double c = 1.0 - l->solid_angle / (2.0 * ENVL_PI);

@@ -8,7 +8,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* Rec. 709 luminance (DESIGN.md), inline for the per-pixel loops; envl_luminance is the same
+/* Rec. 709 luminance (docs/design.md), inline for the per-pixel loops; envl_luminance is the same
  * formula for callers of the library. */
 static inline double envl__lum(double r, double g, double b)
 {

@@ -7,7 +7,7 @@
  * everything is a polynomial in x, y, z (no trigonometry, no pole singularity):
  *   Pbar_m^m = (2m-1)!!, Pbar_{m+1}^m = (2m+1) z Pbar_m^m,
  *   Pbar_l^m = ((2l-1) z Pbar_{l-1}^m - (l+m-1) Pbar_{l-2}^m) / (l-m).
- * For l <= 2 this is Ramamoorthi & Hanrahan 2001's basis, as DESIGN.md lists it. Coefficient
+ * For l <= 2 this is Ramamoorthi & Hanrahan 2001's basis, as docs/design.md lists it. Coefficient
  * index: l (l + 1) + m. */
 #include "sh_basis.h"
 

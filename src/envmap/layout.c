@@ -3,7 +3,7 @@
  *
  * ---- Orientation choices (the project's documented conventions) ---------------------------
  *
- * Canonical frame (DESIGN.md): right-handed, +Z up; lat-long column c, row r of W x H:
+ * Canonical frame (docs/design.md): right-handed, +Z up; lat-long column c, row r of W x H:
  * u = (c + 0.5)/W, v = (r + 0.5)/H, phi = pi (1 - 2u), theta = pi (0.5 - v),
  * d = (cos theta cos phi, cos theta sin phi, sin theta). u = 0.5 -> +X, u = 0.25 -> +Y.
  *

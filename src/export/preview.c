@@ -7,7 +7,7 @@
  * Shading (README "Preview"): the camera is orthographic, looking along -v, v = the horizontal
  * direction of azimuth 45 degrees (between +X and +Y), +Z up on screen.
  *  - diffuse: radiance = E(n) / pi (Lambert, albedo 1), or Oren-Nayar;
- *  - glossy and mirror: the prefiltered radiance of DESIGN.md (split sum, N = V = R) at the
+ *  - glossy and mirror: the prefiltered radiance of docs/design.md (split sum, N = V = R) at the
  *    reflection direction R = 2 (n.v) n - v, P(R) = sum L w(R.l) dw / sum w(R.l) dw with the
  *    GGX lobe w(u) = u / q^2, q = ((1 + u) / 2)(alpha^2 - 1) + 1, or Blinn-Phong's
  *    w(u) = u ((1 + u) / 2)^(e / 2) (since (n.h)^2 = (1 + R.l) / 2 for h = normalize(R + l)).
@@ -466,7 +466,7 @@ static void shade_lights(const envl_lights *l, int row, const lobe *b,
     }
 }
 
-/* DESIGN.md's diffuse error of an irradiance lat-long map (sampled bilinearly). */
+/* docs/design.md's diffuse error of an irradiance lat-long map (sampled bilinearly). */
 static envl_result map_diffuse_error(envl_envmap *m, const float *rgb, int32_t w, int32_t h,
                                      double *err)
 {
@@ -496,7 +496,7 @@ int preview_serves(int32_t row, int32_t col)
 }
 
 /* e = sqrt(mean((Ya - Yr)^2)) / mean(Yr) over the disc's pixels, Y = 0.2126 T(s R) + 0.7152
- * T(s G) + 0.0722 T(s B), s = 2^EV, T the tone curve: DESIGN.md's formula on the colours the
+ * T(s G) + 0.0722 T(s B), s = 2^EV, T the tone curve: docs/design.md's formula on the colours the
  * picture shows (display-linear, before the sRGB OETF) instead of radiance.
  * Why on the displayed values: a sun is thousands of times the sky's radiance, and where the
  * approximation's lookup puts part of it one sphere pixel over (the mirror level is the map
@@ -532,7 +532,7 @@ void preview_data_free(preview_data *d)
 }
 
 /* One line per approximation: its name (with the count), each served row's text as the
- * picture prints it and its seconds, and DESIGN.md's diffuse error of the product. */
+ * picture prints it and its seconds, and docs/design.md's diffuse error of the product. */
 static void print_notes(FILE *f, const preview_options *o, const preview_data *d)
 {
     for (int32_t col = 1; col < PREVIEW_COLS; col++) {
@@ -552,7 +552,7 @@ static void print_notes(FILE *f, const preview_options *o, const preview_data *d
             else
                 fprintf(f, " mirror %s %.3g s,", t, d->seconds[row][col]);
         }
-        fprintf(f, " DESIGN.md diffuse error %.3f %%\n", 100 * d->diffuse_error[col]);
+        fprintf(f, " docs/design.md diffuse error %.3f %%\n", 100 * d->diffuse_error[col]);
     }
 }
 
@@ -646,7 +646,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
         d->seconds[row][0] = envl__seconds() - t0;
         STORE(row, 0, refv);
     }
-    /* How far the resampled copy's diffuse reference is from the full map's (DESIGN.md). */
+    /* How far the resampled copy's diffuse reference is from the full map's (docs/design.md). */
     if (!rc) {
         const double *full;
         double e[3 * ENVL_ERROR_NORMALS], fib[3 * ENVL_ERROR_NORMALS];
@@ -761,7 +761,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
     if (!rc && notes) {
         print_notes(notes, &o, d);
         fprintf(notes, "envlight preview: references on a %d-wide copy + %d points (diffuse %.4f %% from the "
-                "full map, DESIGN.md's measure): %.3f, %.3f, %.3f s; mirror %.3f s\n",
+                "full map, docs/design.md's measure): %.3f, %.3f, %.3f s; mirror %.3f s\n",
                 envl_envmap_width(rm), (int)sp.count, 100 * d->reference_error, d->seconds[0][0],
                 d->seconds[1][0], d->seconds[2][0], d->seconds[3][0]);
     }

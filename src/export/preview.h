@@ -44,11 +44,11 @@ typedef struct preview_data {
     int32_t served[PREVIEW_ROWS][PREVIEW_COLS]; /* 1: drawn and measured (preview_serves) */
     double error[PREVIEW_ROWS][PREVIEW_COLS];
     double seconds[PREVIEW_ROWS][PREVIEW_COLS];
-    double diffuse_error[PREVIEW_COLS]; /* DESIGN.md's diffuse error of the column's product
+    double diffuse_error[PREVIEW_COLS]; /* docs/design.md's diffuse error of the column's product
                                  (irradiance, whatever --diffuse draws); -1 for the reference */
     double exposure_ev;       /* the exposure used */
     double reference_error;   /* diffuse reference on the resampled copy against the full map,
-                                 DESIGN.md's measure */
+                                 docs/design.md's measure */
     envl_lights *median, *fit;
     int32_t median_lights, fit_lights; /* the counts the methods returned (the fit may stop
                                  before fit_count: README "Lights") */
@@ -70,7 +70,7 @@ void preview_sphere_origin(int32_t size, int32_t row, int32_t col, int32_t *x, i
 
 /* Computes the lights, SH, prefiltered maps, references and every sphere. `notes` (may be
  * NULL) gets, once all is computed, a line per column: the texts under its spheres (as the
- * picture prints them) and DESIGN.md's diffuse error of its product; then the references. */
+ * picture prints them) and docs/design.md's diffuse error of its product; then the references. */
 envl_result preview_compute(envl_envmap *map, const preview_options *o, FILE *notes,
                             preview_data *d);
 void preview_data_free(preview_data *d);
@@ -85,7 +85,7 @@ envl_result preview_compose(const envl_envmap *map, const preview_options *o,
 int preview_serves(int32_t row, int32_t col);
 /* The error printed under a sphere, on what the picture shows: both spheres as drawn,
  * display-linear D = T(2^EV x) per channel (T the tone curve), their luminance
- * Y = 0.2126 D_R + 0.7152 D_G + 0.0722 D_B, and DESIGN.md's formula over the disc's `count`
+ * Y = 0.2126 D_R + 0.7152 D_G + 0.0722 D_B, and docs/design.md's formula over the disc's `count`
  * pixels: sqrt(mean((Ya - Yr)^2)) / mean(Yr). -1 when mean(Yr) = 0. */
 double preview_picture_error(int32_t tonemap, double exposure_ev, int32_t count,
                              const double *approx, const double *ref);

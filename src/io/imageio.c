@@ -84,7 +84,7 @@ static const char *extension_format(const char *path)
 
 /* Radiance RGBE holds 0 and positive values below 2^127 (exponent byte e + 128 <= 255): a NaN,
  * an infinity, a larger value or a negative one would be written as 0 or clamped, so the save
- * is refused instead, naming the first such pixel (DESIGN.md: nothing written silently). */
+ * is refused instead, naming the first such pixel (docs/design.md: nothing written silently). */
 static envl_result rgbe_holds(const char *path, const float *rgb, int32_t w, int32_t h)
 {
     for (size_t i = 0; i < (size_t)w * (size_t)h * 3; i++)

@@ -22,7 +22,7 @@
 
 
 /* The fraction of row r's solid angle below the horizon: the row spans the elevations
- * [t1, t0], t = pi (0.5 - v) (DESIGN.md), and dw ~ cos t dt, so the part below 0 is
+ * [t1, t0], t = pi (0.5 - v) (docs/design.md), and dw ~ cos t dt, so the part below 0 is
  * -sin t1 / (sin t0 - sin t1). */
 static double row_below(int32_t r, int32_t h)
 {

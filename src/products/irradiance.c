@@ -1,5 +1,5 @@
 /* The exact irradiance integrator (the reference for every approximation) and the error
- * measure of DESIGN.md. */
+ * measure of docs/design.md. */
 #include "envmap_impl.h"
 
 #include <math.h>

@@ -2,7 +2,7 @@
  * cached mip pyramid (mips.c) or, when bright pixels were split off, over the residual's own
  * pyramid with the bright pixels added as lobes (bright_lobes.c).
  *
- * DESIGN.md's split-sum prefiltered radiance, N = V = R:
+ * docs/design.md's split-sum prefiltered radiance, N = V = R:
  *   P(R) = int L(l) D(h) max(R.l, 0) dl / int D(h) max(R.l, 0) dl.
  * Sampling half vectors h from D(h) (N.h) (GGX, Hammersley points) and reflecting V = R about
  * them gives l with pdf D(h) (N.h) / (4 V.h) = D(h) / 4 (N = V); the estimator of P is then
