@@ -1,0 +1,516 @@
+/* Fitted lights: K non-negative lights + an SH irradiance remainder, least squares against the
+ * exact irradiance, and the fit's residual map (each light takes its light from a cone). */
+#include "lights_impl.h"
+#include "nnls.h"
+#include "sh_basis.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- fit: K lights (non-negative) + an SH irradiance remainder ---- */
+
+#define FIT_NORMALS 1031    /* a Fibonacci set other than the error measure's 1024 */
+/* The fit's target irradiance comes from the map resampled to the error reference's width (a
+ * 512-wide map left 0.2 % where 1024 leaves 0.15 % on the built-in sky: the sun's lobe). */
+#define FIT_MAP_WIDTH ENVL_REFERENCE_WIDTH
+#define FIT_CANDIDATES 64   /* from the median cut, and as many bright pixels */
+/* A light must find its light nearby: its luminance irradiance may not exceed the luminance
+ * power within FIT_CONE_DEGREES of it (no light "opposite the sun" that only fits numbers). */
+#define FIT_CONE_DEGREES 45.0
+/* A light is added only if it lowers the relative RMS irradiance error by at least this. */
+#define FIT_MIN_GAIN 2e-4
+
+typedef struct fit_problem {
+    int32_t m;              /* normals */
+    double *normals;        /* m x 3 */
+    double *target;         /* m x 3 exact irradiance (scaled) */
+    double *target_y;       /* m luminance */
+    int32_t nsh;            /* SH columns */
+    double *sh;             /* nsh x m: Y_j(n_i) */
+    double *scratch;        /* m */
+} fit_problem;
+
+/* Power (sum of L dw) of the fit map within FIT_CONE_DEGREES of d: rgb (if asked) and the
+ * luminance, returned. */
+static double cone_power(const envl_envmap *fm, const double d[3], double *rgb)
+{
+    const double cmin = cos(FIT_CONE_DEGREES * ENVL_PI / 180.0);
+    double acc[3] = {0, 0, 0};
+    for (int32_t r = 0; r < fm->height; r++) {
+        double ct = fm->row_cos[r], z = d[2] * fm->row_sin[r], row[3] = {0, 0, 0};
+        const float *p = fm->px + (size_t)r * fm->width * 3;
+        for (int32_t c = 0; c < fm->width; c++, p += 3)
+            if (ct * (d[0] * fm->col_cos[c] + d[1] * fm->col_sin[c]) + z >= cmin)
+                for (int k = 0; k < 3; k++)
+                    row[k] += p[k];
+        for (int k = 0; k < 3; k++)
+            acc[k] += row[k] * fm->row_omega[r];
+    }
+    if (rgb)
+        memcpy(rgb, acc, sizeof acc);
+    return envl__lum(acc[0], acc[1], acc[2]);
+}
+
+static void light_column(const fit_problem *p, const double d[3], double *col)
+{
+    for (int32_t i = 0; i < p->m; i++)
+        col[i] = envl__clamped_dot(p->normals + 3 * i, d);
+}
+
+static double dot_n(const double *a, const double *b, int32_t n)
+{
+    double s = 0;
+    for (int32_t i = 0; i < n; i++)
+        s += a[i] * b[i];
+    return s;
+}
+
+/* Least squares of target (one channel) on k light columns + the SH columns with the lights'
+ * weights >= 0. Returns the residual sum of squares; x gets k + nsh weights. */
+static double solve_fit(const fit_problem *p, int32_t k, double *const *cols,
+                        const double *target, double *x)
+{
+    int32_t n = k + p->nsh;
+    if (n == 0)
+        return dot_n(target, target, p->m); /* nothing to fit: all of it is left */
+    double G[ENVL_NNLS_MAX * ENVL_NNLS_MAX], h[ENVL_NNLS_MAX];
+    for (int32_t a = 0; a < n; a++) {
+        const double *ca = a < k ? cols[a] : p->sh + (size_t)(a - k) * p->m;
+        h[a] = dot_n(ca, target, p->m);
+        for (int32_t b = 0; b <= a; b++) {
+            const double *cb = b < k ? cols[b] : p->sh + (size_t)(b - k) * p->m;
+            G[a * n + b] = G[b * n + a] = dot_n(ca, cb, p->m);
+        }
+    }
+    if (envl__nnls_gram(n, k, G, h, x))
+        return INFINITY;
+    /* |Ax - y|^2 = y'y - 2 h'x + x'Gx */
+    double r = dot_n(target, target, p->m) - 2 * dot_n(h, x, n);
+    for (int32_t a = 0; a < n; a++)
+        r += x[a] * dot_n(G + a * n, x, n);
+    return r;
+}
+
+/* solve_fit with each light's weight also at most avail (the power of its cone: no light
+ * carries more than there is around it): lights whose weight comes out above that are held
+ * there, their share taken off the target, and the others solved again, until none is. */
+static double solve_bounded(const fit_problem *p, int32_t k, double *const *cols,
+                            const double *target, const double *avail, double *x)
+{
+    int held[ENVL_NNLS_MAX] = {0};
+    for (;;) {
+        double *free_cols[ENVL_NNLS_MAX] = {NULL}, y[ENVL_NNLS_MAX];
+        int32_t map[ENVL_NNLS_MAX], nf = 0;
+        memcpy(p->scratch, target, sizeof(double) * p->m);
+        for (int32_t i = 0; i < k; i++) {
+            if (held[i]) {
+                for (int32_t j = 0; j < p->m; j++)
+                    p->scratch[j] -= avail[i] * cols[i][j];
+            } else {
+                free_cols[nf] = cols[i];
+                map[nf++] = i;
+            }
+        }
+        double r = solve_fit(p, nf, free_cols, p->scratch, y);
+        int over = 0;
+        for (int32_t j = 0; j < nf; j++)
+            if (y[j] > avail[map[j]] * (1 + 1e-9)) {
+                held[map[j]] = 1;
+                over = 1;
+            }
+        if (over && isfinite(r))
+            continue;
+        for (int32_t i = 0; i < k; i++)
+            x[i] = held[i] ? avail[i] : 0.0;
+        for (int32_t j = 0; j < nf; j++)
+            x[map[j]] = y[j];
+        for (int32_t j = 0; j < p->nsh; j++)
+            x[k + j] = y[nf + j];
+        return r;
+    }
+}
+
+/* Tangent frame of a unit vector. */
+static void tangents(const double d[3], double t1[3], double t2[3])
+{
+    double a[3] = {fabs(d[0]) < 0.9 ? 1.0 : 0.0, fabs(d[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+    t1[0] = a[1] * d[2] - a[2] * d[1];
+    t1[1] = a[2] * d[0] - a[0] * d[2];
+    t1[2] = a[0] * d[1] - a[1] * d[0];
+    double l = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+    for (int i = 0; i < 3; i++)
+        t1[i] /= l;
+    t2[0] = d[1] * t1[2] - d[2] * t1[1];
+    t2[1] = d[2] * t1[0] - d[0] * t1[2];
+    t2[2] = d[0] * t1[1] - d[1] * t1[0];
+}
+
+static int cmp_desc(const void *a, const void *b)
+{
+    double x = ((const double *)a)[0], y = ((const double *)b)[0];
+    if (x != y)
+        return x < y ? 1 : -1;
+    double i = ((const double *)a)[1], j = ((const double *)b)[1];
+    return i < j ? -1 : i > j;
+}
+
+/* Candidate directions: the median-cut centroids (compact bright regions) and the brightest
+ * pixels of the fit map, no two bright pixels closer than 2 degrees. */
+static envl_result fit_candidates(envl_envmap *m, const envl_envmap *fm, double *cand,
+                                  int32_t *count)
+{
+    region *rs;
+    int32_t nr, k = 0;
+    envl_result rc = envl__cut_regions(m, ENVL_METHOD_MEDIAN, FIT_CANDIDATES, &rs, &nr);
+    if (rc)
+        return rc;
+    envl_light *ls = malloc(sizeof(envl_light) * (nr ? nr : 1));
+    if (!ls) {
+        free(rs);
+        return envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
+    }
+    envl__region_lights(m, rs, nr, ls);
+    for (int32_t i = 0; i < nr; i++)
+        if (rs[i].energy > 0)
+            memcpy(cand + 3 * k++, ls[i].direction, sizeof ls[i].direction);
+    free(ls);
+    free(rs);
+    size_t n = (size_t)fm->width * fm->height;
+    double *order = malloc(sizeof(double) * 2 * n);
+    if (!order)
+        return envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
+    for (size_t i = 0; i < n; i++) {
+        const float *p = fm->px + 3 * i;
+        order[2 * i] = envl__lum(p[0], p[1], p[2]);
+        order[2 * i + 1] = (double)i;
+    }
+    qsort(order, n, 2 * sizeof(double), cmp_desc);
+    const double min_cos = cos(2.0 * ENVL_PI / 180.0);
+    int32_t first_bright = k;
+    for (size_t i = 0; i < n && k < first_bright + FIT_CANDIDATES && order[2 * i] > 0; i++) {
+        size_t idx = (size_t)order[2 * i + 1];
+        double d[3];
+        envl_envmap_direction(fm, (int32_t)(idx % fm->width), (int32_t)(idx / fm->width), d);
+        int near = 0;
+        for (int32_t j = first_bright; j < k && !near; j++)
+            near = dot_n(d, cand + 3 * j, 3) > min_cos;
+        if (!near)
+            memcpy(cand + 3 * k++, d, sizeof d);
+    }
+    free(order);
+    *count = k;
+    return ENVL_OK;
+}
+
+envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lights *ls)
+{
+    envl_result rc;
+    /* The fit's reference: exact irradiance of the map resampled (exactly, by area) to at most
+     * FIT_MAP_WIDTH, at FIT_NORMALS normals. */
+    envl_envmap *fm = m, *owned = NULL;
+    if (m->width > FIT_MAP_WIDTH) {
+        float *px;
+        int32_t fw = FIT_MAP_WIDTH;
+        int32_t fh = (int32_t)fmax(1, llround((double)fw * m->height / m->width));
+        rc = envl__latlong_resample(m->px, m->width, m->height, fw, fh, 0.0, &px);
+        if (rc)
+            return rc;
+        envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads};
+        rc = envl_envmap_from_pixels(px, fw, fh, 3, &lo, &owned);
+        free(px);
+        if (rc)
+            return rc;
+        fm = owned;
+    }
+    fit_problem p = {.m = FIT_NORMALS, .nsh = order >= 0 ? envl_sh_count(order) : 0};
+    double *cand = malloc(sizeof(double) * 3 * (2 * FIT_CANDIDATES + 1));
+    p.normals = malloc(sizeof(double) * 3 * p.m);
+    p.target = malloc(sizeof(double) * 3 * p.m);
+    p.target_y = malloc(sizeof(double) * p.m);
+    p.sh = malloc(sizeof(double) * (p.nsh ? p.nsh : 1) * p.m);
+    double *colmem = malloc(sizeof(double) * p.m * (K + 1));
+    p.scratch = malloc(sizeof(double) * p.m);
+    if (!cand || !p.normals || !p.target || !p.target_y || !p.sh || !colmem || !p.scratch) {
+        rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
+        goto done;
+    }
+    for (int32_t i = 0; i < p.m; i++)
+        envl_fibonacci_direction(i, p.m, p.normals + 3 * i);
+    rc = envl_irradiance_exact(fm, p.m, p.normals, p.target);
+    if (rc)
+        goto done;
+    double ysh[ENVL_NNLS_MAX];
+    for (int32_t i = 0; i < p.m; i++) {
+        p.target_y[i] = envl__lum(p.target[3 * i], p.target[3 * i + 1], p.target[3 * i + 2]);
+        if (p.nsh) {
+            envl_sh_eval(order, p.normals + 3 * i, ysh);
+            for (int32_t j = 0; j < p.nsh; j++)
+                p.sh[(size_t)j * p.m + i] = ysh[j];
+        }
+    }
+    int32_t nc = 0;
+    rc = fit_candidates(m, fm, cand, &nc);
+    if (rc)
+        goto done;
+    if (K > nc)
+        K = nc;
+
+    double dirs[ENVL_NNLS_MAX][3], x[ENVL_NNLS_MAX];
+    /* Greedy: add the feasible candidate that most reduces the luminance residual, while
+     * that gains at least FIT_MIN_GAIN of relative RMS error. */
+    double *cand_avail = malloc(sizeof(double) * (nc ? nc : 1));
+    if (!cand_avail) {
+        rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
+        goto done;
+    }
+    for (int32_t c = 0; c < nc; c++)
+        cand_avail[c] = cone_power(fm, cand + 3 * c, NULL);
+    double avail[ENVL_NNLS_MAX];
+    double ymean = 0;
+    for (int32_t i = 0; i < p.m; i++)
+        ymean += fabs(p.target_y[i]);
+    ymean /= p.m;
+    double prev_err = INFINITY;
+    if (p.nsh) {
+        double r0 = solve_fit(&p, 0, NULL, p.target_y, x);
+        prev_err = sqrt(fmax(0, r0) / p.m) / ymean;
+    }
+    double *cols[ENVL_NNLS_MAX];
+    for (int32_t i = 0; i <= K; i++)
+        cols[i] = colmem + (size_t)i * p.m;
+    char *used = calloc((size_t)nc + 1, 1);
+    if (!used) {
+        free(cand_avail);
+        rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
+        goto done;
+    }
+    int32_t k = 0;
+    for (; k < K; k++) {
+        double best = INFINITY;
+        int32_t best_c = -1;
+        for (int32_t c = 0; c < nc; c++) {
+            if (used[c])
+                continue;
+            light_column(&p, cand + 3 * c, cols[k]);
+            avail[k] = cand_avail[c];
+            double r = solve_bounded(&p, k + 1, cols, p.target_y, avail, x);
+            if (r < best) {
+                best = r;
+                best_c = c;
+            }
+        }
+        double err = sqrt(fmax(0, best) / p.m) / ymean;
+        if (best_c < 0 || !(prev_err - err >= FIT_MIN_GAIN))
+            break;
+        prev_err = err;
+        used[best_c] = 1;
+        memcpy(dirs[k], cand + 3 * best_c, sizeof dirs[k]);
+        avail[k] = cand_avail[best_c];
+        light_column(&p, dirs[k], cols[k]);
+    }
+    free(used);
+    free(cand_avail);
+    K = k;
+
+    /* Refine each direction by a pattern search in its tangent plane, steps 2 down to 1/32
+     * degree. */
+    double cur = K ? solve_bounded(&p, K, cols, p.target_y, avail, x) : INFINITY;
+    for (double step = 2.0; step >= 1.0 / 32 && K; step *= 0.5) {
+        int improved = 1;
+        for (int pass = 0; improved && pass < 8; pass++) {
+            improved = 0;
+            for (int32_t i = 0; i < K; i++) {
+                double t1[3], t2[3], keep[3];
+                tangents(dirs[i], t1, t2);
+                memcpy(keep, dirs[i], sizeof keep);
+                double s = step * ENVL_PI / 180.0;
+                const double moves[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+                for (int mv = 0; mv < 4; mv++) {
+                    double d[3];
+                    for (int a = 0; a < 3; a++)
+                        d[a] = keep[a] + s * (moves[mv][0] * t1[a] + moves[mv][1] * t2[a]);
+                    double l = sqrt(dot_n(d, d, 3));
+                    for (int a = 0; a < 3; a++)
+                        d[a] /= l;
+                    light_column(&p, d, cols[K]);
+                    double *saved = cols[i], saved_avail = avail[i];
+                    cols[i] = cols[K];
+                    avail[i] = cone_power(fm, d, NULL);
+                    double r = solve_bounded(&p, K, cols, p.target_y, avail, x);
+                    cols[i] = saved;
+                    if (r < cur * (1 - 1e-12)) {
+                        cur = r;
+                        memcpy(dirs[i], d, sizeof d);
+                        memcpy(cols[i], cols[K], sizeof(double) * p.m);
+                        improved = 1;
+                        break;
+                    }
+                    avail[i] = saved_avail;
+                }
+            }
+        }
+    }
+
+    /* Final colours and remainder, channel by channel. */
+    double *chan = malloc(sizeof(double) * p.m);
+    ls->lights = calloc((size_t)(K ? K : 1), sizeof(envl_light));
+    ls->remainder = p.nsh ? calloc((size_t)p.nsh * 3, sizeof(double)) : NULL;
+    if (!chan || !ls->lights || (p.nsh && !ls->remainder)) {
+        free(chan);
+        rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
+        goto done;
+    }
+    double cap[ENVL_NNLS_MAX][3], cap_c[ENVL_NNLS_MAX];
+    for (int32_t i = 0; i < K; i++)
+        cone_power(fm, dirs[i], cap[i]);
+    for (int c = 0; c < 3; c++) {
+        for (int32_t i = 0; i < p.m; i++)
+            chan[i] = p.target[3 * i + c];
+        for (int32_t i = 0; i < K; i++)
+            cap_c[i] = cap[i][c];
+        if (K + p.nsh > 0)
+            solve_bounded(&p, K, cols, chan, cap_c, x);
+        for (int32_t i = 0; i < K; i++)
+            ls->lights[i].rgb[c] = x[i];
+        for (int32_t j = 0; j < p.nsh; j++)
+            ls->remainder[3 * j + c] = x[K + j];
+    }
+    free(chan);
+    for (int32_t i = 0; i < K; i++)
+        memcpy(ls->lights[i].direction, dirs[i], sizeof dirs[i]);
+    ls->summary.count = K;
+    ls->summary.remainder_order = order;
+done:
+    free(cand);
+    free(p.normals);
+    free(p.target);
+    free(p.target_y);
+    free(p.sh);
+    free(colmem);
+    free(p.scratch);
+    envl_envmap_free(owned);
+    return rc;
+}
+
+/* ---- residual of the fit: each light takes its rgb from the smallest cone around it that
+ * holds that much light, the same fraction from every pixel of the cone ---- */
+
+#define CONE_BINS 16384
+
+/* Angular bin of pixel (c, r) around `dir`: floor(sin(angle / 2) BINS), with sin(angle/2) =
+ * sqrt((1 - cos) / 2): monotonic in the angle, no trigonometry per pixel. */
+static int32_t cone_bin(const envl_envmap *m, int32_t c, int32_t r, const double dir[3])
+{
+    double d[3];
+    envl_envmap_direction(m, c, r, d);
+    double t = sqrt(fmax(0.0, 0.5 * (1.0 - dot_n(d, dir, 3))));
+    int32_t b = (int32_t)(t * CONE_BINS);
+    return b < CONE_BINS ? b : CONE_BINS - 1;
+}
+
+envl_result envl__take_cones(const envl_envmap *m, envl_lights *ls)
+{
+    int32_t W = m->width, H = m->height;
+    double (*hist)[3] = malloc(sizeof(double[3]) * CONE_BINS);
+    if (!hist)
+        return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+    /* brightest first */
+    int32_t order[ENVL_NNLS_MAX];
+    for (int32_t i = 0; i < ls->summary.count; i++)
+        order[i] = i;
+    for (int32_t i = 1; i < ls->summary.count; i++)
+        for (int32_t j = i; j > 0; j--) {
+            const double *a = ls->lights[order[j]].rgb, *b = ls->lights[order[j - 1]].rgb;
+            if (envl__lum(a[0], a[1], a[2]) <= envl__lum(b[0], b[1], b[2]))
+                break;
+            int32_t t = order[j];
+            order[j] = order[j - 1];
+            order[j - 1] = t;
+        }
+    for (int32_t oi = 0; oi < ls->summary.count; oi++) {
+        envl_light *l = &ls->lights[order[oi]];
+        memset(hist, 0, sizeof(double[3]) * CONE_BINS);
+        for (int32_t r = 0; r < H; r++) {
+            double om = m->row_omega[r];
+            for (int32_t c = 0; c < W; c++) {
+                int32_t b = cone_bin(m, c, r, l->direction);
+                const float *p = ls->residual + 3 * ((size_t)r * W + c);
+                for (int k = 0; k < 3; k++)
+                    hist[b][k] += p[k] * om;
+            }
+        }
+        double cum[3] = {0, 0, 0};
+        int32_t last = CONE_BINS - 1;
+        for (int32_t b = 0; b < CONE_BINS; b++) {
+            for (int k = 0; k < 3; k++)
+                cum[k] += hist[b][k];
+            if (cum[0] >= l->rgb[0] && cum[1] >= l->rgb[1] && cum[2] >= l->rgb[2]) {
+                last = b;
+                break;
+            }
+        }
+        double avail[3] = {0, 0, 0};
+        for (int32_t b = 0; b <= last; b++)
+            for (int k = 0; k < 3; k++)
+                avail[k] += hist[b][k];
+        double keep[3];
+        for (int k = 0; k < 3; k++) {
+            if (l->rgb[k] > avail[k])
+                l->rgb[k] = avail[k]; /* the whole sphere holds less: take all there is */
+            keep[k] = avail[k] > 0 ? 1.0 - l->rgb[k] / avail[k] : 1.0;
+        }
+        /* what it takes, sum e, and its first moment, sum e d */
+        double taken = 0, moment[3] = {0, 0, 0}, own = 0;
+        int32_t x0 = W, x1 = -1, y0 = H, y1 = -1;
+        for (int32_t r = 0; r < H; r++) {
+            double om = m->row_omega[r];
+            for (int32_t c = 0; c < W; c++) {
+                int32_t b = cone_bin(m, c, r, l->direction);
+                if (b > last)
+                    continue;
+                float *p = ls->residual + 3 * ((size_t)r * W + c);
+                double e = om * envl__lum(p[0] * (1 - keep[0]), p[1] * (1 - keep[1]),
+                                          p[2] * (1 - keep[2])), d[3];
+                envl_envmap_direction(m, c, r, d);
+                taken += e;
+                own += e * om / (4.0 * ENVL_PI);
+                for (int k = 0; k < 3; k++)
+                    moment[k] += e * d[k];
+                for (int k = 0; k < 3; k++)
+                    p[k] = (float)(p[k] * keep[k]);
+                x0 = c < x0 ? c : x0;
+                x1 = c + 1 > x1 ? c + 1 : x1;
+                y0 = r < y0 ? r : y0;
+                y1 = r + 1 > y1 ? r + 1 : y1;
+            }
+        }
+        /* Its size: the uniform disc with the same spread. A disc of solid angle w has
+         * mean (1 - cos t) = w / 4 pi (uniform in cos t), so w = 4 pi sum e (1 - cos t) / sum e.
+         * The cone that holds the light's rgb is far wider than a sun in it (15 degrees
+         * around a 0.5-degree sun with its glow): as a disc it would soften the terminator of
+         * a lit sphere the sun leaves sharp. */
+        /* The light points along the first moment V = sum e d of what it took: a surface
+         * that sees all of it receives E(n) = n . V. Its spread about that direction is
+         * sum e (1 - cos t) = taken - |V|, plus each pixel's own extent (a pixel of solid
+         * angle om as its own disc: om / 4 pi, as sun_split.c counts it), so the disc of the
+         * same spread (solid angle w) has |V| = rgb (1 - w / 4 pi) up to the pixels' own
+         * extent (a few 1e-6 of rgb on a 1K map): a disc light of that irradiance at normal
+         * incidence (a Blender sun: energy) reproduces E(n). (Pointed along the fit's lobe
+         * centre, a wide light near the horizon gave a ground plane 3 % too much light on
+         * kiara_1_dawn: scripts/scene_bench.py --host blender.) */
+        double len = sqrt(dot_n(moment, moment, 3)), spread = taken - len + own;
+        if (len > 0)
+            for (int k = 0; k < 3; k++)
+                l->direction[k] = moment[k] / len;
+        l->solid_angle = taken > 0 ? fmin(4.0 * ENVL_PI, 4.0 * ENVL_PI * fmax(spread, 0.0) / taken)
+                                   : 0.0;
+        envl__light_set_angle(l);
+        l->rect[0] = x0 < W ? x0 : 0;
+        l->rect[1] = y0 < H ? y0 : 0;
+        l->rect[2] = x1 > 0 ? x1 : 0;
+        l->rect[3] = y1 > 0 ? y1 : 0;
+    }
+    free(hist);
+    return ENVL_OK;
+}

@@ -1,0 +1,141 @@
+/* The "sun" method: the map's suns split off exactly (sun_split.c), one light each, and the rest
+ * of the map as the residual environment. */
+#include "lights_impl.h"
+#include "sun_split.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- sun: the map's suns, split off exactly (sun_split.c) ---- */
+
+typedef struct bright {
+    double y;
+    int32_t i;
+} bright;
+
+/* Brighter first; ties in the split's order. */
+static int cmp_bright(const void *a, const void *b)
+{
+    const bright *x = a, *y = b;
+    if (x->y != y->y)
+        return x->y < y->y ? 1 : -1;
+    return (x->i > y->i) - (x->i < y->i);
+}
+
+/* The pixel rectangle of the lobes that light j took (slot[taken - 1] == j): rows y0..y1 and
+ * the shortest run of columns that holds them, starting after the widest gap (x1 past W when
+ * the run wraps across the seam). */
+static void sun_rect(const envl_envmap *m, const envl_sun_split *sp, const int32_t *slot,
+                     int32_t j, unsigned char *cols, envl_light *l)
+{
+    int32_t W = m->width, y0 = m->height, y1 = 0, any = -1;
+    memset(cols, 0, (size_t)W);
+    for (int32_t i = 0; i < sp->n; i++) {
+        const envl_sun_lobe *b = sp->lobes + i;
+        if (b->taken > 0 && slot[b->taken - 1] == j) {
+            cols[b->c] = 1;
+            any = b->c;
+            y0 = b->r < y0 ? b->r : y0;
+            y1 = b->r + 1 > y1 ? b->r + 1 : y1;
+        }
+    }
+    int32_t gap = 0, gap_end = any, run = 0; /* widest run of empty columns, and its end */
+    for (int32_t k = 1; any >= 0 && k <= W; k++) {
+        int32_t c = (any + k) % W;
+        if (!cols[c]) {
+            run++;
+        } else {
+            if (run > gap) {
+                gap = run;
+                gap_end = c;
+            }
+            run = 0;
+        }
+    }
+    int32_t x0 = any < 0 ? 0 : gap > 0 ? gap_end : 0;
+    l->rect[0] = x0;
+    l->rect[1] = any < 0 ? 0 : y0;
+    l->rect[2] = x0 + (W - gap);
+    l->rect[3] = any < 0 ? 0 : y1;
+}
+
+/* Splits the map's bright pixels off (sun_split.c); its suns, the brightest n of them, are
+ * the lights, and the residual is the map less exactly their excess: the pixels of a kept sun
+ * at the split's threshold luminance, every other pixel (of other bright groups, or of suns
+ * beyond n) as it was. */
+envl_result envl__sun_lights(const envl_envmap *m, int32_t n, envl_lights *ls)
+{
+    envl_sun_split sp;
+    envl_light *all = NULL;
+    int32_t nall = 0;
+    envl_result rc = envl__sun_split_make(m, &sp);
+    if (rc == ENVL_OK)
+        rc = envl__sun_split_lights(m, &sp, &all, &nall);
+    if (rc) {
+        envl__sun_split_free(&sp);
+        return rc;
+    }
+    int32_t k = nall < n ? nall : n;
+    size_t npx = (size_t)m->width * m->height;
+    bright *order = malloc(sizeof(bright) * (size_t)(nall ? nall : 1));
+    int32_t *slot = malloc(sizeof(int32_t) * (size_t)(nall ? nall : 1));
+    unsigned char *cols = malloc((size_t)m->width);
+    ls->lights = calloc((size_t)(k ? k : 1), sizeof(envl_light));
+    ls->residual = malloc(sizeof(float) * 3 * npx);
+    if (!order || !slot || !cols || !ls->lights || !ls->residual) {
+        rc = envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+        goto done;
+    }
+    for (int32_t i = 0; i < nall; i++)
+        order[i] = (bright){envl__lum(all[i].rgb[0], all[i].rgb[1], all[i].rgb[2]), i};
+    qsort(order, (size_t)nall, sizeof *order, cmp_bright);
+    for (int32_t j = 0; j < nall; j++)
+        slot[order[j].i] = j < k ? j : -1;
+    memcpy(ls->residual, m->px, sizeof(float) * 3 * npx);
+    for (int32_t i = 0; i < sp.n; i++) {
+        const envl_sun_lobe *b = sp.lobes + i;
+        if (b->taken > 0 && slot[b->taken - 1] >= 0) {
+            size_t at = 3 * ((size_t)b->r * m->width + b->c);
+            memcpy(ls->residual + at, sp.res + at, sizeof(float) * 3);
+        }
+    }
+    for (int32_t j = 0; j < k; j++) {
+        ls->lights[j] = all[order[j].i];
+        sun_rect(m, &sp, slot, j, cols, &ls->lights[j]);
+    }
+    ls->summary.count = k;
+done:
+    free(order);
+    free(slot);
+    free(cols);
+    free(all);
+    envl__sun_split_free(&sp);
+    return rc;
+}
+
+/* Exact irradiance of the sun method's residual at the error measure's normals, added to
+ * approx: the residual stays an environment map (drawn as one), so it is part of what the
+ * method hands a renderer. Computed as the map's reference is (envl_envmap_reference_irradiance,
+ * the same resampling for wide maps); with no light the residual is the map itself. */
+envl_result envl__add_residual_irradiance(const envl_envmap *m, const envl_lights *ls,
+                                           const double *ref, double *approx)
+{
+    const double *e = ref;
+    envl_envmap *rm = NULL;
+    if (ls->summary.count > 0) {
+        envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads,
+                                .max_pixels = (int64_t)m->width * m->height};
+        envl_result rc = envl_envmap_from_pixels(ls->residual, m->width, m->height, 3, &lo, &rm);
+        if (rc == ENVL_OK)
+            rc = envl_envmap_reference_irradiance(rm, &e);
+        if (rc) {
+            envl_envmap_free(rm);
+            return rc;
+        }
+    }
+    for (int32_t i = 0; i < 3 * ENVL_ERROR_NORMALS; i++)
+        approx[i] += e[i];
+    envl_envmap_free(rm);
+    return ENVL_OK;
+}
