@@ -3,7 +3,10 @@
  * Public C API. Conventions (see README "Library API"):
  *  - every call returns an envl_result (ENVL_OK = 0); on failure envl_last_error() gives a
  *    message for this thread naming the file, the offset and what was expected;
- *  - options structs: zero means "sensible default" (each field's comment gives the default);
+ *  - options structs: zero means "sensible default" (each field's comment gives the default),
+ *    resolved in one pass per struct (src/products/options.c); an SH order is always given as
+ *    the order L itself (`order`, `*_order`), 0 there meaning the default and ENVL_ORDER_0 the
+ *    order 0;
  *  - opaque handles are released with NULL-safe *_free functions;
  *  - the canonical frame is Blender's world frame (right-handed, +Z up) and the envmap is a
  *    lat-long image in it: column c, row r (0 = top), u = (c+0.5)/W, v = (r+0.5)/H,
@@ -26,12 +29,17 @@ extern "C" {
 #endif
 
 /* Bumped whenever a struct layout or a function signature changes (the ctypes shim checks it). */
-#define ENVL_ABI_VERSION 1
+#define ENVL_ABI_VERSION 2
 
 /* pi, the one definition every part of envlight uses. */
 #define ENVL_PI 3.14159265358979323846
 /* The most worker threads any call uses (every `threads` option: 0 = all cores, capped here). */
 #define ENVL_MAX_THREADS 256
+
+/* SH orders in options: an `order` field holds the order L; 0 there is the default
+ * (ENVL_DEFAULT_ORDER) and ENVL_ORDER_0 asks for order 0 (the constant term alone). */
+#define ENVL_DEFAULT_ORDER 2
+#define ENVL_ORDER_0 (-2)
 
 /* ---- results ------------------------------------------------------------------------------ */
 typedef int32_t envl_result;
@@ -215,9 +223,11 @@ ENVL_API double envl_luminance(double r, double g, double b);
 ENVL_API void envl_envmap_drop_caches(envl_envmap *map, int32_t which);
 
 /* ---- lights ------------------------------------------------------------------------------- */
-#define ENVL_METHOD_MEDIAN 0    /* Debevec 2005 median cut on a double summed-area table */
-#define ENVL_METHOD_VARIANCE 1  /* variance-minimising cut (after Viriyothai & Debevec 2009) */
-#define ENVL_METHOD_FIT 2       /* fitted lights (non-negative) + low-order SH remainder */
+/* The default, everywhere (C, `envlight lights`, `envlight pov`'s custom recipe, Python): the
+ * benchmark's pick for a few lights + an ambient (docs/bench/tables.md). */
+#define ENVL_METHOD_FIT 0       /* fitted lights (non-negative) + low-order SH remainder */
+#define ENVL_METHOD_MEDIAN 1    /* Debevec 2005 median cut (region table of 32-column blocks) */
+#define ENVL_METHOD_VARIANCE 2  /* variance-minimising cut (after Viriyothai & Debevec 2009) */
 /* The map's suns, split off exactly: the pixels above 50x the mean luminance (at most 4096:
  * else the threshold is raised; the prefiltered maps' split, as options.sun_lights), one
  * light per 8-connected group that is a sun (at most 5 degrees across, compact, >= 1 % of
@@ -230,15 +240,23 @@ ENVL_API void envl_envmap_drop_caches(envl_envmap *map, int32_t which);
  * residual stays an environment map); envl_lights_irradiance gives the lights' part. */
 #define ENVL_METHOD_SUN 3
 #define ENVL_METHOD_COUNT 4
-ENVL_API const char *envl_method_name(int32_t method); /* "median", "variance", "fit", "sun" */
+ENVL_API const char *envl_method_name(int32_t method); /* "fit", "median", "variance", "sun" */
 ENVL_API int32_t envl_method_from_name(const char *name); /* -1 if unknown */
 
 #define ENVL_REMAINDER_NONE (-1)
+#define ENVL_DEFAULT_FIT_LIGHTS 4
+#define ENVL_DEFAULT_CUT_LIGHTS 16
+#define ENVL_DEFAULT_SUN_LIGHTS 4
+#define ENVL_MAX_REMAINDER_ORDER 8
+/* The fit solves the lights' colours and the SH remainder together, one NNLS of at most 128
+ * unknowns (32 lights + 81 coefficients at remainder order 8). */
+#define ENVL_FIT_MAX_LIGHTS 32
 typedef struct envl_lights_options {
-    int32_t method;           /* ENVL_METHOD_*; default median */
-    int32_t count;            /* number of lights; default 16 (fit: 4; sun: at most, 4) */
-    int32_t remainder_bands;  /* fit: SH bands of the remainder (order + 1), 1..9; default 3
-                                 (order 2); ENVL_REMAINDER_NONE for lights only */
+    int32_t method;           /* ENVL_METHOD_*; default fit */
+    int32_t count;            /* number of lights; default ENVL_DEFAULT_FIT_LIGHTS (fit),
+                                 _CUT_LIGHTS (median, variance), _SUN_LIGHTS (sun: at most) */
+    int32_t remainder_order;  /* fit: SH order of the remainder, 0..8 (ENVL_ORDER_0 for 0);
+                                 default 2; ENVL_REMAINDER_NONE for lights only */
 } envl_lights_options;
 
 typedef struct envl_light {
@@ -297,7 +315,7 @@ ENVL_API const char *envl_window_name(int32_t window);     /* "none", "hann", ..
 ENVL_API int32_t envl_window_from_name(const char *name);  /* -1 if unknown */
 
 typedef struct envl_sh_options {
-    int32_t bands;            /* order + 1, 1..33; default 3 (order 2) */
+    int32_t order;            /* SH order L, 0..32 (ENVL_ORDER_0 for 0); default 2 */
     int32_t window;           /* ENVL_WINDOW_*; default none: the plain truncated expansion,
                                  which can go negative (min_irradiance says); auto cannot
                                  (the CLI's default) */
@@ -367,7 +385,8 @@ typedef struct envl_prefilter_options {
                                  map (no mip filtering): the benchmark's baseline */
     int32_t irradiance_method;/* ENVL_IRRADIANCE_*; default RESAMPLED */
     int32_t irradiance_width; /* lat-long width of the irradiance map; default 64 */
-    int32_t irradiance_order; /* ENVL_IRRADIANCE_SH: SH order 0..32; default 2 */
+    int32_t irradiance_order; /* ENVL_IRRADIANCE_SH: SH order 0..32 (ENVL_ORDER_0 for 0);
+                                 default 2 */
     int32_t threads;          /* default: the map's */
     int32_t sun_lights;       /* nonzero: the bright pixels split off before filtering (more
                                  than 50x the mean luminance: a sun) are not baked into the
@@ -401,9 +420,12 @@ typedef struct envl_irradiance_map {
     double seconds;
 } envl_irradiance_map;
 
+#define ENVL_BRDF_DEFAULT_SIZE 128
+#define ENVL_BRDF_DEFAULT_SAMPLES 4096
 typedef struct envl_brdf_options {
-    int32_t size;             /* table size S x S; default 128 */
-    int32_t samples;          /* GGX samples per texel (integrated in double); default 4096 */
+    int32_t size;             /* table size S x S; default ENVL_BRDF_DEFAULT_SIZE */
+    int32_t samples;          /* GGX samples per texel (integrated in double); default
+                                 ENVL_BRDF_DEFAULT_SAMPLES */
     int32_t multiscatter;     /* nonzero: the multiscatter form (see envl_brdf_lut) */
     int32_t threads;          /* default: all cores */
 } envl_brdf_options;
@@ -424,7 +446,7 @@ typedef struct envl_request {
     int32_t brdf_lut;         /* the split-sum table (options in `brdf`) */
     int32_t measure;          /* nonzero: also measure the diffuse / glossy error of each
                                  product (the brute-force glossy reference is slow) */
-    int32_t sh_order;         /* default 2 */
+    int32_t sh_order;         /* diffuse: SH order 0..32 (ENVL_ORDER_0 for 0); default 2 */
     envl_prefilter_options prefilter;
     envl_lights_options lights;
     envl_brdf_options brdf;

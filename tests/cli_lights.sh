@@ -37,7 +37,7 @@ if method == "fit":
 assert 0 <= d["error"]["diffuse"] < 1 and d["seconds"] >= 0
 PY
 done
-run "$ENVLIGHT" lights - --sky-width 256 -n 4 --csv
+run "$ENVLIGHT" lights - --sky-width 256 --method median -n 4 --csv
 checks=$((checks + 1))
 [ "$(head -1 out.txt)" = "x,y,z,r,g,b,solid_angle,angle" ] && [ "$(wc -l < out.txt)" = 5 ] ||
   { fails=$((fails + 1)); echo "FAIL: CSV"; cat out.txt; }

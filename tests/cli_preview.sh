@@ -47,7 +47,7 @@ png b.png 64
 json_count_error() { "$ENVLIGHT" lights - --sky-width 128 --quiet --json "$@" | python3 -c '
 import json, sys; j = json.load(sys.stdin); print(j["count"], "%.3f" % (100 * j["error"]["diffuse"]))'; }
 read -r fit_n fit_e <<<"$(json_count_error --method fit -n 4)"
-read -r med_n med_e <<<"$(json_count_error -n 16)"
+read -r med_n med_e <<<"$(json_count_error --method median -n 16)"
 checks=$((checks + 1)); [ "${fit_n:-4}" -lt 4 ] || fail "the fit returned ${fit_n:-?} lights: no test of the count"
 run "$ENVLIGHT" preview - -o c.png --sky-width 128 --reference-width 64 --sphere-size 48 \
   --diffuse oren-nayar -k 4

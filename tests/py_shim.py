@@ -46,7 +46,7 @@ def spot_image(w=64, h=32, col=40, row=9, value=1000.0, base=0.05):
 # ---- loading and the ABI -----------------------------------------------------------------
 
 def test_library_loaded_with_matching_abi():
-    assert envlight.lib.envl_abi_version() == envlight.ABI_VERSION == 1
+    assert envlight.lib.envl_abi_version() == envlight.ABI_VERSION == 2
     assert envlight.version()
     want = os.environ.get("ENVLIGHT_LIBRARY")
     if want:
@@ -55,7 +55,7 @@ def test_library_loaded_with_matching_abi():
 
 def test_abi_mismatch_is_refused(monkeypatch):
     monkeypatch.setattr(_lib, "ABI_VERSION", 999)
-    with pytest.raises(ImportError, match="ABI version 1.*written for 999"):
+    with pytest.raises(ImportError, match="ABI version 2.*written for 999"):
         _lib.load_library(envlight.library_path)
 
 
@@ -183,6 +183,33 @@ def test_sky():
         d = np.array(info["brightest_direction"])
         want = np.array([0.0, math.cos(math.radians(35)), math.sin(math.radians(35))])
         assert np.degrees(np.arccos(np.clip(d @ want, -1, 1))) < 1.0
+
+
+def test_order_zero_is_reachable_and_lights_default_to_fit():
+    """SH order 0 through every order option (the library's 0 is its default 2: the shim asks
+    with ENVL_ORDER_0), None or nothing gives 2; the lights method defaults to fit, as in C and
+    the CLI (docs/design.md). A constant map L has one coefficient, 2 sqrt(pi) L."""
+    img = np.full((16, 32, 3), 1.5, np.float32)
+    with envlight.from_pixels(img) as env:
+        with env.sh(order=0, window="none") as sh:
+            assert sh.order == 0 and len(sh.radiance) == 1
+            assert abs(sh.radiance[0][1] - 2 * math.sqrt(math.pi) * 1.5) <= 1e-9
+        with env.sh() as sh:
+            assert sh.order == 2
+        with env.prefilter(diffuse=True, sh_order=0) as p:
+            assert len(p.sh_irradiance) == 1
+        with env.lights(order=0) as res:
+            assert res.summary["method"] == "fit" and res.summary["remainder_order"] == 0
+        with env.lights(order=None) as res:
+            assert res.summary["remainder_order"] is None
+    # an SH irradiance map of order 0 is one constant (the mean irradiance), of order 2 not
+    ramp = np.repeat(np.linspace(0.1, 2.0, 16, dtype=np.float32)[:, None, None], 32, 1)
+    with envlight.from_pixels(np.repeat(ramp, 3, 2)) as env:
+        for order, flat in ((0, True), (2, False)):
+            with env.prefilter(irradiance=True, irradiance_method="sh",
+                               irradiance_order=order) as p:
+                e = np.asarray(p.irradiance["rgb"])
+                assert (np.ptp(e) <= 1e-6 * e.max()) == flat, (order, np.ptp(e))
 
 
 # ---- from_pixels ---------------------------------------------------------------------------

@@ -356,7 +356,7 @@ def test_sh_refuses(env, kw, arg, kind):
 
 
 PREFILTER = [
-    ("sh_order", dict(diffuse=True, sh_order=0), ARG),   # gave order 2
+    ("sh_order", dict(diffuse=True, sh_order=-1), ARG),
     ("sh_order", dict(diffuse=True, sh_order=33), ARG),
     ("sh_order", dict(diffuse=True, sh_order=BIG + 1), ARG),
     ("brdf_size", dict(brdf=True, brdf_size=0), ARG),
@@ -378,7 +378,6 @@ PREFILTER = [
     ("samples", dict(chain=True, samples=0), ARG),
     ("samples", dict(chain=True, samples=2 ** 20 + 1), ARG),
     ("irradiance_width", dict(irradiance=True, irradiance_width=0), ARG),
-    ("irradiance_order", dict(irradiance=True, irradiance_method="sh", irradiance_order=0), ARG),
     ("irradiance_order", dict(irradiance=True, irradiance_method="sh", irradiance_order=-1), ARG),
     ("irradiance_method", dict(irradiance=True, irradiance_method=BIG + 1), ARG),
     ("threads", dict(mirror=True, threads=0), ARG),
@@ -476,8 +475,8 @@ def test_mirrored_limits_match_the_library():
     lib = envlight.lib
     m = _raw_map()
     try:
-        def lights_rc(method, count, bands=0):
-            o = _lib.LightsOptions(method, count, bands)
+        def lights_rc(method, count, order=0):
+            o = _lib.LightsOptions(method, count, order)
             h = c_void_p()
             rc = lib.envl_lights_compute(m, byref(o), byref(h))
             lib.envl_lights_free(h)
@@ -486,16 +485,18 @@ def test_mirrored_limits_match_the_library():
         med = lib.envl_method_from_name(b"median")
         assert lights_rc(fit, A.LIGHTS_MAX_FIT) == 0 and lights_rc(fit, A.LIGHTS_MAX_FIT + 1) == 1
         assert lights_rc(med, A.LIGHTS_MAX + 1) == 1
-        assert lights_rc(fit, 1, A.REMAINDER_MAX_ORDER + 1) == 0
-        assert lights_rc(fit, 1, A.REMAINDER_MAX_ORDER + 2) == 1
+        assert lights_rc(fit, 1, A.REMAINDER_MAX_ORDER) == 0
+        assert lights_rc(fit, 1, A.REMAINDER_MAX_ORDER + 1) == 1
+        assert lights_rc(fit, 1, _lib.ENVL_ORDER_0) == 0
 
-        def sh_rc(bands):
-            o = _lib.SHOptions(bands, 0)
+        def sh_rc(order):
+            o = _lib.SHOptions(order, 0)
             h = c_void_p()
             rc = lib.envl_sh_compute(m, byref(o), byref(h))
             lib.envl_sh_free(h)
             return rc
-        assert sh_rc(A.SH_MAX_ORDER + 1) == 0 and sh_rc(A.SH_MAX_ORDER + 2) == 1
+        assert sh_rc(A.SH_MAX_ORDER) == 0 and sh_rc(A.SH_MAX_ORDER + 1) == 1
+        assert sh_rc(_lib.ENVL_ORDER_0) == 0 and sh_rc(-1) == 1
 
         def compute_rc(**fields):
             q = _lib.Request()

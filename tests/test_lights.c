@@ -169,7 +169,9 @@ static void test_seam_and_pole(double elevation, double azimuth)
     CHECK_OK(envl_envmap_sky(&so, &m));
     double el = elevation * PI / 180, az = azimuth * PI / 180;
     double sun[3] = {cos(el) * cos(az), cos(el) * sin(az), sin(el)};
-    for (int method = 0; method < 2; method++) {
+    static const int cuts[] = {ENVL_METHOD_MEDIAN, ENVL_METHOD_VARIANCE};
+    for (int c = 0; c < 2; c++) {
+        int method = cuts[c];
         envl_lights *ls;
         envl_lights_options o = {.method = method, .count = 16};
         CHECK_OK(envl_lights_compute(m, &o, &ls));
@@ -381,7 +383,7 @@ static void test_fit_lights_alone(void)
     float *px = filled(w, h, 2.0f);
     envl_envmap *m = map_of(px, w, h, 0);
     envl_lights *ls;
-    envl_lights_options o = {.method = ENVL_METHOD_FIT, .count = 4, .remainder_bands = -1};
+    envl_lights_options o = {.method = ENVL_METHOD_FIT, .count = 4, .remainder_order = ENVL_REMAINDER_NONE};
     CHECK_OK(envl_lights_compute(m, &o, &ls));
     envl_lights_summary s;
     envl_lights_get_summary(ls, &s);
@@ -747,8 +749,36 @@ static void test_sun_count(void)
     free(px);
 }
 
+/* One default lights method (docs/design.md): zero-initialised options (and NULL) fit at most
+ * ENVL_DEFAULT_FIT_LIGHTS lights with an order-2 remainder; ENVL_ORDER_0 asks for a remainder
+ * of order 0, ENVL_REMAINDER_NONE for none; a remainder order above 8 is refused. */
+static void test_defaults(void)
+{
+    envl_envmap *m;
+    CHECK_OK(envl_envmap_sky(&(envl_sky_options){.width = 256}, &m));
+    static const struct { int32_t field, order; } cases[] = {
+        {0, 2}, {ENVL_ORDER_0, 0}, {ENVL_REMAINDER_NONE, -1}, {8, 8}};
+    for (int i = 0; i < 5; i++) {
+        envl_lights *ls;
+        envl_lights_options o = {.remainder_order = i < 4 ? cases[i].field : 0};
+        CHECK_OK(envl_lights_compute(m, i < 4 ? &o : NULL, &ls));
+        envl_lights_summary s;
+        envl_lights_get_summary(ls, &s);
+        CHECK(s.method == ENVL_METHOD_FIT);
+        CHECK(s.count >= 1 && s.count <= ENVL_DEFAULT_FIT_LIGHTS);
+        CHECK(s.remainder_order == (i < 4 ? cases[i].order : ENVL_DEFAULT_ORDER));
+        envl_lights_free(ls);
+    }
+    envl_lights *ls;
+    CHECK_RC(envl_lights_compute(m, &(envl_lights_options){.remainder_order = 9}, &ls),
+             ENVL_ERR_ARGUMENT);
+    CHECK(!strcmp(envl_method_name(0), "fit"));
+    envl_envmap_free(m);
+}
+
 int main(void)
 {
+    test_defaults();
     test_constant();
     test_one_bright_pixel();
     test_seam_and_pole(10, 180);  /* on the seam */

@@ -57,6 +57,9 @@ def _layout(value, what, lo=0):
 
 
 def _method(value, what):
+    """A lights method by name or value; None: the library's default (fit, value 0)."""
+    if value is None:
+        return 0
     return A.enum(value, what, lib.envl_method_from_name, lib.envl_method_name)
 
 
@@ -77,11 +80,16 @@ def _count(value, method, what, none_ok=True, lo=1):
     hi = A.LIGHTS_MAX_FIT if method == _FIT else A.LIGHTS_MAX
     if not none_ok:
         return A.integer(value, what, lo, hi)
-    return A.integer(value, what, lo, hi, 0, "the library's default: 16, fit and sun 4")
+    return A.integer(value, what, lo, hi, 0, "the library's default: fit and sun 4, the cuts 16")
 
 
-#: prefilter's SH orders: the library reads order 0 as its default 2, so 0 cannot be asked for
-_ORDER_0 = "the default 2; 0 is not available: the library reads it as its default"
+def _order(value, what, hi, none=None):
+    """An SH order option: the order itself (0 asks for ENVL_ORDER_0, as the library's 0 is its
+    default); None: `none` when given (ENVL_REMAINDER_NONE), else the default 2."""
+    if value is None:
+        return none if none is not None else 0
+    v = A.integer(value, what, 0, hi)
+    return v if v else _lib.ENVL_ORDER_0
 
 
 def _threads(value, what):
@@ -487,22 +495,20 @@ class Envmap(_Handle):
         finally:
             lib.envl_free(p)
 
-    def lights(self, n=None, method="fit", order=2):
+    def lights(self, n=None, method=None, order=2):
         """Directional lights standing in for the map.
 
-        n: number of lights, 1..32 for fit, else 1..2^24 (None = the library's default: 16, fit
-        4; sun: at most n, 4); method: 'median', 'variance', 'fit' or 'sun' (the suns split off
+        n: number of lights, 1..32 for fit, else 1..2^24 (None = the library's default: fit 4,
+        median and variance 16; sun: at most n, 4); method: 'fit' (None: the library's default,
+        fit, as everywhere), 'median', 'variance' or 'sun' (the suns split off
         exactly; the residual is the map less their excess); order: fit's SH remainder order
         (0..8), None for lights only (ignored by the cuts and sun). Returns a LightsResult (a
         context manager)."""
         o = _lib.LightsOptions()
         o.method = _method(method, "Envmap.lights: method")
         o.count = _count(n, o.method, "Envmap.lights: n")
-        if order is None:
-            o.remainder_bands = _lib.ENVL_REMAINDER_NONE
-        else:
-            o.remainder_bands = A.integer(order, "Envmap.lights: order", 0,
-                                          A.REMAINDER_MAX_ORDER, note="lights only") + 1
+        o.remainder_order = _order(order, "Envmap.lights: order", A.REMAINDER_MAX_ORDER,
+                                   none=_lib.ENVL_REMAINDER_NONE)
         h = c_void_p()
         m = self._handle()
         _check(lib.envl_lights_compute(m, byref(o), byref(h)))
@@ -515,7 +521,8 @@ class Envmap(_Handle):
         channel; 'none' (can go negative: summary["min_irradiance"] says), 'hann', 'lanczos').
         Returns an SHResult (a context manager)."""
         o = _lib.SHOptions()
-        o.bands = A.integer(order, "Envmap.sh: order", 0, A.SH_MAX_ORDER) + 1
+        o.order = _order(A.integer(order, "Envmap.sh: order", 0, A.SH_MAX_ORDER),
+                         "Envmap.sh: order", A.SH_MAX_ORDER)
         o.window = A.enum(window, "Envmap.sh: window", lib.envl_window_from_name,
                           lib.envl_window_name)
         h = c_void_p()
@@ -540,15 +547,14 @@ class Envmap(_Handle):
                                      lib.envl_irradiance_method_name)
         o.irradiance_width = A.integer(irradiance_width, f + ": irradiance_width", 2,
                                        A.PREFILTER_MAX_WIDTH, 0, "the default 64")
-        o.irradiance_order = A.integer(irradiance_order, f + ": irradiance_order", 1,
-                                       A.SH_MAX_ORDER, 0, _ORDER_0)
+        o.irradiance_order = _order(irradiance_order, f + ": irradiance_order", A.SH_MAX_ORDER)
         o.threads = _threads(threads, f + ": threads")
         o.sun_lights = A.flag(sun_lights, f + ": sun_lights")
         return o
 
     def prefilter(self, roughness=None, chain=False, mirror=False, irradiance=False,
                   diffuse=False, brdf=False, measure=False, sh_order=2, brdf_size=None,
-                  multiscatter=False, shadows=0, shadows_method="median", **options):
+                  multiscatter=False, shadows=0, shadows_method=None, **options):
         """Prefiltered maps (one envl_compute request; only what is asked is computed):
         roughness: GGX roughness values (one specular level each); chain: all K levels
         (options: levels, width, min_width, samples, unfiltered, irradiance_method
@@ -556,8 +562,9 @@ class Envmap(_Handle):
         sun as lights, left out of the irradiance map and glossy levels); mirror: the
         roughness-0 level; irradiance: an irradiance map; diffuse: SH irradiance of sh_order;
         brdf: the split-sum table; shadows: that many lights for shadows (shadows_method
-        'median'|'variance'|'fit'|'sun'; 0: none); measure: also the glossy / diffuse errors
-        (slow). sh_order 1..32, brdf_size 1..4096; a None option is the library's default (see
+        'fit' (None: the default)|'median'|'variance'|'sun'; 0: none); measure: also the glossy /
+        diffuse errors (slow). sh_order 0..32, brdf_size 1..4096; a None option is the library's
+        default (see
         _prefilter_options). Returns Products (a context manager)."""
         f = "Envmap.prefilter"
         req = _lib.Request()
@@ -576,7 +583,7 @@ class Envmap(_Handle):
         req.diffuse = A.flag(diffuse, f + ": diffuse")
         req.brdf_lut = A.flag(brdf, f + ": brdf")
         req.measure = A.flag(measure, f + ": measure")
-        req.sh_order = A.integer(sh_order, f + ": sh_order", 1, A.SH_MAX_ORDER, 0, _ORDER_0)
+        req.sh_order = _order(sh_order, f + ": sh_order", A.SH_MAX_ORDER)
         req.prefilter = self._prefilter_options(f, **options)
         req.lights.method = _method(shadows_method, f + ": shadows_method")
         # shadows: 0 is a real value (no lights), so no None here

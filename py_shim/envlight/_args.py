@@ -34,9 +34,9 @@ INT64_MAX = 2 ** 63 - 1
 #: lights.c envl_lights_compute: count 1..32 for fit, else 1..2^24
 LIGHTS_MAX_FIT = 32
 LIGHTS_MAX = 1 << 24
-#: lights.c: fit remainder bands 1..9, order = bands - 1
+#: lights: the fit's remainder order 0..8 (ENVL_MAX_REMAINDER_ORDER)
 REMAINDER_MAX_ORDER = 8
-#: sh.c / prefilter.c: SH order 0..32 (bands 1..33)
+#: SH orders 0..32
 SH_MAX_ORDER = 32
 #: sky.c: width <= 65536 and width x width/2 <= ENVL_DEFAULT_MAX_PIXELS (2^28): 23170
 SKY_MAX_WIDTH = 23170

@@ -11,7 +11,7 @@ from ctypes import (POINTER, Structure, c_char, c_char_p, c_double, c_float, c_i
                     c_int64, c_size_t, c_uint8, c_void_p)
 
 #: ENVL_ABI_VERSION of the envlight.h these bindings mirror.
-ABI_VERSION = 1
+ABI_VERSION = 2
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -101,7 +101,7 @@ class LightsOptions(Structure):
     _fields_ = [
         ("method", c_int32),
         ("count", c_int32),
-        ("remainder_bands", c_int32),
+        ("remainder_order", c_int32),
     ]
 
 
@@ -131,7 +131,7 @@ class LightsSummary(Structure):
 
 class SHOptions(Structure):
     _fields_ = [
-        ("bands", c_int32),
+        ("order", c_int32),
         ("window", c_int32),
     ]
 
@@ -373,6 +373,7 @@ FUNCTIONS = {
 ENVL_CACHE_SAT = 1
 ENVL_CACHE_REFERENCE = 2
 ENVL_REMAINDER_NONE = -1
+ENVL_ORDER_0 = -2
 ENVL_ERROR_NORMALS = 1024
 ENVL_PIXEL_FLOAT = 0
 ENVL_PIXEL_HALF = 1

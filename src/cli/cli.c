@@ -97,10 +97,10 @@ const char cli_common_help[] =
 
 int cli_light_count_ok(const char *command, const envl_lights_options *lo)
 {
-    if (lo->method != ENVL_METHOD_FIT || lo->count <= CLI_FIT_MAX_LIGHTS)
+    if (lo->method != ENVL_METHOD_FIT || lo->count <= ENVL_FIT_MAX_LIGHTS)
         return 1;
     cli_usage(command, "--method fit takes 1..%d lights, not %d (median and variance take "
-              "more)", CLI_FIT_MAX_LIGHTS, (int)lo->count);
+              "more)", ENVL_FIT_MAX_LIGHTS, (int)lo->count);
     return 0;
 }
 

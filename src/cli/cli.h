@@ -36,10 +36,6 @@ int cli_parse_int(const char *s, long long min, long long max, long long *out);
 /* Tries the common options at argv[*i]: 1 consumed (i advanced), 0 not a common option,
  * CLI_USAGE-style negative (-2) after printing a usage error. */
 int cli_common_option(const char *command, int argc, char **argv, int *i, cli_common *c);
-/* The fit solves the lights' colours and the SH remainder together, one NNLS of at most
- * ENVL_NNLS_MAX = 128 unknowns (32 lights + 81 coefficients at remainder order 8): the library
- * refuses more than 32 fitted lights (lights.c). */
-#define CLI_FIT_MAX_LIGHTS 32
 /* 1 if the options' light count suits their method; else prints a usage error naming the
  * limit and returns 0 (call it once every option is read: -n and --method come in any order). */
 int cli_light_count_ok(const char *command, const envl_lights_options *lo);

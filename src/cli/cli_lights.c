@@ -6,15 +6,15 @@
 #include <string.h>
 
 static const char lights_help[] =
-    "Usage: envlight lights [FILE] [-n N] [--method median|variance|fit|sun] [--json|--csv]\n"
+    "Usage: envlight lights [FILE] [-n N] [--method fit|median|variance|sun] [--json|--csv]\n"
     "                       [-o OUT] [--residual FILE] [--order L] [input options]\n"
     "Directional lights that stand in for the environment, in the canonical frame (Blender:\n"
     "+Z up). Each light: direction, rgb = irradiance it delivers at normal incidence (the sum\n"
     "of L dw it took), solid angle of its region and angular diameter (radians).\n"
-    "  -n N              number of lights (default 16; fit: 4, at most 32; sun: at most,\n"
-    "                    4)\n"
-    "  --method M        median (Debevec 2005, default), variance (variance-minimising cut),\n"
-    "                    fit (non-negative least-squares lights + SH remainder), sun (the\n"
+    "  -n N              number of lights (fit: default 4, at most 32; median, variance:\n"
+    "                    default 16; sun: at most, default 4)\n"
+    "  --method M        fit (default: non-negative least-squares lights + SH remainder),\n"
+    "                    median (Debevec 2005), variance (variance-minimising cut), sun (the\n"
     "                    suns split off exactly: pixels above 50x the mean luminance, one\n"
     "                    light per sun; the residual is the map less exactly their excess)\n"
     "  --order L         fit: SH order of the low-frequency remainder (default 2; -1: none)\n"
@@ -134,11 +134,11 @@ int cli_lights(int argc, char **argv)
             lo.count = (int32_t)n;
         } else if ((r = cli_value(argc, argv, &i, "--method", &v)) != 0) {
             if (r < 0 || (lo.method = envl_method_from_name(v)) < 0)
-                return cli_usage("lights", "--method takes median, variance, fit or sun");
+                return cli_usage("lights", "--method takes fit, median, variance or sun");
         } else if ((r = cli_value(argc, argv, &i, "--order", &v)) != 0) {
             if (r < 0 || cli_parse_int(v, -1, 8, &n))
                 return cli_usage("lights", "--order takes -1..8");
-            lo.remainder_bands = n < 0 ? ENVL_REMAINDER_NONE : (int32_t)n + 1;
+            lo.remainder_order = n < 0 ? ENVL_REMAINDER_NONE : n == 0 ? ENVL_ORDER_0 : (int32_t)n;
         } else if ((r = cli_value(argc, argv, &i, "-o", &v)) != 0) {
             if (r < 0)
                 return cli_usage("lights", "-o needs a file name");

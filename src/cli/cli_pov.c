@@ -604,9 +604,9 @@ int cli_pov(int argc, char **argv)
     if (!cli_light_count_ok("pov", &lo)) /* the method is known now (given or the recipe's) */
         return CLI_USAGE;
     if (lo.method == ENVL_METHOD_FIT)
-        lo.remainder_bands = (ambient == AMB_NONE && !order_set) || order < 0
+        lo.remainder_order = (ambient == AMB_NONE && !order_set) || order < 0
                                  ? ENVL_REMAINDER_NONE
-                                 : order + 1;
+                                 : order == 0 ? ENVL_ORDER_0 : order;
     if (order < 0)
         order = 2; /* the ambient of a fit without remainder: SH of its residual */
     if (sky && !sky_image && (!out || !strcmp(out, "-")) &&
@@ -719,7 +719,8 @@ int cli_pov(int argc, char **argv)
                 envl_load_options rl = {.layout = ENVL_LAYOUT_LATLONG,
                                         .threads = c.load.threads};
                 /* window auto: the least windowing that keeps it non-negative */
-                envl_sh_options so = {.bands = order + 1, .window = ENVL_WINDOW_AUTO};
+                envl_sh_options so = {.order = order ? order : ENVL_ORDER_0,
+                                        .window = ENVL_WINDOW_AUTO};
                 if (envl_envmap_from_pixels(envl_lights_residual(ls), info.width, info.height,
                                             3, &rl, &residual) ||
                     envl_sh_compute(residual, &so, &sh)) {

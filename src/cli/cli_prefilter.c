@@ -161,7 +161,7 @@ int cli_prefilter(int argc, char **argv)
         } else if ((r = cli_value(argc, argv, &i, "--irradiance-order", &v)) != 0) {
             if (r < 0 || cli_parse_int(v, 0, 32, &n))
                 return USAGE("--irradiance-order takes 0..32");
-            q.prefilter.irradiance_order = (int32_t)n;
+            q.prefilter.irradiance_order = n == 0 ? ENVL_ORDER_0 : (int32_t)n;
         } else if ((r = cli_value(argc, argv, &i, "--irradiance-size", &v)) != 0) {
             if (r < 0 || cli_parse_int(v, 2, 16384, &irr_size))
                 return USAGE("--irradiance-size takes 2..16384");
@@ -345,7 +345,7 @@ int cli_brdf_lut(int argc, char **argv)
     if (envl_brdf_lut(&bo, &rg, &s))
         return cli_fail();
     double seconds = envl__seconds() - t0;
-    int32_t samples = bo.samples ? bo.samples : 4096;
+    int32_t samples = bo.samples ? bo.samples : ENVL_BRDF_DEFAULT_SAMPLES;
     /* Integration error estimate: a grid of texels again with 4x the samples. */
     double err = 0;
     int32_t step = s / 8 > 0 ? s / 8 : 1;

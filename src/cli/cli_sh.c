@@ -96,7 +96,7 @@ int cli_sh(int argc, char **argv)
         if ((r = cli_value(argc, argv, &i, "--order", &v)) != 0) {
             if (r < 0 || cli_parse_int(v, 0, 32, &n))
                 return cli_usage("sh", "--order takes 0..32");
-            so.bands = (int32_t)n + 1;
+            so.order = n == 0 ? ENVL_ORDER_0 : (int32_t)n;
         } else if ((r = cli_value(argc, argv, &i, "--window", &v)) != 0) {
             if (r < 0 || (so.window = envl_window_from_name(v)) < 0)
                 return cli_usage("sh", "--window takes none, hann, lanczos or auto");

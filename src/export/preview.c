@@ -695,7 +695,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
     }
     /* SH order 2: irradiance, so the diffuse row only (Lambert whatever the diffuse model). */
     if (!rc)
-        rc = envl_sh_compute(map, &(envl_sh_options){.bands = 3}, &sh);
+        rc = envl_sh_compute(map, &(envl_sh_options){.order = 2}, &sh);
     if (!rc) {
         envl_sh_summary s;
         envl_sh_get_summary(sh, &s);

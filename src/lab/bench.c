@@ -180,7 +180,7 @@ static int bench_sh_table(const char *name, envl_envmap *m, const bench_opts *o)
             double t[16], err = 0;
             for (int r = 0; r < o->runs; r++) {
                 envl_sh *sh;
-                if (envl_sh_compute(m, &(envl_sh_options){.bands = l + 1, .window = w}, &sh))
+                if (envl_sh_compute(m, &(envl_sh_options){.order = l, .window = w}, &sh))
                     return cli_fail();
                 envl_sh_summary s;
                 envl_sh_get_summary(sh, &s);
@@ -446,7 +446,7 @@ static int bench_speed(int width, const bench_opts *o)
     double med = median_of(tl, o->runs), ts[16];
     for (int r = 0; r < o->runs; r++) {
         envl_sh *sh;
-        if (envl_sh_compute(m, &(envl_sh_options){.bands = 3}, &sh))
+        if (envl_sh_compute(m, &(envl_sh_options){.order = 2}, &sh))
             return cli_fail();
         envl_sh_summary s;
         envl_sh_get_summary(sh, &s);
@@ -678,7 +678,7 @@ static int memory_child(int width, const char *dir)
 
     envl_sh *sh;
     reset_peak();
-    if (envl_sh_compute(m, &(envl_sh_options){.bands = 3}, &sh))
+    if (envl_sh_compute(m, &(envl_sh_options){.order = 2}, &sh))
         return cli_fail();
     envl_sh_free(sh);
     mem_row("SH order 2", "same", status_mib("VmHWM:"), status_mib("VmRSS:"), map_mib, &overall);

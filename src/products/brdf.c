@@ -15,13 +15,12 @@
  * (B, A + B). Single scattering is mix(B, A + B, F0) = F0 A + B; the energy lost to single
  * scattering is restored by specular *= 1 + F0 (1 / (A + B) - 1). */
 #include "internal.h"
-#include "envmap_impl.h" /* envl__threads */
+#include "options.h"
+#include "envmap_impl.h"
 
 #include <math.h>
 #include <stdlib.h>
 
-#define BRDF_DEFAULT_SIZE 128
-#define BRDF_DEFAULT_SAMPLES 4096
 
 
 static double vis_smith_correlated(double nov, double nol, double a)
@@ -65,7 +64,7 @@ envl_result envl_brdf_eval(double nov, double roughness, int32_t samples, double
     if (!ab || !(nov >= 0 && nov <= 1) || !(roughness >= 0 && roughness <= 1) || samples < 0)
         return envl__fail(ENVL_ERR_ARGUMENT, "brdf: NoV %g and roughness %g must be in [0, 1]",
                           nov, roughness);
-    integrate(nov, roughness, samples ? samples : BRDF_DEFAULT_SAMPLES, ab);
+    integrate(nov, roughness, samples ? samples : ENVL_BRDF_DEFAULT_SAMPLES, ab);
     return ENVL_OK;
 }
 
@@ -96,21 +95,19 @@ static void lut_rows(void *ctx, int64_t begin, int64_t end)
 
 envl_result envl_brdf_lut(const envl_brdf_options *options, float **rg, int32_t *size)
 {
-    static const envl_brdf_options defaults;
-    const envl_brdf_options *o = options ? options : &defaults;
     if (!rg)
         return envl__fail(ENVL_ERR_ARGUMENT, "brdf-lut: NULL output");
     *rg = NULL;
-    int32_t s = o->size ? o->size : BRDF_DEFAULT_SIZE;
-    int32_t n = o->samples ? o->samples : BRDF_DEFAULT_SAMPLES;
-    if (s < 1 || s > 4096 || n < 1 || n > (1 << 24) || o->threads < 0)
-        return envl__fail(ENVL_ERR_ARGUMENT, "brdf-lut: size %d (1..4096) or samples %d "
-                          "(1..2^24) out of range", (int)s, (int)n);
+    envl_brdf_options o;
+    envl_result rc = envl__brdf_resolve(options, &o);
+    if (rc)
+        return rc;
+    int32_t s = o.size, n = o.samples;
     float *t = malloc(sizeof(float) * 2 * (size_t)s * s);
     if (!t)
         return envl__fail(ENVL_ERR_MEMORY, "brdf-lut: cannot allocate %d x %d", (int)s, (int)s);
-    lut_job job = {s, n, o->multiscatter != 0, t};
-    envl__parallel_for(s, envl__threads(o->threads), lut_rows, &job);
+    lut_job job = {s, n, o.multiscatter, t};
+    envl__parallel_for(s, o.threads, lut_rows, &job);
     *rg = t;
     if (size)
         *size = s;

@@ -9,6 +9,21 @@
 
 #define RESAMPLED_IRRADIANCE_WIDTH 256
 
+static const char *irr_names[ENVL_IRRADIANCE_COUNT] = {"resampled", "sh", "exact"};
+
+const char *envl_irradiance_method_name(int32_t m)
+{
+    return m >= 0 && m < ENVL_IRRADIANCE_COUNT ? irr_names[m] : NULL;
+}
+
+int32_t envl_irradiance_method_from_name(const char *name)
+{
+    for (int32_t i = 0; name && i < ENVL_IRRADIANCE_COUNT; i++)
+        if (!strcmp(name, irr_names[i]))
+            return i;
+    return -1;
+}
+
 /* ---- irradiance maps ---- */
 
 static double *latlong_dirs(int32_t w, int32_t h)
@@ -50,7 +65,8 @@ envl_result envl__irradiance_map(envl_envmap *m, const resolved *o, const envl_s
     if (o->irr_method == ENVL_IRRADIANCE_SH) {
         if (!sh) {
             /* window auto: the least windowing that keeps the irradiance non-negative */
-            envl_sh_options so = {.bands = o->irr_order + 1, .window = ENVL_WINDOW_AUTO};
+            envl_sh_options so = {.order = envl__order_option(o->irr_order),
+                                  .window = ENVL_WINDOW_AUTO};
             if ((rc = envl_sh_compute(m, &so, &own)))
                 goto done;
             sh = own;

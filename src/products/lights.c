@@ -2,6 +2,7 @@
  * (lights_cut.c, lights_fit.c, lights_sun.c), measures the diffuse error of what it made, and
  * hands the lights, the SH remainder and the residual map out. */
 #include "lights_impl.h"
+#include "options.h"
 #include "nnls.h"
 #include "sh_basis.h"
 
@@ -9,7 +10,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-static const char *method_names[ENVL_METHOD_COUNT] = {"median", "variance", "fit", "sun"};
+static const char *method_names[ENVL_METHOD_COUNT] = {
+    [ENVL_METHOD_FIT] = "fit", [ENVL_METHOD_MEDIAN] = "median",
+    [ENVL_METHOD_VARIANCE] = "variance", [ENVL_METHOD_SUN] = "sun"};
 
 const char *envl_method_name(int32_t method)
 {
@@ -82,24 +85,15 @@ static int lights_finite(const envl_lights *ls)
 envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *options,
                                 envl_lights **out)
 {
-    static const envl_lights_options defaults;
-    const envl_lights_options *o = options ? options : &defaults;
     if (!m || !out)
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_lights_compute: NULL argument");
     *out = NULL;
-    if (o->method < 0 || o->method >= ENVL_METHOD_COUNT)
-        return envl__fail(ENVL_ERR_ARGUMENT, "lights: unknown method %d", (int)o->method);
-    int32_t n = o->count > 0 ? o->count
-                             : (o->method == ENVL_METHOD_FIT || o->method == ENVL_METHOD_SUN ? 4
-                                                                                          : 16);
-    int32_t order = o->remainder_bands == 0 ? 2 : o->remainder_bands < 0 ? -1
-                                                 : o->remainder_bands - 1;
-    if (o->count < 0 || (o->method == ENVL_METHOD_FIT && n > 32) || n > (1 << 24))
-        return envl__fail(ENVL_ERR_ARGUMENT, "lights: count %d out of range (1..%d)",
-                          (int)o->count, o->method == ENVL_METHOD_FIT ? 32 : 1 << 24);
-    if (o->method == ENVL_METHOD_FIT && (o->remainder_bands < -1 || o->remainder_bands > 9))
-        return envl__fail(ENVL_ERR_ARGUMENT, "lights: remainder bands %d out of range (1..9)",
-                          (int)o->remainder_bands);
+    resolved_lights ro;
+    envl_result rc = envl__lights_resolve(options, &ro);
+    if (rc)
+        return rc;
+    const resolved_lights *o = &ro;
+    int32_t n = ro.count, order = ro.order;
     envl_lights *ls = calloc(1, sizeof *ls);
     if (!ls)
         return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
@@ -110,7 +104,6 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
     s->remainder_order = -1;
     memcpy(s->power, m->info.power, sizeof s->power);
     size_t npx = (size_t)m->width * m->height * 3;
-    envl_result rc = ENVL_OK;
     double t0 = envl__seconds();
     if (!(envl__lum(s->power[0], s->power[1], s->power[2]) > 0)) {
         /* A black map: no lights, an all-zero residual, no error. */

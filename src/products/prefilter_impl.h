@@ -1,5 +1,5 @@
 /* Prefiltering's insides, shared by its files (not installed):
- *   prefilter_options.c  the defaults resolved in one pass, each level's width and samples
+ *   options.c            the defaults resolved in one pass, each level's width and samples
  *   mips.c               the map's cached mip pyramid, the energy of a lat-long image
  *   specular.c           a GGX specular level (filtered importance sampling)
  *   bright_lobes.c       bright pixels as point lobes, sun lights added to P(R) or E(n)
@@ -11,24 +11,9 @@
 #define ENVL_PREFILTER_IMPL_H
 
 #include "clock.h"
+#include "options.h"
 #include "envmap_impl.h"
 #include "sun_split.h"
-
-/* ---- options (prefilter_options.c) ---- */
-/* Every option of envl_prefilter_options with its default filled in. */
-typedef struct resolved {
-    int32_t levels, width, min_width, samples, unfiltered;
-    int32_t irr_method, irr_width, irr_order, threads, sun_lights;
-} resolved;
-/* The one defaults pass: fills *r from o (NULL: all defaults) and checks the ranges. The
- * threads default to the map's (m may be NULL: all cores). */
-envl_result envl__prefilter_resolve(const envl_prefilter_options *o, const envl_envmap *m,
-                                    resolved *r);
-/* Width of the level of `roughness`: base width >> floor(roughness (levels - 1)), at least the
- * minimum width. */
-int32_t envl__level_width(const resolved *r, double roughness);
-/* GGX samples per texel of a filtered level w wide. */
-int32_t envl__level_samples(const resolved *r, int32_t w);
 
 /* ---- the mip pyramid (mips.c) ---- */
 /* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */

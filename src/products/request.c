@@ -45,7 +45,7 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
                             q->roughness[i]);
             goto fail;
         }
-    int32_t sh_order = q->sh_order ? q->sh_order : 2;
+    int32_t sh_order = envl__order(q->sh_order, ENVL_DEFAULT_ORDER);
     if (sh_order < 0 || sh_order > 32) {
         rc = envl__fail(ENVL_ERR_ARGUMENT, "request: SH order %d (0..32)", (int)sh_order);
         goto fail;
@@ -87,7 +87,7 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
     int irr_sh = q->irradiance_map && p->opt.irr_method == ENVL_IRRADIANCE_SH;
     if (q->diffuse) {
         t = envl__seconds();
-        envl_sh_options so = {.bands = sh_order + 1, .window = ENVL_WINDOW_AUTO};
+        envl_sh_options so = {.order = envl__order_option(sh_order), .window = ENVL_WINDOW_AUTO};
         if ((rc = envl_sh_compute(m, &so, &p->sh))) {
             free(want);
             goto fail;
@@ -195,10 +195,10 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
         envl_brdf_options bo = q->brdf;
         if (!bo.threads)
             bo.threads = p->opt.threads;
-        if ((rc = envl_brdf_lut(&bo, &p->brdf, &p->brdf_size)))
+        if ((rc = envl__brdf_resolve(&bo, &bo)) || (rc = envl_brdf_lut(&bo, &p->brdf, &p->brdf_size)))
             goto fail;
-        p->brdf_multiscatter = bo.multiscatter != 0;
-        p->brdf_samples = bo.samples ? bo.samples : 4096;
+        p->brdf_multiscatter = bo.multiscatter;
+        p->brdf_samples = bo.samples;
         s->brdf_tables = 1;
         s->seconds_brdf += envl__seconds() - t;
     }

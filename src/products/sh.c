@@ -9,6 +9,7 @@
  * zero elsewhere, up to rounding, at any resolution. */
 #include "envmap_impl.h"
 #include "clock.h"
+#include "options.h"
 #include "sh_basis.h"
 
 #include <float.h>
@@ -365,23 +366,21 @@ static int all_finite(const double *v, size_t n)
 
 envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl_sh **out)
 {
-    static const envl_sh_options defaults;
-    const envl_sh_options *o = options ? options : &defaults;
     if (!m || !out)
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_sh_compute: NULL argument");
     *out = NULL;
-    int32_t bands = o->bands ? o->bands : 3;
-    if (bands < 1 || bands > 33 || o->window < 0 || o->window >= ENVL_WINDOW_COUNT)
-        return envl__fail(ENVL_ERR_ARGUMENT, "sh: order %d (0..32) or window %d out of range",
-                          (int)bands - 1, (int)o->window);
+    int32_t L, window;
+    envl_result rc = envl__sh_resolve(options, &L, &window);
+    if (rc)
+        return rc;
     double t0 = envl__seconds();
     envl_sh *sh = calloc(1, sizeof *sh);
-    int32_t L = bands - 1, n = envl_sh_count(L);
+    int32_t n = envl_sh_count(L);
     double *raw = malloc(sizeof(double) * n * 3);
     double *dirs = malloc(sizeof(double) * 3 * MIN_DIRECTIONS);
     double *buf = malloc(sizeof(double) * 3 * MIN_DIRECTIONS);
     double *y = malloc(sizeof(double) * n);
-    envl_result rc = ENVL_OK;
+    rc = ENVL_OK;
     if (!sh || !raw || !dirs || !buf || !y) {
         rc = envl__fail(ENVL_ERR_MEMORY, "sh: out of memory");
         goto fail;
@@ -402,18 +401,18 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
         envl_fibonacci_direction(i, MIN_DIRECTIONS, dirs + 3 * i);
     envl_sh_summary *s = &sh->summary;
     s->order = L;
-    s->window = o->window;
+    s->window = window;
     for (int32_t l = 0; l <= L; l++) {
         double x = ENVL_PI * l / (L + 1);
-        sh->window[l] = o->window == ENVL_WINDOW_HANN      ? hann(l, L + 1)
-                        : o->window == ENVL_WINDOW_LANCZOS ? (l ? sin(x) / x : 1.0)
+        sh->window[l] = window == ENVL_WINDOW_HANN      ? hann(l, L + 1)
+                        : window == ENVL_WINDOW_LANCZOS ? (l ? sin(x) / x : 1.0)
                                                            : 1.0;
     }
-    s->window_width = o->window == ENVL_WINDOW_NONE || o->window == ENVL_WINDOW_AUTO ? 0 : L + 1;
+    s->window_width = window == ENVL_WINDOW_NONE || window == ENVL_WINDOW_AUTO ? 0 : L + 1;
     apply_window(sh, raw, sh->window);
     double least;
     s->min_irradiance = min_irradiance(sh, dirs, buf, y, &least);
-    if (o->window == ENVL_WINDOW_AUTO && least < 0) {
+    if (window == ENVL_WINDOW_AUTO && least < 0) {
         /* The least windowing: the largest Hann width wd with non-negative irradiance, by
          * bisection on 1/wd in (0, 1]. Width L+1 is the plain Hann window; narrower ones
          * window harder, down to wd = 1 (band 0 only: the mean, never negative). */

@@ -1,6 +1,7 @@
-/* Prefiltering's options: the defaults resolved in one pass (envl__prefilter_resolve), the
- * width and samples of each level, and the names of the irradiance methods. */
-#include "prefilter_impl.h"
+/* The one defaults pass: every options struct of the public API is resolved here, its zero
+ * fields replaced by their defaults (the constants in envlight.h) and its ranges checked, in
+ * the manner of sokol's _sg_desc_defaults. The products read only resolved values. */
+#include "options.h"
 
 #include <math.h>
 #include <string.h>
@@ -10,24 +11,74 @@
 #define DEFAULT_SAMPLES 64
 #define DEFAULT_IRRADIANCE_WIDTH 64
 
-/* ---- names ---- */
-
-static const char *irr_names[ENVL_IRRADIANCE_COUNT] = {"resampled", "sh", "exact"};
-
-const char *envl_irradiance_method_name(int32_t m)
+int32_t envl__order(int32_t field, int32_t dflt)
 {
-    return m >= 0 && m < ENVL_IRRADIANCE_COUNT ? irr_names[m] : NULL;
+    return field == 0 ? dflt : field == ENVL_ORDER_0 ? 0 : field;
 }
 
-int32_t envl_irradiance_method_from_name(const char *name)
+int32_t envl__order_option(int32_t order)
 {
-    for (int32_t i = 0; name && i < ENVL_IRRADIANCE_COUNT; i++)
-        if (!strcmp(name, irr_names[i]))
-            return i;
-    return -1;
+    return order == 0 ? ENVL_ORDER_0 : order;
 }
 
-/* ---- options ---- */
+/* ---- lights ---- */
+
+envl_result envl__lights_resolve(const envl_lights_options *options, resolved_lights *r)
+{
+    static const envl_lights_options defaults;
+    const envl_lights_options *o = options ? options : &defaults;
+    if (o->method < 0 || o->method >= ENVL_METHOD_COUNT)
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: unknown method %d", (int)o->method);
+    r->method = o->method;
+    r->count = o->count > 0                     ? o->count
+               : o->method == ENVL_METHOD_FIT ? ENVL_DEFAULT_FIT_LIGHTS
+               : o->method == ENVL_METHOD_SUN ? ENVL_DEFAULT_SUN_LIGHTS
+                                              : ENVL_DEFAULT_CUT_LIGHTS;
+    r->order = o->remainder_order == ENVL_REMAINDER_NONE
+                   ? -1
+                   : envl__order(o->remainder_order, ENVL_DEFAULT_ORDER);
+    int fit = o->method == ENVL_METHOD_FIT;
+    if (o->count < 0 || (fit && r->count > ENVL_FIT_MAX_LIGHTS) || r->count > (1 << 24))
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: count %d out of range (1..%d)",
+                          (int)o->count, fit ? ENVL_FIT_MAX_LIGHTS : 1 << 24);
+    if (fit && (r->order < -1 || r->order > ENVL_MAX_REMAINDER_ORDER))
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: remainder order %d out of range (0..%d)",
+                          (int)o->remainder_order, ENVL_MAX_REMAINDER_ORDER);
+    return ENVL_OK;
+}
+
+/* ---- spherical harmonics ---- */
+
+envl_result envl__sh_resolve(const envl_sh_options *options, int32_t *order, int32_t *window)
+{
+    static const envl_sh_options defaults;
+    const envl_sh_options *o = options ? options : &defaults;
+    *order = envl__order(o->order, ENVL_DEFAULT_ORDER);
+    *window = o->window;
+    if (*order < 0 || *order > 32 || o->window < 0 || o->window >= ENVL_WINDOW_COUNT)
+        return envl__fail(ENVL_ERR_ARGUMENT, "sh: order %d (0..32) or window %d out of range",
+                          (int)o->order, (int)o->window);
+    return ENVL_OK;
+}
+
+/* ---- the BRDF table ---- */
+
+envl_result envl__brdf_resolve(const envl_brdf_options *options, envl_brdf_options *r)
+{
+    static const envl_brdf_options defaults;
+    *r = options ? *options : defaults;
+    r->size = r->size ? r->size : ENVL_BRDF_DEFAULT_SIZE;
+    r->samples = r->samples ? r->samples : ENVL_BRDF_DEFAULT_SAMPLES;
+    r->multiscatter = r->multiscatter != 0;
+    if (r->size < 1 || r->size > 4096 || r->samples < 1 || r->samples > (1 << 24) ||
+        r->threads < 0)
+        return envl__fail(ENVL_ERR_ARGUMENT, "brdf-lut: size %d (1..4096) or samples %d "
+                          "(1..2^24) out of range", (int)r->size, (int)r->samples);
+    r->threads = envl__threads(r->threads);
+    return ENVL_OK;
+}
+
+/* ---- prefiltering ---- */
 
 envl_result envl__prefilter_resolve(const envl_prefilter_options *o, const envl_envmap *m, resolved *r)
 {
@@ -41,7 +92,7 @@ envl_result envl__prefilter_resolve(const envl_prefilter_options *o, const envl_
     r->unfiltered = o->unfiltered != 0;
     r->irr_method = o->irradiance_method;
     r->irr_width = o->irradiance_width ? o->irradiance_width : DEFAULT_IRRADIANCE_WIDTH;
-    r->irr_order = o->irradiance_order ? o->irradiance_order : 2;
+    r->irr_order = envl__order(o->irradiance_order, ENVL_DEFAULT_ORDER);
     r->threads = o->threads > 0 ? o->threads : m ? m->threads : envl__threads(0);
     r->sun_lights = o->sun_lights != 0;
     if (r->sun_lights && r->unfiltered)
