@@ -1,8 +1,10 @@
 #!/usr/bin/python3
 """Scene benchmark: envlight's lighting recipes against a reference, in a host's renderer, on
-every map (README.md, "Accuracy against time in POV-Ray"). The goal it checks: on every map,
-the picked (default) lighting is at least TARGET_SPEEDUP x faster (CPU) than the reference at a
-matte-object error under TARGET_ERROR[scene] (2 % on scene (a), 4 % on scene (b)).
+every map (the reports docs/scene_bench_pov.md and docs/scene_bench_blender.md, which --docs
+writes; how to read them: docs/pov_scenes.md, docs/blender_scenes.md). The goal it checks for
+POV-Ray: on every map, the picked (default) lighting is at least TARGET_SPEEDUP x faster (CPU)
+than the reference at a matte-object error under TARGET_ERROR[scene] (2 % on scene (a), 4 % on
+scene (b)).
 
 This file: arguments, the map list, the JSON, the report and the figures. The host's own part
 (scenes, recipes, reference, measures) is a module beside it: scene_bench_pov.py for --host

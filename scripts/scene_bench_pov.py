@@ -43,7 +43,7 @@ IMAGE = (200, 150)
 QUICK_IMAGE = (100, 75)
 FLOOR_ALBEDO = 0.5           # the plane's albedo in both scenes (`--ground`)
 SUN_FACTOR = 50.0            # sun_share: the power above 50 x the mean (prefilter's lobes)
-# the reference (chosen by measurement, see scene_bench.py's report and README.md)
+# the reference (chosen by measurement, see scene_bench.py's report and docs/pov_scenes.md)
 BRIGHT_FACTOR = 1.0          # bright = pixels above this x the mean luminance
 BRIGHT_LIGHTS = 1024         # as this many median-cut lights, hard shadows (direct light)
 BOUNCE_LIGHTS = 16           # and as this many under radiosity (their bounce)

@@ -2,7 +2,7 @@
 # The test suite under Valgrind's memcheck: every C test executable, and the command-line tests
 # with `envlight` itself run under memcheck. Any invalid read or write, use of an uninitialised
 # value, bad free, or definite / indirect leak fails the run.
-#   bash scripts/valgrind.sh [BUILD_DIR] [--all | --quick] [-j N]
+#   bash scripts/valgrind.sh [BUILD_DIR] [--all | --quick] [-j N] [--docs DIR]
 # BUILD_DIR (default build) is built first (scripts/build.sh). Without --all the tests that take
 # more than ~10 s natively are left out (memcheck runs code 20-50x slower): test_layout,
 # test_lights and test_prefilter (their large maps; the same code runs on small maps in the
@@ -10,10 +10,16 @@
 # out: they spend their time in external programs, not in envlight. Memcheck runs all threads
 # of a program on one core, so N tests run at once (default: the number of cores). --quick (what
 # CI runs) keeps, of the CLI tests, cli_basics and cli_malformed: the bad-input paths.
+# --docs DIR: also write DIR/valgrind.md (the command, date, load average, machine, each
+# test's result and seconds, the totals of wall and CPU time; DIR, like BUILD_DIR, relative to
+# the repository's top); how to read it: docs/reliability.md.
+usage="usage: bash scripts/valgrind.sh [BUILD_DIR] [--all | --quick] [-j N] [--docs DIR]"
 case "${1:-}" in  # --help: the usage and the header above, nothing run
-  -h|--help) echo "usage: bash scripts/valgrind.sh [BUILD_DIR] [--all | --quick] [-j N]"; sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
+  -h|--help) echo "$usage"; sed -n '2,/^[^#]/{/^#/s/^# \{0,1\}//p}' "$0"; exit 0 ;;
 esac
 set -uo pipefail
+command_line="bash scripts/valgrind.sh $*"
+docs=
 cd "$(dirname "$0")/.."
 root=$PWD
 build=build
@@ -25,11 +31,13 @@ while (($#)); do
     --all) all=1 ;;
     --quick) quick=1 ;;
     -j) jobs=${2:?-j needs a number}; shift ;;
-    -*) echo "usage: bash scripts/valgrind.sh [BUILD_DIR] [--all | --quick] [-j N]" >&2; exit 2 ;;
+    --docs) docs=${2:?--docs needs a folder}; shift ;;
+    -*) echo "$usage" >&2; exit 2 ;;
     *) build=$1 ;;
   esac
   shift
 done
+if [ -n "$docs" ]; then mkdir -p "$docs" && docs=$(cd "$docs" && pwd) || exit 1; fi
 command -v valgrind >/dev/null || { echo "envlight: valgrind is not installed (Debian: valgrind)" >&2; exit 1; }
 bash scripts/build.sh "$build" >/dev/null || exit 1
 build=$(cd "$build" && pwd)
@@ -43,7 +51,7 @@ vg=(valgrind --tool=memcheck --leak-check=full --errors-for-leak-kinds=definite,
     --show-leak-kinds=definite,indirect --track-origins=yes --error-exitcode=99 --quiet)
 shared=${ENVL_SHARED_DATA:-$root/../shared/data}
 slow='^(test_layout|test_lights|test_prefilter)$'
-start=$(date +%s)
+start=$(date +%s); date0=$(date +%Y-%m-%dT%H:%M:%S); load0=$(cut -d' ' -f1-3 /proc/loadavg)
 
 # The CLI tests call $ENVLIGHT: a wrapper that runs the real binary under memcheck, one log per
 # process (a test that expects exit 1 sees 99 if memcheck finds an error).
@@ -80,11 +88,12 @@ run_one() {
 }
 
 names=()
+skipped=
 for exe in "$build"/tests/test_*; do
   [ -x "$exe" ] && [ -f "$exe" ] || continue
   name=$(basename "$exe")
   if [ $all = 0 ] && [[ $name =~ $slow ]]; then
-    echo "SKIP: $name (slow under memcheck; --all runs it)"
+    echo "SKIP: $name (slow under memcheck; --all runs it)"; skipped+="$name (slow under memcheck; --all runs it), "
   else
     names+=("$name")
   fi
@@ -92,9 +101,9 @@ done
 for src in tests/cli_*.sh; do
   name=$(basename "$src" .sh)
   case $name in
-    cli_pov | cli_main_job) echo "SKIP: $name (POV-Ray)" ;;
+    cli_pov | cli_main_job) echo "SKIP: $name (POV-Ray)"; skipped+="$name (POV-Ray), " ;;
     cli_basics | cli_malformed) names+=("$name") ;;
-    *) if [ $quick = 1 ]; then echo "SKIP: $name (--quick)"; else names+=("$name"); fi ;;
+    *) if [ $quick = 1 ]; then echo "SKIP: $name (--quick)"; skipped+="$name (--quick), "; else names+=("$name"); fi ;;
   esac
 done
 # the longest first, so that the two cores finish together
@@ -127,5 +136,31 @@ for log in "$logs"/envlight.*.log; do
   echo "FAIL: memcheck found errors in an envlight run: $log"
   cat "$log"
 done
-echo "valgrind: ${#names[@]} tests, $fails failed, $(( $(date +%s) - start )) s"
+wall=$(( $(date +%s) - start ))
+echo "valgrind: ${#names[@]} tests, $fails failed, $wall s"
+if [ -n "$docs" ]; then
+  times >"$logs/times"   # line 2: the user and system time of the finished children
+  read -r cpu_user cpu_sys < <(sed -n 2p "$logs/times")
+  cpu=$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1)
+  {
+    echo "# The test suite under Valgrind's memcheck"
+    echo
+    echo "Written by \`$command_line\` (do not edit by hand; run it again to update this file)."
+    echo
+    echo "- date: $date0; wall $(( wall / 60 )) min $(( wall % 60 )) s; CPU (user, system) $cpu_user, $cpu_sys"
+    echo "- load average at start / end: $load0 / $(cut -d' ' -f1-3 /proc/loadavg)"
+    echo "- machine: ${cpu:-$(uname -m)}, $(nproc) cores; $(valgrind --version); $jobs at a time"
+    echo "- result: ${#names[@]} tests, $fails failed (memcheck: invalid accesses, uninitialised"
+    echo "  values, bad frees, definite and indirect leaks are errors)"
+    echo
+    echo "| test | result |"
+    echo "|---|---|"
+    for name in $order; do
+      sed 's/^\(ok\|FAIL\): [^ ]* \{0,1\}/| '"$name"' | \1 /; s/$/ |/' "$logs/$name.result"
+    done
+    echo
+    echo "Left out: ${skipped:-nothing}the Python, Blender and POV-Ray tests (external programs)."
+  } >"$docs/.valgrind.md.tmp-$$" && mv -f "$docs/.valgrind.md.tmp-$$" "$docs/valgrind.md"
+  echo "valgrind: wrote $docs/valgrind.md"
+fi
 [ $fails = 0 ]

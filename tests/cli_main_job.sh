@@ -20,7 +20,7 @@ s = json.load(open("job/sh.json"))
 assert s["order"] == 2 and len(s["irradiance"]) == 9 and s["min_irradiance"] >= 0
 PY
 # preview.png: a PNG (signature, IHDR with its CRC) of the default sphere size 96: 88 + 5 (96 + 24)
-# = 688 wide, 66 + (688 - 16) / 2 + 4 (96 + 28) = 898 high, 8-bit RGB (README "Preview")
+# = 688 wide, 66 + (688 - 16) / 2 + 4 (96 + 28) = 898 high, 8-bit RGB (docs/methods.md, "Preview")
 checks=$((checks + 1))
 python3 - <<'PY' || fail "preview.png"
 import struct, zlib

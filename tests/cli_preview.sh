@@ -42,7 +42,7 @@ png b.png 64
 # Notes on stderr without --quiet, printed once all is computed: one line per approximation
 # with the picture's texts (the count the method returned, "err X%" under each sphere it
 # serves) and docs/design.md's diffuse error, which is the number `lights --json` reports. The fit
-# returns 2 lights on this sky where -k asks 4 (README "Lights"); --diffuse oren-nayar once
+# returns 2 lights on this sky where -k asks 4 (docs/methods.md, "Lights"); --diffuse oren-nayar once
 # printed the irradiance map's error as -100 % before it was set.
 json_count_error() { "$ENVLIGHT" lights - --sky-width 128 --quiet --json "$@" | python3 -c '
 import json, sys; j = json.load(sys.stdin); print(j["count"], "%.3f" % (100 * j["error"]["diffuse"]))'; }

@@ -640,7 +640,7 @@ def test_dome_occlusion(kind):
          the plane's pixels): below the old default include's (fit 4 + SH ambient, which
          cannot be shadowed); and a dome of 64 lights below 2 % (the POV-Ray goal for a
          matte surface in a scene). The default's 32 lights draw a coarser shadow: 2.8 % on
-         rooitou_park (README, "Accuracy in a scene")."""
+         rooitou_park (docs/pov_scenes.md)."""
     d = tmpdir("dome_occlusion_" + kind)
     src, exact_path, width = map_for(kind, d)
     px, dirs_c, dw = map_directions(exact_path, width)

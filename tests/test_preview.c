@@ -52,7 +52,8 @@ static void test_srgb_png(void)
 
 static void test_layout(void)
 {
-    /* README: width 80 + 5 (S + 24) + 8; height 66 + (width - 16) / 2 + 4 (S + 28). */
+    /* docs/methods.md, "Preview": width 80 + 5 (S + 24) + 8;
+     * height 66 + (width - 16) / 2 + 4 (S + 28). */
     for (int32_t s = 48; s <= 160; s += 16) {
         int32_t w, h, x, y;
         preview_layout(s, &w, &h);
@@ -284,9 +285,10 @@ static void test_mirror_sun(void)
 }
 
 /* The built-in sky at 128 wide, -k 4, --diffuse oren-nayar: the fit stops at fewer lights
- * (README "Lights"), and the header, the legend's count and stderr say how many it returned;
- * stderr's notes are printed once everything is computed and hold, per column, the very texts
- * under its spheres (no -100 % for an error not yet set) and docs/design.md's diffuse error. */
+ * (docs/methods.md, "Lights"), and the header, the legend's count and stderr say how many it
+ * returned; stderr's notes are printed once everything is computed and hold, per column, the
+ * very texts under its spheres (no -100 % for an error not yet set) and docs/design.md's diffuse
+ * error. */
 static void test_counts_and_notes(void)
 {
     envl_envmap *m = NULL;
