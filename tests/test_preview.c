@@ -1,9 +1,9 @@
-/* envlight preview (src/preview.c): the tone curves and the sRGB encoding against their
+/* envlight preview (src/export/preview.c): the tone curves and the sRGB encoding against their
  * formulas, the picture's size, a constant map rendering every reference sphere at L, a
  * one-bright-pixel map lighting the spheres brightest where n points at it; what the picture
  * tells: each method only in the rows it serves, the light counts the methods returned, the
  * error on the displayed values (bounded for a sun in the mirror), and stderr's notes holding
- * the picture's own texts. */
+ * the picture's own texts; the public entry (envl_preview_write) refusing bad options. */
 #include "internal.h"
 #include "check.h"
 #include "preview.h"
@@ -85,8 +85,8 @@ static void test_constant_map(void)
         px[i] = L;
     envl_envmap *m = map_from(px, 64, 32);
     free(px);
-    preview_options o = {.sphere_size = 48, .tonemap = PREVIEW_TONEMAP_REINHARD,
-                         .exposure_set = 1, .exposure_ev = 0, .title = "constant"};
+    envl_preview_options o = {.sphere_size = 48, .tonemap = ENVL_PREVIEW_TONEMAP_REINHARD,
+                              .exposure_set = 1, .exposure_ev = 0, .title = "constant"};
     preview_data d;
     CHECK_OK(preview_compute(m, &o, NULL, &d));
     double step = 2 * PI / 64 / 23, tol_diffuse = 4 * step * step * L;
@@ -148,7 +148,7 @@ static void test_one_bright_pixel(void)
     free(px);
     double l[3];
     envl_envmap_direction(m, c, r, l);
-    preview_options o = {.sphere_size = S, .median_count = 4, .fit_count = 1};
+    envl_preview_options o = {.sphere_size = S, .median_count = 4, .fit_count = 1};
     preview_data d;
     CHECK_OK(preview_compute(m, &o, NULL, &d));
     for (int col = 0; col <= 1; col++) {
@@ -174,17 +174,17 @@ static void test_one_bright_pixel(void)
 
 /* preview.h's picture error written out: display luminance of each pixel, then docs/design.md's
  * relative RMS over the disc's pixels. */
-static double shown_y(const preview_options *o, double ev, const double *p)
+static double shown_y(const envl_preview_options *o, double ev, const double *p)
 {
     double d[3];
     for (int k = 0; k < 3; k++) {
         double x = exp2(ev) * p[k];
-        d[k] = o->tonemap == PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
+        d[k] = o->tonemap == ENVL_PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
     }
     return 0.2126 * d[0] + 0.7152 * d[1] + 0.0722 * d[2];
 }
 
-static double picture_error(const preview_options *o, const preview_data *d, int row, int col)
+static double picture_error(const envl_preview_options *o, const preview_data *d, int row, int col)
 {
     const int32_t S = d->size;
     double se = 0, sr = 0;
@@ -208,7 +208,7 @@ static double picture_error(const preview_options *o, const preview_data *d, int
  * diffuse and glossy rows, SH in the diffuse row. A cell not served holds no sphere and no
  * error, and the picture leaves its disc empty (background) with the note in its middle; every
  * served cell's error is the formula above (same sums, so equal to rounding). */
-static void check_cells(const preview_options *o, const envl_envmap *m, const preview_data *d)
+static void check_cells(const envl_preview_options *o, const envl_envmap *m, const preview_data *d)
 {
     static const int served[PREVIEW_ROWS][PREVIEW_COLS] = {
         {1, 1, 1, 1, 1}, {1, 1, 1, 0, 1}, {1, 1, 1, 0, 1}, {1, 0, 0, 0, 1}};
@@ -265,9 +265,9 @@ static void test_mirror_sun(void)
         px[3 * (31 * W + 47) + k] = 1e4f;
     envl_envmap *m = map_from(px, W, H);
     free(px);
-    preview_options o = {.sphere_size = S, .tonemap = PREVIEW_TONEMAP_REINHARD,
-                         .exposure_set = 1, .exposure_ev = 0, .median_count = 4,
-                         .fit_count = 1, .reference_width = 64};
+    envl_preview_options o = {.sphere_size = S, .tonemap = ENVL_PREVIEW_TONEMAP_REINHARD,
+                              .exposure_set = 1, .exposure_ev = 0, .median_count = 4,
+                              .fit_count = 1, .reference_width = 64};
     preview_data d;
     CHECK_OK(preview_compute(m, &o, NULL, &d));
     int n = 0;
@@ -291,8 +291,8 @@ static void test_counts_and_notes(void)
 {
     envl_envmap *m = NULL;
     CHECK_OK(envl_envmap_sky(&(envl_sky_options){.width = 128}, &m));
-    preview_options o = {.sphere_size = 48, .fit_count = 4, .median_count = 8,
-                         .reference_width = 64, .diffuse = PREVIEW_DIFFUSE_OREN_NAYAR};
+    envl_preview_options o = {.sphere_size = 48, .fit_count = 4, .median_count = 8,
+                              .reference_width = 64, .diffuse = ENVL_PREVIEW_DIFFUSE_OREN_NAYAR};
     const char *path = tmp_path("preview_notes.txt");
     FILE *f = fopen(path, "w+");
     CHECK(f != NULL);
@@ -343,6 +343,25 @@ static void test_counts_and_notes(void)
     envl_envmap_free(m);
 }
 
+/* The public entry refuses options outside the command line's ranges (envlight.h) before any
+ * work, and writes nothing. */
+static void test_public_entry(void)
+{
+    envl_envmap *m = NULL;
+    CHECK_OK(envl_envmap_sky(&(envl_sky_options){.width = 64}, &m));
+    const char *path = tmp_path("preview_refused.png");
+    remove(path);
+    const envl_preview_options bad[] = {{.sphere_size = 47}, {.reference_width = 19},
+                                        {.roughness = {0.5, 0.01}}, {.fit_count = 33},
+                                        {.tonemap = 2}, {.exposure_set = 1, .exposure_ev = 65}};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
+        CHECK_RC(envl_preview_write(m, &bad[i], path, NULL, NULL, NULL), ENVL_ERR_ARGUMENT);
+    CHECK_RC(envl_preview_write(m, NULL, NULL, NULL, NULL, NULL), ENVL_ERR_ARGUMENT);
+    struct stat st;
+    CHECK(stat(path, &st) != 0);
+    envl_envmap_free(m);
+}
+
 int main(void)
 {
     mkdir(ENVL_TEST_TMP, 0777);
@@ -353,5 +372,6 @@ int main(void)
     test_one_bright_pixel();
     test_mirror_sun();
     test_counts_and_notes();
+    test_public_entry();
     return check_report("test_preview");
 }

@@ -11,9 +11,10 @@
  *    reflection direction R = 2 (n.v) n - v, P(R) = sum L w(R.l) dw / sum w(R.l) dw with the
  *    GGX lobe w(u) = u / q^2, q = ((1 + u) / 2)(alpha^2 - 1) + 1, or Blinn-Phong's
  *    w(u) = u ((1 + u) / 2)^(e / 2) (since (n.h)^2 = (1 + R.l) / 2 for h = normalize(R + l)).
- * Only the public API is used. */
+ * Part of the library (export layer): envl_preview_write is the public entry. */
 #include "preview.h"
 #include "clock.h"
+#include "internal.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -21,7 +22,7 @@
 
 #define ON_SIGMA 0.3 /* Oren-Nayar surface roughness (radians) */
 
-void preview_defaults(preview_options *o)
+void preview_defaults(envl_preview_options *o)
 {
     if (o->median_count <= 0)
         o->median_count = 16;
@@ -52,7 +53,7 @@ double preview_reinhard(double x) { return x > 0 ? (isinf(x) ? 1 : x / (1 + x)) 
 
 static double tone_curve(int32_t tonemap, double x)
 {
-    return tonemap == PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
+    return tonemap == ENVL_PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
 }
 
 double preview_auto_exposure(const envl_envmap *map)
@@ -177,7 +178,7 @@ static double lobe_w(const lobe *b, double u)
     if (u <= 0)
         return 0;
     double c = 0.5 * (1 + u); /* (n.h)^2 */
-    if (b->specular == PREVIEW_SPECULAR_BLINN_PHONG)
+    if (b->specular == ENVL_PREVIEW_SPECULAR_BLINN_PHONG)
         return u * pow(c, 0.5 * b->e);
     double q = c * (b->a2 - 1) + 1;
     return u / (q * q);
@@ -193,7 +194,7 @@ static lobe make_lobe(int specular, double roughness)
     double alpha = roughness * roughness;
     b.a2 = alpha * alpha;
     b.e = 2 / b.a2 - 2;
-    if (specular != PREVIEW_SPECULAR_BLINN_PHONG) {
+    if (specular != ENVL_PREVIEW_SPECULAR_BLINN_PHONG) {
         b.norm = envl_ggx_lobe_norm(alpha);
         return b;
     }
@@ -533,7 +534,7 @@ void preview_data_free(preview_data *d)
 
 /* One line per approximation: its name (with the count), each served row's text as the
  * picture prints it and its seconds, and docs/design.md's diffuse error of the product. */
-static void print_notes(FILE *f, const preview_options *o, const preview_data *d)
+static void print_notes(FILE *f, const envl_preview_options *o, const preview_data *d)
 {
     for (int32_t col = 1; col < PREVIEW_COLS; col++) {
         char h0[32], h1[32], t[32];
@@ -556,10 +557,10 @@ static void print_notes(FILE *f, const preview_options *o, const preview_data *d
     }
 }
 
-envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *notes,
+envl_result preview_compute(envl_envmap *map, const envl_preview_options *opt, FILE *notes,
                             preview_data *d)
 {
-    preview_options o = *opt;
+    envl_preview_options o = *opt;
     preview_defaults(&o);
     memset(d, 0, sizeof *d);
     const int32_t S = o.sphere_size;
@@ -605,7 +606,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
         rc = ENVL_ERR_MEMORY;
     for (int row = 0; row < PREVIEW_ROWS && !rc; row++) {
         double t0 = envl__seconds();
-        if (row == 0 && o.diffuse == PREVIEW_DIFFUSE_LAMBERT) {
+        if (row == 0 && o.diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT) {
             rc = envl_irradiance_exact(rm, np, p.n, refv);
             for (int32_t i = 0; i < np; i++) {
                 for (int k = 0; k < 3; k++)
@@ -621,7 +622,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
             /* P = (sum over the rest of L w dw + sum over the points of rgb w) / norm; the
              * rest's own normaliser sum w dw (zeroed pixels included) is norm to within its
              * discretisation, as the lobe is several rest pixels wide */
-            if (o.specular == PREVIEW_SPECULAR_GGX)
+            if (o.specular == ENVL_PREVIEW_SPECULAR_GGX)
                 rc = envl_prefilter_reference(rm, o.roughness[row - 1], np, p.r, refv);
             else
                 for (int32_t i = 0; i < np; i++)
@@ -679,7 +680,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
         for (int row = 0; row < PREVIEW_ROWS; row++) {
             if (!d->served[row][col])
                 continue;
-            if (row == 0 && o.diffuse == PREVIEW_DIFFUSE_LAMBERT) {
+            if (row == 0 && o.diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT) {
                 envl_lights_irradiance(*l, np, p.n, buf);
                 for (int32_t i = 0; i < 3 * np; i++)
                     buf[i] /= ENVL_PI;
@@ -809,7 +810,7 @@ static void text_centred(canvas *cv, int32_t cx, int32_t y, const char *s, const
     text(cv, cx - text_width(s) / 2, y, s, c);
 }
 
-static double tone(const preview_options *o, double x) { return tone_curve(o->tonemap, x); }
+static double tone(const envl_preview_options *o, double x) { return tone_curve(o->tonemap, x); }
 
 /* Marks on the map (x wraps around the seam): map pixel (x, y) at canvas (x0 + x, y0 + y). */
 typedef struct mapview {
@@ -905,12 +906,12 @@ void preview_column_head(const preview_data *d, int32_t col, int32_t line, char 
     }
 }
 
-void preview_cell_text(const preview_options *o, const preview_data *d, int32_t row,
+void preview_cell_text(const envl_preview_options *o, const preview_data *d, int32_t row,
                        int32_t col, int32_t line, char *s, size_t n)
 {
     double e = d->error[row][col];
     if (col == 0)
-        snprintf(s, n, "%s", line ? "" : row == 0 && o->diffuse == PREVIEW_DIFFUSE_LAMBERT
+        snprintf(s, n, "%s", line ? "" : row == 0 && o->diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT
                                               ? "exact E/pi" : "brute force");
     else if (!d->served[row][col])
         snprintf(s, n, "%s", col == 3 ? (line ? "diffuse only" : "SH:")
@@ -923,10 +924,10 @@ void preview_cell_text(const preview_options *o, const preview_data *d, int32_t 
         snprintf(s, n, e < 0.1 ? "err %.2f%%" : "err %.1f%%", 100 * e);
 }
 
-envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
+envl_result preview_compose(const envl_envmap *map, const envl_preview_options *opt,
                             const preview_data *d, float **rgb, int32_t *width, int32_t *height)
 {
-    preview_options o = *opt;
+    envl_preview_options o = *opt;
     preview_defaults(&o);
     const int32_t S = d->size;
     layout L = get_layout(S);
@@ -944,7 +945,7 @@ envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
 
     snprintf(s, sizeof s, "%.40s   exposure %+.2f EV%s   %s", o.title ? o.title : "",
              d->exposure_ev, o.exposure_set ? "" : " (auto)",
-             o.tonemap == PREVIEW_TONEMAP_REINHARD ? "Reinhard" : "ACES filmic");
+             o.tonemap == ENVL_PREVIEW_TONEMAP_REINHARD ? "Reinhard" : "ACES filmic");
     text(&cv, MARGIN, 6, s, white);
 
     /* The map, area-resampled to the view's width, tone-mapped. */
@@ -993,14 +994,14 @@ envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
             text_centred(&cv, LABEL_W + c * L.cell_w + L.cell_w / 2, L.header_y + 10 * k, h,
                          white);
         }
-    const char *spec = o.specular == PREVIEW_SPECULAR_GGX ? "GGX" : "Blinn-Phong";
+    const char *spec = o.specular == ENVL_PREVIEW_SPECULAR_GGX ? "GGX" : "Blinn-Phong";
     for (int r = 0; r < PREVIEW_ROWS; r++) {
         int32_t x0, y0;
         preview_sphere_origin(S, r, 0, &x0, &y0);
         const char *l1 = r == 0 ? "diffuse" : r < 3 ? "glossy" : "mirror", *l2 = "";
         char l3[32] = "";
         if (r == 0)
-            l2 = o.diffuse == PREVIEW_DIFFUSE_LAMBERT ? "Lambert" : "Oren-Nayar";
+            l2 = o.diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT ? "Lambert" : "Oren-Nayar";
         else if (r < 3) {
             l2 = spec;
             snprintf(l3, sizeof l3, "rough %.2f", o.roughness[r - 1]);
@@ -1049,4 +1050,50 @@ envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
     *width = L.w;
     *height = L.h;
     return ENVL_OK;
+}
+
+/* ---- the public entry -------------------------------------------------------------------- */
+
+/* The ranges the command line takes (cli_preview.c); 0 is the default. */
+static int options_ok(const envl_preview_options *o)
+{
+    int ok = o->median_count >= 0 && o->median_count <= 4096 && o->fit_count >= 0 &&
+             o->fit_count <= 32 && (o->tonemap == 0 || o->tonemap == 1) &&
+             (o->diffuse == 0 || o->diffuse == 1) && (o->specular == 0 || o->specular == 1);
+    ok = ok && (!o->exposure_set || (o->exposure_ev >= -64 && o->exposure_ev <= 64));
+    for (int k = 0; k < 2; k++)
+        ok = ok && (o->roughness[k] == 0 || (o->roughness[k] >= 0.05 && o->roughness[k] <= 1));
+    ok = ok && (o->sphere_size == 0 || (o->sphere_size >= 48 && o->sphere_size <= 512));
+    return ok && (o->reference_width == 0 || (o->reference_width >= 16 &&
+                                              o->reference_width <= 4096 &&
+                                              o->reference_width % 2 == 0));
+}
+
+envl_result envl_preview_write(envl_envmap *map, const envl_preview_options *options,
+                               const char *path, FILE *notes, int32_t *width, int32_t *height)
+{
+    static const envl_preview_options defaults;
+    const envl_preview_options *o = options ? options : &defaults;
+    if (!map || !path)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_preview_write: NULL argument");
+    if (!options_ok(o))
+        return envl__fail(ENVL_ERR_ARGUMENT, "preview: an option is out of range "
+                          "(envlight.h, envl_preview_options)");
+    preview_data d;
+    float *rgb = NULL;
+    int32_t w = 0, h = 0;
+    envl_result rc = preview_compute(map, o, notes, &d);
+    if (!rc)
+        rc = preview_compose(map, o, &d, &rgb, &w, &h);
+    if (!rc)
+        rc = envl_png_save_srgb(path, rgb, w, h);
+    else if (rc == ENVL_ERR_MEMORY) /* the picture's own allocations set no message */
+        envl__fail(rc, "%s: out of memory", path);
+    if (!rc && width)
+        *width = w;
+    if (!rc && height)
+        *height = h;
+    free(rgb);
+    preview_data_free(&d);
+    return rc;
 }
