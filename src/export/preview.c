@@ -14,6 +14,7 @@
  * Part of the library (export layer): envl_preview_write is the public entry. */
 #include "preview.h"
 #include "clock.h"
+#include "ggx.h"
 #include "internal.h"
 
 #include <math.h>
@@ -173,15 +174,15 @@ typedef struct lobe {
     double norm;  /* integral of w over the sphere */
 } lobe;
 
+/* w(u), u = R.l: GGX's from ggx.h (the prefilter's), Blinn-Phong's u ((1 + u) / 2)^(e / 2)
+ * ((n.h)^2 = (1 + u) / 2), 0 for u <= 0. */
 static double lobe_w(const lobe *b, double u)
 {
     if (u <= 0)
         return 0;
-    double c = 0.5 * (1 + u); /* (n.h)^2 */
-    if (b->specular == ENVL_PREVIEW_SPECULAR_BLINN_PHONG)
-        return u * pow(c, 0.5 * b->e);
-    double q = c * (b->a2 - 1) + 1;
-    return u / (q * q);
+    if (b->specular == ENVL_PREVIEW_SPECULAR_GGX)
+        return ggx_w(u, b->a2);
+    return u * pow(0.5 * (1 + u), 0.5 * b->e);
 }
 
 /* Blinn-Phong exponent matching GGX alpha: e = 2 / alpha^2 - 2 (Walter et al. 2007). The norm:
