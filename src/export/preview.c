@@ -16,6 +16,7 @@
 #include "clock.h"
 #include "ggx.h"
 #include "internal.h"
+#include "sun_split.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -331,70 +332,45 @@ static void brute_force(const envl_envmap *m, const double *dirs, const double v
         out[k] = b ? (ws > 0 ? s[k] / ws : 0) : s[k];
 }
 
-/* The reference's split (as the prefilter's): pixels brighter than 50 x the mean luminance
- * (the sun) stay exact point sources rgb = L dw at their centres; the rest of the map, with
- * them set to 0, is area-resampled to reference_width (the integral of L dw is kept). */
+/* The reference's split is the library's (sun_split.c, as the prefilter's): the pixels above
+ * T = 50 x the mean luminance (at most 4096, T raised if needed) keep luminance T in the
+ * residual, and the excess E_j = L_j (1 - T / Y_j) dw_j is an exact point at the pixel's
+ * centre l_j. The residual is area-resampled to reference_width (the integral of L dw kept). */
 typedef struct split {
-    int32_t count;
-    double *dir, *rgb;
-    envl_envmap *rest;
-    float *full;      /* the map with the points set to 0, full size (mirror reference) */
+    envl_sun_split s;   /* s.n points (s.lobes); s.res NULL when none was split */
+    const float *full;  /* the residual at full size (the map's pixels when none was split) */
+    envl_envmap *rest;  /* the residual resampled */
 } split;
 
 static envl_result make_split(const envl_envmap *m, int32_t width, split *sp)
 {
-    int32_t w = envl_envmap_width(m), h = envl_envmap_height(m);
-    const float *px = envl_envmap_pixels(m);
     memset(sp, 0, sizeof *sp);
-    envl_info info;
-    envl_envmap_info(m, &info);
-    double limit = 50 * envl_luminance(info.mean[0], info.mean[1], info.mean[2]);
-    size_t n = (size_t)w * h, count = 0;
-    for (size_t i = 0; i < n; i++)
-        count += envl_luminance(px[3 * i], px[3 * i + 1], px[3 * i + 2]) > limit;
-    float *rest = malloc(sizeof(float) * 3 * n);
-    sp->dir = malloc(sizeof(double) * 3 * (count + 1));
-    sp->rgb = malloc(sizeof(double) * 3 * (count + 1));
-    if (!rest || !sp->dir || !sp->rgb) {
-        free(rest);
-        return ENVL_ERR_MEMORY;
-    }
-    memcpy(rest, px, sizeof(float) * 3 * n);
-    for (int32_t r = 0; r < h; r++)
-        for (int32_t c = 0; c < w; c++) {
-            float *q = rest + 3 * ((size_t)r * w + c);
-            if (!(envl_luminance(q[0], q[1], q[2]) > limit))
-                continue;
-            envl_envmap_direction(m, c, r, sp->dir + 3 * sp->count);
-            for (int k = 0; k < 3; k++) {
-                sp->rgb[3 * sp->count + k] = q[k] * envl_envmap_solid_angle(m, r);
-                q[k] = 0;
-            }
-            sp->count++;
-        }
+    envl_result rc = envl__sun_split_make(m, &sp->s);
+    if (rc)
+        return rc;
+    int32_t w = envl_envmap_width(m), h = envl_envmap_height(m);
+    sp->full = sp->s.res ? sp->s.res : envl_envmap_pixels(m);
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .width = w > width ? width : w};
-    sp->full = rest;
-    return envl_envmap_from_pixels(rest, w, h, 3, &lo, &sp->rest);
+    return envl_envmap_from_pixels(sp->full, w, h, 3, &lo, &sp->rest);
 }
 
 static void free_split(split *sp)
 {
-    free(sp->dir);
-    free(sp->rgb);
-    free(sp->full);
+    envl__sun_split_free(&sp->s);
     envl_envmap_free(sp->rest);
 }
 
-/* Adds the point sources: f(d) = max(0, n.d) / pi (Lambert), on(n, v, d), or w(R.d) / norm. */
+/* Adds the points: E_j f(l_j), f(d) = max(0, n.d) / pi (Lambert), on(n, v, d), or
+ * w(R.d) / norm (the lobe's integral: the point's E spread as the lobe). */
 static void add_points(const split *sp, int model, const lobe *b, const double v[3],
                        const double x[3], double out[3])
 {
-    for (int32_t i = 0; i < sp->count; i++) {
-        const double *d = sp->dir + 3 * i;
-        double f = model == 0 ? fmax(0, dot3(x, d)) / ENVL_PI
-                   : model == 1 ? oren_nayar(x, v, d) : lobe_w(b, dot3(x, d)) / b->norm;
+    for (int32_t i = 0; i < sp->s.n; i++) {
+        const envl_sun_lobe *l = sp->s.lobes + i;
+        double f = model == 0 ? fmax(0, dot3(x, l->d)) / ENVL_PI
+                   : model == 1 ? oren_nayar(x, v, l->d) : lobe_w(b, dot3(x, l->d)) / b->norm;
         for (int k = 0; k < 3; k++)
-            out[k] += f * sp->rgb[3 * i + k];
+            out[k] += f * l->e[k];
     }
 }
 
@@ -598,8 +574,8 @@ envl_result preview_compute(envl_envmap *map, const envl_preview_options *opt, F
         for (int ch = 0; ch < 3; ch++)                                                         \
             d->sphere[row][col][3 * p.index[q] + ch] = (src)[3 * q + ch]
 
-    /* References. Diffuse and glossy: the split above; mirror: the full map's pixel that
-     * contains R, 16 per sphere pixel. */
+    /* References: the residual (resampled; mirror: at full size, the pixel that contains R,
+     * 16 per sphere pixel) + the points, exact. */
     if (!rc)
         rc = make_split(map, o.reference_width, &sp);
     const envl_envmap *rm = sp.rest;
@@ -620,8 +596,8 @@ envl_result preview_compute(envl_envmap *map, const envl_preview_options *opt, F
                 add_points(&sp, 1, NULL, d->view, p.n + 3 * i, refv + 3 * i);
             }
         } else if (row < 3) {
-            /* P = (sum over the rest of L w dw + sum over the points of rgb w) / norm; the
-             * rest's own normaliser sum w dw (zeroed pixels included) is norm to within its
+            /* P = (sum over the rest of L w dw + sum over the points of E w) / norm; the
+             * rest's own normaliser sum w dw (split pixels included) is norm to within its
              * discretisation, as the lobe is several rest pixels wide */
             if (o.specular == ENVL_PREVIEW_SPECULAR_GGX)
                 rc = envl_prefilter_reference(rm, o.roughness[row - 1], np, p.r, refv);
@@ -642,8 +618,8 @@ envl_result preview_compute(envl_envmap *map, const envl_preview_options *opt, F
                     buf16[3 * i + k] = sp.full[3 * ((size_t)ri * w + ci) + k];
             }
             average16(np, buf16, refv);
-            for (int32_t i = 0; i < sp.count; i++)
-                deposit(&p, S, d->view, sp.dir + 3 * i, sp.rgb + 3 * i, refv);
+            for (int32_t i = 0; i < sp.s.n; i++)
+                deposit(&p, S, d->view, sp.s.lobes[i].d, sp.s.lobes[i].e, refv);
         }
         d->seconds[row][0] = envl__seconds() - t0;
         STORE(row, 0, refv);
@@ -764,7 +740,7 @@ envl_result preview_compute(envl_envmap *map, const envl_preview_options *opt, F
         print_notes(notes, &o, d);
         fprintf(notes, "envlight preview: references on a %d-wide copy + %d points (diffuse %.4f %% from the "
                 "full map, docs/design.md's measure): %.3f, %.3f, %.3f s; mirror %.3f s\n",
-                envl_envmap_width(rm), (int)sp.count, 100 * d->reference_error, d->seconds[0][0],
+                envl_envmap_width(rm), (int)sp.s.n, 100 * d->reference_error, d->seconds[0][0],
                 d->seconds[1][0], d->seconds[2][0], d->seconds[3][0]);
     }
     free_pixels(&p);
