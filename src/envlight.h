@@ -17,6 +17,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #if defined(ENVL_BUILDING_LIBRARY)
 #define ENVL_API __attribute__((visibility("default")))
@@ -565,6 +566,41 @@ typedef struct envl_export_options {
 } envl_export_options;
 ENVL_API envl_result envl_products_export(const envl_products *products, const char *dir,
                                           const envl_export_options *options);
+
+/* ---- the preview picture (README "Preview") ------------------------------------------------ */
+/* One sRGB PNG: the lat-long map with the median cut regions and the median cut and fitted
+ * lights marked, then spheres (rows: diffuse, glossy at two roughness values, mirror) lit by
+ * the exact reference and by each approximation in the rows it serves (median cut, fit + SH
+ * remainder, SH order 2, prefiltered maps), each with its error and seconds under it. */
+#define ENVL_PREVIEW_TONEMAP_ACES 0         /* Narkowicz 2015 fit of the ACES filmic curve */
+#define ENVL_PREVIEW_TONEMAP_REINHARD 1     /* x / (1 + x) */
+#define ENVL_PREVIEW_DIFFUSE_LAMBERT 0
+#define ENVL_PREVIEW_DIFFUSE_OREN_NAYAR 1   /* Oren & Nayar 1994 qualitative model, sigma 0.3 */
+#define ENVL_PREVIEW_SPECULAR_GGX 0
+#define ENVL_PREVIEW_SPECULAR_BLINN_PHONG 1 /* exponent 2 / alpha^2 - 2 (Walter et al. 2007) */
+typedef struct envl_preview_options {
+    int32_t median_count;     /* median cut lights, 1..4096; default 16 */
+    int32_t fit_count;        /* fitted lights, 1..32; default 4 */
+    int32_t tonemap;          /* ENVL_PREVIEW_TONEMAP_*; default ACES */
+    int32_t exposure_set;     /* nonzero: exposure_ev is used, else automatic (Reinhard 2002's
+                                 key: EV = log2(0.18 / log-average luminance)) */
+    double exposure_ev;       /* display = tonemap(2^EV x radiance), -64..64 */
+    int32_t diffuse;          /* ENVL_PREVIEW_DIFFUSE_*; default Lambert */
+    int32_t specular;         /* ENVL_PREVIEW_SPECULAR_*; default GGX */
+    double roughness[2];      /* the glossy rows, 0.05..1 (alpha = r^2); default 0.25, 0.5 */
+    int32_t sphere_size;      /* pixels, 48..512; default 96 */
+    int32_t reference_width;  /* lat-long width, even, 16..4096, of the copy the diffuse and
+                                 glossy references sum over; default 256 */
+    const char *title;        /* printed at the top (the file name); NULL: none */
+} envl_preview_options;
+/* Computes the products and the references, draws the picture and writes it to `path` as an
+ * sRGB PNG (atomically; libpng). `options` NULL: the defaults. `notes` (may be NULL) gets, once
+ * all is computed, one line per approximation (the texts under its spheres, docs/design.md's
+ * diffuse error of its product) and one about the references. *width, *height (may be NULL):
+ * the picture's size, 80 + 5 (S + 24) + 8 by 66 + (width - 16) / 2 + 4 (S + 28). */
+ENVL_API envl_result envl_preview_write(envl_envmap *map, const envl_preview_options *options,
+                                        const char *path, FILE *notes, int32_t *width,
+                                        int32_t *height);
 
 #ifdef __cplusplus
 }

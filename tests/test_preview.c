@@ -1,9 +1,9 @@
-/* envlight preview (src/preview.c): the tone curves and the sRGB encoding against their
+/* envlight preview (src/export/preview.c): the tone curves and the sRGB encoding against their
  * formulas, the picture's size, a constant map rendering every reference sphere at L, a
  * one-bright-pixel map lighting the spheres brightest where n points at it; what the picture
  * tells: each method only in the rows it serves, the light counts the methods returned, the
  * error on the displayed values (bounded for a sun in the mirror), and stderr's notes holding
- * the picture's own texts. */
+ * the picture's own texts; the public entry (envl_preview_write) refusing bad options. */
 #include "internal.h"
 #include "check.h"
 #include "preview.h"
@@ -86,8 +86,8 @@ static void test_constant_map(void)
         px[i] = L;
     envl_envmap *m = map_from(px, 64, 32);
     free(px);
-    preview_options o = {.sphere_size = 48, .tonemap = PREVIEW_TONEMAP_REINHARD,
-                         .exposure_set = 1, .exposure_ev = 0, .title = "constant"};
+    envl_preview_options o = {.sphere_size = 48, .tonemap = ENVL_PREVIEW_TONEMAP_REINHARD,
+                              .exposure_set = 1, .exposure_ev = 0, .title = "constant"};
     preview_data d;
     CHECK_OK(preview_compute(m, &o, NULL, &d));
     double step = 2 * PI / 64 / 23, tol_diffuse = 4 * step * step * L;
@@ -149,7 +149,7 @@ static void test_one_bright_pixel(void)
     free(px);
     double l[3];
     envl_envmap_direction(m, c, r, l);
-    preview_options o = {.sphere_size = S, .median_count = 4, .fit_count = 1};
+    envl_preview_options o = {.sphere_size = S, .median_count = 4, .fit_count = 1};
     preview_data d;
     CHECK_OK(preview_compute(m, &o, NULL, &d));
     for (int col = 0; col <= 1; col++) {
@@ -175,17 +175,17 @@ static void test_one_bright_pixel(void)
 
 /* preview.h's picture error written out: display luminance of each pixel, then docs/design.md's
  * relative RMS over the disc's pixels. */
-static double shown_y(const preview_options *o, double ev, const double *p)
+static double shown_y(const envl_preview_options *o, double ev, const double *p)
 {
     double d[3];
     for (int k = 0; k < 3; k++) {
         double x = exp2(ev) * p[k];
-        d[k] = o->tonemap == PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
+        d[k] = o->tonemap == ENVL_PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
     }
     return 0.2126 * d[0] + 0.7152 * d[1] + 0.0722 * d[2];
 }
 
-static double picture_error(const preview_options *o, const preview_data *d, int row, int col)
+static double picture_error(const envl_preview_options *o, const preview_data *d, int row, int col)
 {
     const int32_t S = d->size;
     double se = 0, sr = 0;
@@ -209,7 +209,7 @@ static double picture_error(const preview_options *o, const preview_data *d, int
  * diffuse and glossy rows, SH in the diffuse row. A cell not served holds no sphere and no
  * error, and the picture leaves its disc empty (background) with the note in its middle; every
  * served cell's error is the formula above (same sums, so equal to rounding). */
-static void check_cells(const preview_options *o, const envl_envmap *m, const preview_data *d)
+static void check_cells(const envl_preview_options *o, const envl_envmap *m, const preview_data *d)
 {
     static const int served[PREVIEW_ROWS][PREVIEW_COLS] = {
         {1, 1, 1, 1, 1}, {1, 1, 1, 0, 1}, {1, 1, 1, 0, 1}, {1, 0, 0, 0, 1}};
@@ -246,12 +246,14 @@ static void check_cells(const preview_options *o, const envl_envmap *m, const pr
 
 /* A sun in the mirror. Constant sky L = 1 (128 x 64) and one pixel of 10^4 at (47, 31), whose
  * reflection lands near the ball's centre (it is 0.035 rad from v, 0.4 sphere pixel). The
- * reference deposits that pixel's L dw whole into the sphere pixel reflecting its centre; the
+ * reference's residual keeps that pixel at luminance T = 50 x the mean (146; the library's
+ * split) and deposits the excess (L - T) dw into the sphere pixel reflecting its centre; the
  * prefiltered mirror level (the map area-resampled to 512: each map pixel 4 x 4 texels) spreads
  * it over the bilinear support of those texels, 5 texels = 0.061 rad, looked up at 16 points
  * per sphere pixel. Near the centre R turns by 2 / sqrt(1 - r^2) >= 2 times the screen offset,
- * so a sphere pixel spans >= 2 (2 / S) = 0.083 rad of R > 0.061: the sun region, the zeroed
- * pixel of the reference's rest and the deposit meet at most 2 x 2 sphere pixels. Everywhere
+ * so a sphere pixel spans >= 2 (2 / S) = 0.083 rad of R > 0.061: the sun region, the residual's
+ * pixel at T and the deposit meet at most 2 x 2 sphere pixels (where the pixel was 0 before the
+ * residual kept T, the same 2 x 2: the bound holds either way). Everywhere
  * else both spheres are L (the level's area weights: float rounding, 1e-6). So with displayed
  * luminance Y in [0, 1] (Reinhard, EV 0: Y(L) = 0.5), the error is at most
  * sqrt((4 + N (1e-6)^2) / N) / (0.5 (N - 4) / N) over the N disc pixels. (The radiance measure
@@ -266,9 +268,9 @@ static void test_mirror_sun(void)
         px[3 * (31 * W + 47) + k] = 1e4f;
     envl_envmap *m = map_from(px, W, H);
     free(px);
-    preview_options o = {.sphere_size = S, .tonemap = PREVIEW_TONEMAP_REINHARD,
-                         .exposure_set = 1, .exposure_ev = 0, .median_count = 4,
-                         .fit_count = 1, .reference_width = 64};
+    envl_preview_options o = {.sphere_size = S, .tonemap = ENVL_PREVIEW_TONEMAP_REINHARD,
+                              .exposure_set = 1, .exposure_ev = 0, .median_count = 4,
+                              .fit_count = 1, .reference_width = 64};
     preview_data d;
     CHECK_OK(preview_compute(m, &o, NULL, &d));
     int n = 0;
@@ -293,8 +295,8 @@ static void test_counts_and_notes(void)
 {
     envl_envmap *m = NULL;
     CHECK_OK(envl_envmap_sky(&(envl_sky_options){.width = 128}, &m));
-    preview_options o = {.sphere_size = 48, .fit_count = 4, .median_count = 8,
-                         .reference_width = 64, .diffuse = PREVIEW_DIFFUSE_OREN_NAYAR};
+    envl_preview_options o = {.sphere_size = 48, .fit_count = 4, .median_count = 8,
+                              .reference_width = 64, .diffuse = ENVL_PREVIEW_DIFFUSE_OREN_NAYAR};
     const char *path = tmp_path("preview_notes.txt");
     FILE *f = fopen(path, "w+");
     CHECK(f != NULL);
@@ -345,6 +347,165 @@ static void test_counts_and_notes(void)
     envl_envmap_free(m);
 }
 
+/* The library's split written out from sun_split.c's rule, as the oracle: T = 50 x the mean
+ * luminance, or, when more than 4096 pixels are above it, the 4097th brightest luminance (as a
+ * float); the pixels above T, at most 4096 in row-major order, keep rgb T / Y in the residual
+ * (a float), and the excess E = (L - L T / Y) dw is a point at the pixel's centre. */
+typedef struct oracle_split {
+    float *res;
+    int32_t n;
+    double d[4096][3], e[4096][3];
+} oracle_split;
+
+static int cmp_down(const void *a, const void *b)
+{
+    float x = *(const float *)a, y = *(const float *)b;
+    return x > y ? -1 : x < y;
+}
+
+static void split_oracle(const envl_envmap *m, oracle_split *o)
+{
+    int32_t w = envl_envmap_width(m), h = envl_envmap_height(m);
+    const float *px = envl_envmap_pixels(m);
+    size_t npx = (size_t)w * h, count = 0;
+    float *y = malloc(sizeof(float) * npx);
+    envl_info info;
+    envl_envmap_info(m, &info);
+    double T = 50 * envl_luminance(info.power[0], info.power[1], info.power[2]) / (4 * PI);
+    for (size_t i = 0; i < npx; i++) {
+        double l = envl_luminance(px[3 * i], px[3 * i + 1], px[3 * i + 2]);
+        if (l > T)
+            y[count++] = (float)l;
+    }
+    if (count > 4096) {
+        qsort(y, count, sizeof(float), cmp_down);
+        T = y[4096];
+    }
+    free(y);
+    o->res = malloc(sizeof(float) * 3 * npx);
+    memcpy(o->res, px, sizeof(float) * 3 * npx);
+    o->n = 0;
+    for (int32_t r = 0; r < h; r++)
+        for (int32_t c = 0; c < w && o->n < 4096; c++) {
+            float *p = o->res + 3 * ((size_t)r * w + c);
+            double l = envl_luminance(p[0], p[1], p[2]), f = T / l;
+            if (!(l > T))
+                continue;
+            for (int k = 0; k < 3; k++) {
+                double keep = p[k] * f;
+                o->e[o->n][k] = (p[k] - keep) * envl_envmap_solid_angle(m, r);
+                p[k] = (float)keep;
+            }
+            envl_envmap_direction(m, c, r, o->d[o->n++]);
+        }
+}
+
+/* GGX's w(u) = u / q^2, q = ((1 + u) / 2)(alpha^2 - 1) + 1 (docs/design.md, "Error measures"). */
+static double ggx_lobe(double u, double a2)
+{
+    double q = 0.5 * (1 + u) * (a2 - 1) + 1;
+    return u > 0 ? u / (q * q) : 0;
+}
+
+/* Where the lobes matter: a 512 x 256 map, a dim sky (0.05) and 4608 coloured pixels of
+ * luminance 83..166 in the top 9 rows (0.038 sr, so 50 x the mean luminance is 21.4: all 4608
+ * above it, more than the 4096 the split takes). The reference's diffuse (Lambert) and GGX
+ * glossy rows must be the residual as the library makes it, resampled as the preview resamples
+ * it (the same call), summed exactly (envl_irradiance_exact, envl_prefilter_reference) + the
+ * points analytically: E max(0, n.l) / pi, E w(R.l) / N(alpha). The oracle's T, residual, E
+ * and l are the library's bit for bit (the same expressions on the same floats), so only the
+ * order of the operations differs: n = 4097 non-negative terms summed, relative error at most
+ * n 2^-53 each way (Higham 2002, 4.2), 2 x 4097 x 1.1e-16 = 9.1e-13 < 1e-12. The notes count
+ * the 4096 points. */
+static void test_split_reference(void)
+{
+    const int32_t W = 512, H = 256, S = 48;
+    float *px = malloc(sizeof(float) * W * H * 3);
+    for (int32_t i = 0; i < W * H; i++) {
+        double v = i < 9 * W ? 100 * (1 + (double)(i * 7919 % (9 * W)) / (9 * W)) : 0.05;
+        px[3 * i] = (float)v, px[3 * i + 1] = (float)(0.8 * v), px[3 * i + 2] = (float)(0.6 * v);
+    }
+    envl_envmap *m = map_from(px, W, H);
+    free(px);
+    oracle_split *os = malloc(sizeof *os);
+    split_oracle(m, os);
+    CHECK(os->n == 4096);
+    envl_envmap *rest = NULL;
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .width = 64};
+    CHECK_OK(envl_envmap_from_pixels(os->res, W, H, 3, &lo, &rest));
+    envl_preview_options o = {.sphere_size = S, .median_count = 4, .fit_count = 1,
+                              .reference_width = 64};
+    const char *path = tmp_path("preview_split_notes.txt");
+    FILE *f = fopen(path, "w+");
+    preview_data d;
+    CHECK_OK(preview_compute(m, &o, f, &d));
+    char notes[8192] = "";
+    if (f) {
+        rewind(f);
+        notes[fread(notes, 1, sizeof notes - 1, f)] = 0;
+        fclose(f);
+    }
+    CHECK(strstr(notes, "references on a 64-wide copy + 4096 points") != NULL);
+    preview_defaults(&o);
+    for (int32_t j = 0; j < S; j++)
+        for (int32_t i = 0; i < S; i++) {
+            double n[3], R[3], e[3], g[2][3];
+            if (!preview_sphere_normal(S, d.view, i, j, n))
+                continue;
+            double nv = n[0] * d.view[0] + n[1] * d.view[1] + n[2] * d.view[2];
+            for (int k = 0; k < 3; k++)
+                R[k] = 2 * nv * n[k] - d.view[k];
+            CHECK_OK(envl_irradiance_exact(rest, 1, n, e));
+            for (int row = 1; row <= 2; row++)
+                CHECK_OK(envl_prefilter_reference(rest, o.roughness[row - 1], 1, R, g[row - 1]));
+            for (int k = 0; k < 3; k++)
+                e[k] /= PI;
+            for (int32_t q = 0; q < os->n; q++) {
+                const double *l = os->d[q];
+                double nl = n[0] * l[0] + n[1] * l[1] + n[2] * l[2];
+                double rl = R[0] * l[0] + R[1] * l[1] + R[2] * l[2];
+                for (int row = 1; row <= 2; row++) {
+                    double a = o.roughness[row - 1] * o.roughness[row - 1];
+                    double wl = ggx_lobe(rl, a * a) / envl_ggx_lobe_norm(a);
+                    for (int k = 0; k < 3; k++)
+                        g[row - 1][k] += os->e[q][k] * wl;
+                }
+                for (int k = 0; k < 3; k++)
+                    e[k] += os->e[q][k] * fmax(0, nl) / PI;
+            }
+            for (int k = 0; k < 3; k++) {
+                size_t at = 3 * ((size_t)j * S + i) + k;
+                CHECK_REL(d.sphere[0][0][at], e[k], 1e-12);
+                CHECK_REL(d.sphere[1][0][at], g[0][k], 1e-12);
+                CHECK_REL(d.sphere[2][0][at], g[1][k], 1e-12);
+            }
+        }
+    free(os->res);
+    free(os);
+    preview_data_free(&d);
+    envl_envmap_free(rest);
+    envl_envmap_free(m);
+}
+
+/* The public entry refuses options outside the command line's ranges (envlight.h) before any
+ * work, and writes nothing. */
+static void test_public_entry(void)
+{
+    envl_envmap *m = NULL;
+    CHECK_OK(envl_envmap_sky(&(envl_sky_options){.width = 64}, &m));
+    const char *path = tmp_path("preview_refused.png");
+    remove(path);
+    const envl_preview_options bad[] = {{.sphere_size = 47}, {.reference_width = 19},
+                                        {.roughness = {0.5, 0.01}}, {.fit_count = 33},
+                                        {.tonemap = 2}, {.exposure_set = 1, .exposure_ev = 65}};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
+        CHECK_RC(envl_preview_write(m, &bad[i], path, NULL, NULL, NULL), ENVL_ERR_ARGUMENT);
+    CHECK_RC(envl_preview_write(m, NULL, NULL, NULL, NULL, NULL), ENVL_ERR_ARGUMENT);
+    struct stat st;
+    CHECK(stat(path, &st) != 0);
+    envl_envmap_free(m);
+}
+
 int main(void)
 {
     mkdir(ENVL_TEST_TMP, 0777);
@@ -355,5 +516,7 @@ int main(void)
     test_one_bright_pixel();
     test_mirror_sun();
     test_counts_and_notes();
+    test_split_reference();
+    test_public_entry();
     return check_report("test_preview");
 }

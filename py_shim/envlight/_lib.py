@@ -246,6 +246,22 @@ class ExportOptions(Structure):
     ]
 
 
+class PreviewOptions(Structure):
+    _fields_ = [
+        ("median_count", c_int32),
+        ("fit_count", c_int32),
+        ("tonemap", c_int32),
+        ("exposure_set", c_int32),
+        ("exposure_ev", c_double),
+        ("diffuse", c_int32),
+        ("specular", c_int32),
+        ("roughness", c_double * 2),
+        ("sphere_size", c_int32),
+        ("reference_width", c_int32),
+        ("title", c_char_p),
+    ]
+
+
 #: Every public struct mirrored here, by its C name (the tests compare sizes and offsets
 #: against the C compiler's).
 STRUCTS = {
@@ -265,6 +281,7 @@ STRUCTS = {
     "envl_request": Request,
     "envl_products_summary": ProductsSummary,
     "envl_export_options": ExportOptions,
+    "envl_preview_options": PreviewOptions,
 }
 
 # ---- the one table of functions: name -> (restype, argtypes) -------------------------------
@@ -367,6 +384,9 @@ FUNCTIONS = {
     "envl_export_layout_name": (c_char_p, [c_int32]),
     "envl_export_layout_from_name": (c_int32, [c_char_p]),
     "envl_products_export": (_R, [_prod, c_char_p, POINTER(ExportOptions)]),
+    # FILE *notes: c_void_p (NULL from Python)
+    "envl_preview_write": (_R, [_map, POINTER(PreviewOptions), c_char_p, c_void_p,
+                                POINTER(c_int32), POINTER(c_int32)]),
 }
 
 # Constants of envlight.h the Python side uses.

@@ -1,6 +1,5 @@
 /* envlight preview: one PNG comparing the exact reference with every approximation. */
 #include "cli.h"
-#include "preview.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -47,7 +46,7 @@ int cli_preview(int argc, char **argv)
 {
     cli_common c = {0};
     const char *file = NULL, *out = NULL;
-    preview_options po = {0};
+    envl_preview_options po = {0};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v;
         long long n;
@@ -76,7 +75,8 @@ int cli_preview(int argc, char **argv)
         } else if ((r = cli_value(argc, argv, &i, "--tonemap", &v)) != 0) {
             if (r < 0 || (strcmp(v, "aces") && strcmp(v, "reinhard")))
                 return cli_usage("preview", "--tonemap takes aces or reinhard");
-            po.tonemap = strcmp(v, "aces") ? PREVIEW_TONEMAP_REINHARD : PREVIEW_TONEMAP_ACES;
+            po.tonemap = strcmp(v, "aces") ? ENVL_PREVIEW_TONEMAP_REINHARD
+                                           : ENVL_PREVIEW_TONEMAP_ACES;
         } else if ((r = cli_value(argc, argv, &i, "--exposure", &v)) != 0) {
             if (r < 0 || cli_parse_double(v, &x) || !(x >= -64 && x <= 64))
                 return cli_usage("preview", "--exposure takes -64..64 (EV)");
@@ -85,13 +85,13 @@ int cli_preview(int argc, char **argv)
         } else if ((r = cli_value(argc, argv, &i, "--diffuse", &v)) != 0) {
             if (r < 0 || (strcmp(v, "lambert") && strcmp(v, "oren-nayar")))
                 return cli_usage("preview", "--diffuse takes lambert or oren-nayar");
-            po.diffuse = strcmp(v, "lambert") ? PREVIEW_DIFFUSE_OREN_NAYAR
-                                              : PREVIEW_DIFFUSE_LAMBERT;
+            po.diffuse = strcmp(v, "lambert") ? ENVL_PREVIEW_DIFFUSE_OREN_NAYAR
+                                              : ENVL_PREVIEW_DIFFUSE_LAMBERT;
         } else if ((r = cli_value(argc, argv, &i, "--specular", &v)) != 0) {
             if (r < 0 || (strcmp(v, "ggx") && strcmp(v, "blinn-phong")))
                 return cli_usage("preview", "--specular takes ggx or blinn-phong");
-            po.specular = strcmp(v, "ggx") ? PREVIEW_SPECULAR_BLINN_PHONG
-                                           : PREVIEW_SPECULAR_GGX;
+            po.specular = strcmp(v, "ggx") ? ENVL_PREVIEW_SPECULAR_BLINN_PHONG
+                                           : ENVL_PREVIEW_SPECULAR_GGX;
         } else if ((r = cli_value(argc, argv, &i, "--roughness", &v)) != 0) {
             if (r < 0 || parse_roughness(v, po.roughness))
                 return cli_usage("preview", "--roughness takes A,B with each in 0.05..1");
@@ -117,23 +117,11 @@ int cli_preview(int argc, char **argv)
     if (cli_load(file, &c, &map))
         return CLI_FAIL;
     po.title = file && strcmp(file, "-") ? file : "built-in sky";
-    preview_data d;
-    float *rgb = NULL;
-    int32_t w, h;
-    envl_result rc = preview_compute(map, &po, c.quiet ? NULL : stderr, &d);
-    if (!rc)
-        rc = preview_compose(map, &po, &d, &rgb, &w, &h);
-    if (!rc)
-        rc = envl_png_save_srgb(out, rgb, w, h);
-    int status = CLI_OK;
-    if (rc == ENVL_ERR_MEMORY && !rgb)
-        cli_error("%s: out of memory", out), status = CLI_FAIL;
-    else if (rc)
-        status = cli_fail();
-    else if (!c.quiet)
+    int32_t w = 0, h = 0;
+    envl_result rc = envl_preview_write(map, &po, out, c.quiet ? NULL : stderr, &w, &h);
+    int status = rc ? cli_fail() : CLI_OK;
+    if (!rc && !c.quiet)
         fprintf(stderr, "envlight preview: wrote %s (%d x %d)\n", out, (int)w, (int)h);
-    free(rgb);
-    preview_data_free(&d);
     envl_envmap_free(map);
     return status;
 }

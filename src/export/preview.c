@@ -11,9 +11,12 @@
  *    reflection direction R = 2 (n.v) n - v, P(R) = sum L w(R.l) dw / sum w(R.l) dw with the
  *    GGX lobe w(u) = u / q^2, q = ((1 + u) / 2)(alpha^2 - 1) + 1, or Blinn-Phong's
  *    w(u) = u ((1 + u) / 2)^(e / 2) (since (n.h)^2 = (1 + R.l) / 2 for h = normalize(R + l)).
- * Only the public API is used. */
+ * Part of the library (export layer): envl_preview_write is the public entry. */
 #include "preview.h"
 #include "clock.h"
+#include "ggx.h"
+#include "internal.h"
+#include "sun_split.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -21,7 +24,7 @@
 
 #define ON_SIGMA 0.3 /* Oren-Nayar surface roughness (radians) */
 
-void preview_defaults(preview_options *o)
+void preview_defaults(envl_preview_options *o)
 {
     if (o->median_count <= 0)
         o->median_count = 16;
@@ -52,7 +55,7 @@ double preview_reinhard(double x) { return x > 0 ? (isinf(x) ? 1 : x / (1 + x)) 
 
 static double tone_curve(int32_t tonemap, double x)
 {
-    return tonemap == PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
+    return tonemap == ENVL_PREVIEW_TONEMAP_REINHARD ? preview_reinhard(x) : preview_aces(x);
 }
 
 double preview_auto_exposure(const envl_envmap *map)
@@ -172,15 +175,15 @@ typedef struct lobe {
     double norm;  /* integral of w over the sphere */
 } lobe;
 
+/* w(u), u = R.l: GGX's from ggx.h (the prefilter's), Blinn-Phong's u ((1 + u) / 2)^(e / 2)
+ * ((n.h)^2 = (1 + u) / 2), 0 for u <= 0. */
 static double lobe_w(const lobe *b, double u)
 {
     if (u <= 0)
         return 0;
-    double c = 0.5 * (1 + u); /* (n.h)^2 */
-    if (b->specular == PREVIEW_SPECULAR_BLINN_PHONG)
-        return u * pow(c, 0.5 * b->e);
-    double q = c * (b->a2 - 1) + 1;
-    return u / (q * q);
+    if (b->specular == ENVL_PREVIEW_SPECULAR_GGX)
+        return ggx_w(u, b->a2);
+    return u * pow(0.5 * (1 + u), 0.5 * b->e);
 }
 
 /* Blinn-Phong exponent matching GGX alpha: e = 2 / alpha^2 - 2 (Walter et al. 2007). The norm:
@@ -193,7 +196,7 @@ static lobe make_lobe(int specular, double roughness)
     double alpha = roughness * roughness;
     b.a2 = alpha * alpha;
     b.e = 2 / b.a2 - 2;
-    if (specular != PREVIEW_SPECULAR_BLINN_PHONG) {
+    if (specular != ENVL_PREVIEW_SPECULAR_BLINN_PHONG) {
         b.norm = envl_ggx_lobe_norm(alpha);
         return b;
     }
@@ -329,70 +332,45 @@ static void brute_force(const envl_envmap *m, const double *dirs, const double v
         out[k] = b ? (ws > 0 ? s[k] / ws : 0) : s[k];
 }
 
-/* The reference's split (as the prefilter's): pixels brighter than 50 x the mean luminance
- * (the sun) stay exact point sources rgb = L dw at their centres; the rest of the map, with
- * them set to 0, is area-resampled to reference_width (the integral of L dw is kept). */
+/* The reference's split is the library's (sun_split.c, as the prefilter's): the pixels above
+ * T = 50 x the mean luminance (at most 4096, T raised if needed) keep luminance T in the
+ * residual, and the excess E_j = L_j (1 - T / Y_j) dw_j is an exact point at the pixel's
+ * centre l_j. The residual is area-resampled to reference_width (the integral of L dw kept). */
 typedef struct split {
-    int32_t count;
-    double *dir, *rgb;
-    envl_envmap *rest;
-    float *full;      /* the map with the points set to 0, full size (mirror reference) */
+    envl_sun_split s;   /* s.n points (s.lobes); s.res NULL when none was split */
+    const float *full;  /* the residual at full size (the map's pixels when none was split) */
+    envl_envmap *rest;  /* the residual resampled */
 } split;
 
 static envl_result make_split(const envl_envmap *m, int32_t width, split *sp)
 {
-    int32_t w = envl_envmap_width(m), h = envl_envmap_height(m);
-    const float *px = envl_envmap_pixels(m);
     memset(sp, 0, sizeof *sp);
-    envl_info info;
-    envl_envmap_info(m, &info);
-    double limit = 50 * envl_luminance(info.mean[0], info.mean[1], info.mean[2]);
-    size_t n = (size_t)w * h, count = 0;
-    for (size_t i = 0; i < n; i++)
-        count += envl_luminance(px[3 * i], px[3 * i + 1], px[3 * i + 2]) > limit;
-    float *rest = malloc(sizeof(float) * 3 * n);
-    sp->dir = malloc(sizeof(double) * 3 * (count + 1));
-    sp->rgb = malloc(sizeof(double) * 3 * (count + 1));
-    if (!rest || !sp->dir || !sp->rgb) {
-        free(rest);
-        return ENVL_ERR_MEMORY;
-    }
-    memcpy(rest, px, sizeof(float) * 3 * n);
-    for (int32_t r = 0; r < h; r++)
-        for (int32_t c = 0; c < w; c++) {
-            float *q = rest + 3 * ((size_t)r * w + c);
-            if (!(envl_luminance(q[0], q[1], q[2]) > limit))
-                continue;
-            envl_envmap_direction(m, c, r, sp->dir + 3 * sp->count);
-            for (int k = 0; k < 3; k++) {
-                sp->rgb[3 * sp->count + k] = q[k] * envl_envmap_solid_angle(m, r);
-                q[k] = 0;
-            }
-            sp->count++;
-        }
+    envl_result rc = envl__sun_split_make(m, &sp->s);
+    if (rc)
+        return rc;
+    int32_t w = envl_envmap_width(m), h = envl_envmap_height(m);
+    sp->full = sp->s.res ? sp->s.res : envl_envmap_pixels(m);
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .width = w > width ? width : w};
-    sp->full = rest;
-    return envl_envmap_from_pixels(rest, w, h, 3, &lo, &sp->rest);
+    return envl_envmap_from_pixels(sp->full, w, h, 3, &lo, &sp->rest);
 }
 
 static void free_split(split *sp)
 {
-    free(sp->dir);
-    free(sp->rgb);
-    free(sp->full);
+    envl__sun_split_free(&sp->s);
     envl_envmap_free(sp->rest);
 }
 
-/* Adds the point sources: f(d) = max(0, n.d) / pi (Lambert), on(n, v, d), or w(R.d) / norm. */
+/* Adds the points: E_j f(l_j), f(d) = max(0, n.d) / pi (Lambert), on(n, v, d), or
+ * w(R.d) / norm (the lobe's integral: the point's E spread as the lobe). */
 static void add_points(const split *sp, int model, const lobe *b, const double v[3],
                        const double x[3], double out[3])
 {
-    for (int32_t i = 0; i < sp->count; i++) {
-        const double *d = sp->dir + 3 * i;
-        double f = model == 0 ? fmax(0, dot3(x, d)) / ENVL_PI
-                   : model == 1 ? oren_nayar(x, v, d) : lobe_w(b, dot3(x, d)) / b->norm;
+    for (int32_t i = 0; i < sp->s.n; i++) {
+        const envl_sun_lobe *l = sp->s.lobes + i;
+        double f = model == 0 ? fmax(0, dot3(x, l->d)) / ENVL_PI
+                   : model == 1 ? oren_nayar(x, v, l->d) : lobe_w(b, dot3(x, l->d)) / b->norm;
         for (int k = 0; k < 3; k++)
-            out[k] += f * sp->rgb[3 * i + k];
+            out[k] += f * l->e[k];
     }
 }
 
@@ -533,7 +511,7 @@ void preview_data_free(preview_data *d)
 
 /* One line per approximation: its name (with the count), each served row's text as the
  * picture prints it and its seconds, and docs/design.md's diffuse error of the product. */
-static void print_notes(FILE *f, const preview_options *o, const preview_data *d)
+static void print_notes(FILE *f, const envl_preview_options *o, const preview_data *d)
 {
     for (int32_t col = 1; col < PREVIEW_COLS; col++) {
         char h0[32], h1[32], t[32];
@@ -556,10 +534,10 @@ static void print_notes(FILE *f, const preview_options *o, const preview_data *d
     }
 }
 
-envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *notes,
+envl_result preview_compute(envl_envmap *map, const envl_preview_options *opt, FILE *notes,
                             preview_data *d)
 {
-    preview_options o = *opt;
+    envl_preview_options o = *opt;
     preview_defaults(&o);
     memset(d, 0, sizeof *d);
     const int32_t S = o.sphere_size;
@@ -596,8 +574,8 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
         for (int ch = 0; ch < 3; ch++)                                                         \
             d->sphere[row][col][3 * p.index[q] + ch] = (src)[3 * q + ch]
 
-    /* References. Diffuse and glossy: the split above; mirror: the full map's pixel that
-     * contains R, 16 per sphere pixel. */
+    /* References: the residual (resampled; mirror: at full size, the pixel that contains R,
+     * 16 per sphere pixel) + the points, exact. */
     if (!rc)
         rc = make_split(map, o.reference_width, &sp);
     const envl_envmap *rm = sp.rest;
@@ -605,7 +583,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
         rc = ENVL_ERR_MEMORY;
     for (int row = 0; row < PREVIEW_ROWS && !rc; row++) {
         double t0 = envl__seconds();
-        if (row == 0 && o.diffuse == PREVIEW_DIFFUSE_LAMBERT) {
+        if (row == 0 && o.diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT) {
             rc = envl_irradiance_exact(rm, np, p.n, refv);
             for (int32_t i = 0; i < np; i++) {
                 for (int k = 0; k < 3; k++)
@@ -618,10 +596,10 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
                 add_points(&sp, 1, NULL, d->view, p.n + 3 * i, refv + 3 * i);
             }
         } else if (row < 3) {
-            /* P = (sum over the rest of L w dw + sum over the points of rgb w) / norm; the
-             * rest's own normaliser sum w dw (zeroed pixels included) is norm to within its
+            /* P = (sum over the rest of L w dw + sum over the points of E w) / norm; the
+             * rest's own normaliser sum w dw (split pixels included) is norm to within its
              * discretisation, as the lobe is several rest pixels wide */
-            if (o.specular == PREVIEW_SPECULAR_GGX)
+            if (o.specular == ENVL_PREVIEW_SPECULAR_GGX)
                 rc = envl_prefilter_reference(rm, o.roughness[row - 1], np, p.r, refv);
             else
                 for (int32_t i = 0; i < np; i++)
@@ -640,8 +618,8 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
                     buf16[3 * i + k] = sp.full[3 * ((size_t)ri * w + ci) + k];
             }
             average16(np, buf16, refv);
-            for (int32_t i = 0; i < sp.count; i++)
-                deposit(&p, S, d->view, sp.dir + 3 * i, sp.rgb + 3 * i, refv);
+            for (int32_t i = 0; i < sp.s.n; i++)
+                deposit(&p, S, d->view, sp.s.lobes[i].d, sp.s.lobes[i].e, refv);
         }
         d->seconds[row][0] = envl__seconds() - t0;
         STORE(row, 0, refv);
@@ -679,7 +657,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
         for (int row = 0; row < PREVIEW_ROWS; row++) {
             if (!d->served[row][col])
                 continue;
-            if (row == 0 && o.diffuse == PREVIEW_DIFFUSE_LAMBERT) {
+            if (row == 0 && o.diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT) {
                 envl_lights_irradiance(*l, np, p.n, buf);
                 for (int32_t i = 0; i < 3 * np; i++)
                     buf[i] /= ENVL_PI;
@@ -762,7 +740,7 @@ envl_result preview_compute(envl_envmap *map, const preview_options *opt, FILE *
         print_notes(notes, &o, d);
         fprintf(notes, "envlight preview: references on a %d-wide copy + %d points (diffuse %.4f %% from the "
                 "full map, docs/design.md's measure): %.3f, %.3f, %.3f s; mirror %.3f s\n",
-                envl_envmap_width(rm), (int)sp.count, 100 * d->reference_error, d->seconds[0][0],
+                envl_envmap_width(rm), (int)sp.s.n, 100 * d->reference_error, d->seconds[0][0],
                 d->seconds[1][0], d->seconds[2][0], d->seconds[3][0]);
     }
     free_pixels(&p);
@@ -809,7 +787,7 @@ static void text_centred(canvas *cv, int32_t cx, int32_t y, const char *s, const
     text(cv, cx - text_width(s) / 2, y, s, c);
 }
 
-static double tone(const preview_options *o, double x) { return tone_curve(o->tonemap, x); }
+static double tone(const envl_preview_options *o, double x) { return tone_curve(o->tonemap, x); }
 
 /* Marks on the map (x wraps around the seam): map pixel (x, y) at canvas (x0 + x, y0 + y). */
 typedef struct mapview {
@@ -905,12 +883,12 @@ void preview_column_head(const preview_data *d, int32_t col, int32_t line, char 
     }
 }
 
-void preview_cell_text(const preview_options *o, const preview_data *d, int32_t row,
+void preview_cell_text(const envl_preview_options *o, const preview_data *d, int32_t row,
                        int32_t col, int32_t line, char *s, size_t n)
 {
     double e = d->error[row][col];
     if (col == 0)
-        snprintf(s, n, "%s", line ? "" : row == 0 && o->diffuse == PREVIEW_DIFFUSE_LAMBERT
+        snprintf(s, n, "%s", line ? "" : row == 0 && o->diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT
                                               ? "exact E/pi" : "brute force");
     else if (!d->served[row][col])
         snprintf(s, n, "%s", col == 3 ? (line ? "diffuse only" : "SH:")
@@ -923,10 +901,10 @@ void preview_cell_text(const preview_options *o, const preview_data *d, int32_t 
         snprintf(s, n, e < 0.1 ? "err %.2f%%" : "err %.1f%%", 100 * e);
 }
 
-envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
+envl_result preview_compose(const envl_envmap *map, const envl_preview_options *opt,
                             const preview_data *d, float **rgb, int32_t *width, int32_t *height)
 {
-    preview_options o = *opt;
+    envl_preview_options o = *opt;
     preview_defaults(&o);
     const int32_t S = d->size;
     layout L = get_layout(S);
@@ -944,7 +922,7 @@ envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
 
     snprintf(s, sizeof s, "%.40s   exposure %+.2f EV%s   %s", o.title ? o.title : "",
              d->exposure_ev, o.exposure_set ? "" : " (auto)",
-             o.tonemap == PREVIEW_TONEMAP_REINHARD ? "Reinhard" : "ACES filmic");
+             o.tonemap == ENVL_PREVIEW_TONEMAP_REINHARD ? "Reinhard" : "ACES filmic");
     text(&cv, MARGIN, 6, s, white);
 
     /* The map, area-resampled to the view's width, tone-mapped. */
@@ -993,14 +971,14 @@ envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
             text_centred(&cv, LABEL_W + c * L.cell_w + L.cell_w / 2, L.header_y + 10 * k, h,
                          white);
         }
-    const char *spec = o.specular == PREVIEW_SPECULAR_GGX ? "GGX" : "Blinn-Phong";
+    const char *spec = o.specular == ENVL_PREVIEW_SPECULAR_GGX ? "GGX" : "Blinn-Phong";
     for (int r = 0; r < PREVIEW_ROWS; r++) {
         int32_t x0, y0;
         preview_sphere_origin(S, r, 0, &x0, &y0);
         const char *l1 = r == 0 ? "diffuse" : r < 3 ? "glossy" : "mirror", *l2 = "";
         char l3[32] = "";
         if (r == 0)
-            l2 = o.diffuse == PREVIEW_DIFFUSE_LAMBERT ? "Lambert" : "Oren-Nayar";
+            l2 = o.diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT ? "Lambert" : "Oren-Nayar";
         else if (r < 3) {
             l2 = spec;
             snprintf(l3, sizeof l3, "rough %.2f", o.roughness[r - 1]);
@@ -1049,4 +1027,50 @@ envl_result preview_compose(const envl_envmap *map, const preview_options *opt,
     *width = L.w;
     *height = L.h;
     return ENVL_OK;
+}
+
+/* ---- the public entry -------------------------------------------------------------------- */
+
+/* The ranges the command line takes (cli_preview.c); 0 is the default. */
+static int options_ok(const envl_preview_options *o)
+{
+    int ok = o->median_count >= 0 && o->median_count <= 4096 && o->fit_count >= 0 &&
+             o->fit_count <= 32 && (o->tonemap == 0 || o->tonemap == 1) &&
+             (o->diffuse == 0 || o->diffuse == 1) && (o->specular == 0 || o->specular == 1);
+    ok = ok && (!o->exposure_set || (o->exposure_ev >= -64 && o->exposure_ev <= 64));
+    for (int k = 0; k < 2; k++)
+        ok = ok && (o->roughness[k] == 0 || (o->roughness[k] >= 0.05 && o->roughness[k] <= 1));
+    ok = ok && (o->sphere_size == 0 || (o->sphere_size >= 48 && o->sphere_size <= 512));
+    return ok && (o->reference_width == 0 || (o->reference_width >= 16 &&
+                                              o->reference_width <= 4096 &&
+                                              o->reference_width % 2 == 0));
+}
+
+envl_result envl_preview_write(envl_envmap *map, const envl_preview_options *options,
+                               const char *path, FILE *notes, int32_t *width, int32_t *height)
+{
+    static const envl_preview_options defaults;
+    const envl_preview_options *o = options ? options : &defaults;
+    if (!map || !path)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_preview_write: NULL argument");
+    if (!options_ok(o))
+        return envl__fail(ENVL_ERR_ARGUMENT, "preview: an option is out of range "
+                          "(envlight.h, envl_preview_options)");
+    preview_data d;
+    float *rgb = NULL;
+    int32_t w = 0, h = 0;
+    envl_result rc = preview_compute(map, o, notes, &d);
+    if (!rc)
+        rc = preview_compose(map, o, &d, &rgb, &w, &h);
+    if (!rc)
+        rc = envl_png_save_srgb(path, rgb, w, h);
+    else if (rc == ENVL_ERR_MEMORY) /* the picture's own allocations set no message */
+        envl__fail(rc, "%s: out of memory", path);
+    if (!rc && width)
+        *width = w;
+    if (!rc && height)
+        *height = h;
+    free(rgb);
+    preview_data_free(&d);
+    return rc;
 }

@@ -1,6 +1,6 @@
 /* `envlight preview`: the map with its lights, and spheres shaded by the exact reference and by
- * each approximation (preview.c, font5x7.c). Built on the public API only, linked into the
- * command line and the tests. */
+ * each approximation (preview.c, font5x7.c). Part of the library: envl_preview_write in
+ * envlight.h is its public entry; these internal steps are for the tests. Not installed. */
 #ifndef ENVL_PREVIEW_H
 #define ENVL_PREVIEW_H
 
@@ -8,31 +8,9 @@
 
 #include <stdio.h>
 
-#define PREVIEW_TONEMAP_ACES 0      /* Narkowicz 2015 fit of the ACES filmic curve (default) */
-#define PREVIEW_TONEMAP_REINHARD 1  /* x / (1 + x) */
-#define PREVIEW_DIFFUSE_LAMBERT 0
-#define PREVIEW_DIFFUSE_OREN_NAYAR 1 /* Oren & Nayar 1994 qualitative model, sigma 0.3 rad */
-#define PREVIEW_SPECULAR_GGX 0
-#define PREVIEW_SPECULAR_BLINN_PHONG 1 /* exponent 2 / alpha^2 - 2 (Walter et al. 2007) */
-
 /* Rows (shading) and columns (lighting) of the sphere grid. */
 #define PREVIEW_ROWS 4    /* diffuse, glossy roughness[0], glossy roughness[1], mirror */
 #define PREVIEW_COLS 5    /* reference, median cut, fit + SH remainder, SH order 2, prefiltered */
-
-typedef struct preview_options {
-    int32_t median_count;     /* median cut lights; default 16 */
-    int32_t fit_count;        /* fitted lights; default 4 */
-    int32_t tonemap;          /* PREVIEW_TONEMAP_*; default ACES */
-    int32_t exposure_set;     /* nonzero: exposure_ev is used, else automatic */
-    double exposure_ev;       /* display = tonemap(2^EV x radiance) */
-    int32_t diffuse;          /* PREVIEW_DIFFUSE_*; default Lambert */
-    int32_t specular;         /* PREVIEW_SPECULAR_*; default GGX */
-    double roughness[2];      /* the glossy rows; default 0.25, 0.5 (0 means default) */
-    int32_t sphere_size;      /* pixels; default 96 */
-    int32_t reference_width;  /* lat-long width of the copy the diffuse / glossy references
-                                 sum over; default 256 */
-    const char *title;        /* printed at the top (the file name) */
-} preview_options;
 
 /* Linear radiance of every sphere (size x size x 3, row 0 = top; 0 outside the disc, and all 0
  * in a cell the column's method does not serve), its picture error (preview_picture_error
@@ -54,7 +32,7 @@ typedef struct preview_data {
                                  before fit_count: README "Lights") */
 } preview_data;
 
-void preview_defaults(preview_options *o);
+void preview_defaults(envl_preview_options *o);
 /* Tone curves on exposed linear values (result in [0, 1], before the sRGB OETF). */
 double preview_aces(double x);
 double preview_reinhard(double x);
@@ -71,11 +49,11 @@ void preview_sphere_origin(int32_t size, int32_t row, int32_t col, int32_t *x, i
 /* Computes the lights, SH, prefiltered maps, references and every sphere. `notes` (may be
  * NULL) gets, once all is computed, a line per column: the texts under its spheres (as the
  * picture prints them) and docs/design.md's diffuse error of its product; then the references. */
-envl_result preview_compute(envl_envmap *map, const preview_options *o, FILE *notes,
+envl_result preview_compute(envl_envmap *map, const envl_preview_options *o, FILE *notes,
                             preview_data *d);
 void preview_data_free(preview_data *d);
 /* Tone-mapped picture (display-linear RGB in [0, 1], width x height x 3; free()). */
-envl_result preview_compose(const envl_envmap *map, const preview_options *o,
+envl_result preview_compose(const envl_envmap *map, const envl_preview_options *o,
                             const preview_data *d, float **rgb, int32_t *width, int32_t *height);
 
 /* Whether the method of column `col` serves row `row`: the reference and the prefiltered maps
@@ -94,7 +72,7 @@ double preview_picture_error(int32_t tonemap, double exposure_ev, int32_t count,
  * 3.28%", the reference's method, or, in a cell the method does not serve, its note over two
  * lines: line 0, 1: "SH:", "diffuse only" or "lights:", "no mirror"). */
 void preview_column_head(const preview_data *d, int32_t col, int32_t line, char *s, size_t n);
-void preview_cell_text(const preview_options *o, const preview_data *d, int32_t row,
+void preview_cell_text(const envl_preview_options *o, const preview_data *d, int32_t row,
                        int32_t col, int32_t line, char *s, size_t n);
 
 /* 5 x 7 glyph of an ASCII character (columns, bit 0 = top row); '?' for others. */
