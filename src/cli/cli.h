@@ -10,6 +10,7 @@
 #define CLI_OK 0
 #define CLI_FAIL 1
 #define CLI_USAGE 2
+#define CLI_HELP (-1) /* cli_parse printed --help: the command exits with CLI_OK */
 
 
 /* Options every subcommand that reads an environment accepts. */
@@ -41,6 +42,49 @@ int cli_common_option(const char *command, int argc, char **argv, int *i, cli_co
 int cli_light_count_ok(const char *command, const envl_lights_options *lo);
 /* Help text for the common options. */
 extern const char cli_common_help[];
+
+/* ---- option tables (cli_options.c) ----
+ * Each command lists its options in one table that cli_parse reads and cli_help prints. */
+typedef enum cli_kind {
+    CLI_FLAG,    /* int *: set to max, or 1 when max is 0 */
+    CLI_INT,     /* int *, within [min, max] */
+    CLI_INT64,   /* int64_t *, within [min, max] */
+    CLI_REAL,    /* double *, within [min, max] */
+    CLI_CHOICE,  /* int *: lookup(text) when given, else the index of the text in choices */
+    CLI_TEXT,    /* const char **: the text as given (non-empty unless empty_ok) */
+} cli_kind;
+typedef struct cli_option {
+    const char *names;        /* "--order", or "-n|--count" */
+    const char *arg;          /* the value's name in the help ("L"); NULL for a flag */
+    cli_kind kind;
+    double min, max;
+    void *value;
+    const char *help;         /* lines separated by '\n' */
+    const char *choices;      /* CLI_CHOICE: "a|b|c" (the usage error lists them) */
+    int32_t (*lookup)(const char *name); /* CLI_CHOICE: a library name lookup (-1: unknown) */
+    const char *takes;        /* what a usage error says the option takes (default: its range
+                                 or choices) */
+    int empty_ok;             /* CLI_TEXT: an empty text is a value */
+    int seen;                 /* set by cli_parse */
+} cli_option;
+typedef struct cli_command {
+    const char *name;         /* "sh" */
+    const char *usage;        /* the synopsis and what it does, before the options */
+    const char *notes;        /* printed after the options (may be NULL) */
+} cli_command;
+/* Parses argv[1 .. argc) by t[0 .. n) and, when c is given, the input options (into c):
+ * positional arguments go to pos[0 .. max_pos) (*npos of them). Returns CLI_OK, CLI_HELP
+ * (--help printed to stdout) or CLI_USAGE (a usage error printed). */
+int cli_parse(const cli_command *cmd, cli_option *t, int n, cli_common *c, int argc,
+              char **argv, const char **pos, int max_pos, int *npos);
+/* The help: usage, the table, notes and (common) the input options. */
+void cli_help(FILE *f, const cli_command *cmd, const cli_option *t, int n, int common);
+/* t's entry named `names` when cli_parse saw it, else NULL. */
+const cli_option *cli_seen(const cli_option *t, int n, const char *names);
+#define CLI_COUNT(t) ((int)(sizeof(t) / sizeof((t)[0])))
+/* A table entry: CLI_OPTION("--order", "L", CLI_INT, .min = 0, .max = 32, .value = &order,
+ * .help = "..."). */
+#define CLI_OPTION(names_, arg_, kind_, ...) {.names = names_, .arg = arg_, .kind = kind_, __VA_ARGS__}
 
 /* Loads FILE, or the built-in sky for NULL or "-"; warns (unless quiet) about replaced pixels
  * and says which layout auto-detection picked when that was a real guess (not evident from

@@ -4,11 +4,13 @@
 
 #include <string.h>
 
-static const char info_help[] =
+static const cli_command info_command = {
+    "info",
     "Usage: envlight info [FILE] [--json] [input options]\n"
     "Size, layout, channels, statistics (mean radiance over the sphere, power = integral of\n"
     "L dw, per-channel maximum), brightest direction (canonical frame: +Z up, +X at the\n"
-    "lat-long centre), and the count of non-finite and negative pixels.\n";
+    "lat-long centre), and the count of non-finite and negative pixels.\n",
+    NULL};
 
 static void info_json(FILE *f, const envl_info *in)
 {
@@ -84,27 +86,12 @@ int cli_info(int argc, char **argv)
 {
     cli_common c = {0};
     const char *file = NULL;
-    int json = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int r = cli_common_option("info", argc, argv, &i, &c);
-        if (r < 0)
-            return CLI_USAGE;
-        if (r > 0)
-            continue;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            printf("%s\n%s", info_help, cli_common_help);
-            return CLI_OK;
-        }
-        if (!strcmp(a, "--json"))
-            json = 1;
-        else if (a[0] == '-' && a[1])
-            return cli_usage("info", "unknown option '%s'", a);
-        else if (file)
-            return cli_usage("info", "one FILE only ('%s' and '%s')", file, a);
-        else
-            file = a;
-    }
+    int json = 0, npos;
+    cli_option t[] = {CLI_OPTION("--json", NULL, CLI_FLAG, .value = &json,
+                                 .help = "JSON on stdout (default: text)")};
+    int parsed = cli_parse(&info_command, t, CLI_COUNT(t), &c, argc, argv, &file, 1, &npos);
+    if (parsed)
+        return parsed == CLI_HELP ? CLI_OK : parsed;
     envl_envmap *map;
     if (cli_load(file, &c, &map))
         return CLI_FAIL;
@@ -118,51 +105,38 @@ int cli_info(int argc, char **argv)
     return fflush(stdout) == 0 ? CLI_OK : CLI_FAIL;
 }
 
-static const char convert_help[] =
+static const cli_command convert_command = {
+    "convert",
     "Usage: envlight convert IN OUT [--layout-out L] [--size S] [--half] [input options]\n"
     "Reads IN (.hdr/.pic, .exr, .pfm in any input layout; '-' for the built-in sky) into the\n"
-    "canonical lat-long frame and writes OUT (.hdr, .exr or .pfm by extension), atomically.\n"
-    "  --layout-out L   latlong (default), angular, mirrorball, cross, hcross, hstrip, vstrip,\n"
-    "                   exr-latlong, exr-cube\n"
-    "  --size S         output width (lat-long), face size (cubes) or diameter (probes)\n"
-    "  --half           EXR with 16-bit half channels (values beyond 65504 clamp)\n";
+    "canonical lat-long frame and writes OUT (.hdr, .exr or .pfm by extension), atomically.\n",
+    NULL};
 
 int cli_convert(int argc, char **argv)
 {
     cli_common c = {0};
     const char *in = NULL, *out = NULL;
-    int32_t layout_out = ENVL_LAYOUT_LATLONG;
-    long long size = 0;
+    int layout_out = ENVL_LAYOUT_LATLONG, size = 0, npos;
     envl_save_options so = {0};
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v;
-        int r = cli_common_option("convert", argc, argv, &i, &c);
-        if (r < 0)
-            return CLI_USAGE;
-        if (r > 0)
-            continue;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            printf("%s\n%s", convert_help, cli_common_help);
-            return CLI_OK;
-        }
-        if ((r = cli_value(argc, argv, &i, "--layout-out", &v)) != 0) {
-            if (r < 0 || (layout_out = envl_layout_from_name(v)) <= 0)
-                return cli_usage("convert", "--layout-out needs a layout name");
-        } else if ((r = cli_value(argc, argv, &i, "--size", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 1, 1 << 20, &size))
-                return cli_usage("convert", "--size needs a whole number from 1");
-        } else if (!strcmp(a, "--half")) {
-            so.pixel_type = ENVL_PIXEL_HALF;
-        } else if (a[0] == '-' && a[1]) {
-            return cli_usage("convert", "unknown option '%s'", a);
-        } else if (!in) {
-            in = a;
-        } else if (!out) {
-            out = a;
-        } else {
-            return cli_usage("convert", "IN and OUT only");
-        }
-    }
+    cli_option t[] = {
+        CLI_OPTION("--layout-out", "L", CLI_CHOICE, .value = &layout_out,
+                   .choices = "latlong|angular|mirrorball|cross|hcross|hstrip|vstrip|"
+                              "exr-latlong|exr-cube",
+                   .lookup = envl_layout_from_name,
+                   .help = "latlong (default), angular, mirrorball, cross, hcross, hstrip,\n"
+                           "vstrip, exr-latlong, exr-cube"),
+        CLI_OPTION("--size", "S", CLI_INT, .min = 1, .max = 1 << 20, .value = &size,
+                   .help = "output width (lat-long), face size (cubes) or diameter (probes)"),
+        CLI_OPTION("--half", NULL, CLI_FLAG, .max = ENVL_PIXEL_HALF, .value = &so.pixel_type,
+                   .help = "EXR with 16-bit half channels (values beyond 65504 clamp)"),
+    };
+    const char *pos[2] = {NULL, NULL};
+    int parsed = cli_parse(&convert_command, t, CLI_COUNT(t), &c, argc, argv, pos, 2, &npos);
+    if (parsed)
+        return parsed == CLI_HELP ? CLI_OK : parsed;
+    if (layout_out == ENVL_LAYOUT_AUTO)
+        return cli_usage("convert", "--layout-out needs a layout, not auto");
+    in = pos[0], out = pos[1];
     if (!in || !out)
         return cli_usage("convert", "needs IN and OUT");
     envl_envmap *map;

@@ -5,25 +5,16 @@
 #include <math.h>
 #include <string.h>
 
-static const char lights_help[] =
+static const cli_command lights_command = {
+    "lights",
     "Usage: envlight lights [FILE] [-n N] [--method fit|median|variance|sun] [--json|--csv]\n"
     "                       [-o OUT] [--residual FILE] [--order L] [input options]\n"
     "Directional lights that stand in for the environment, in the canonical frame (Blender:\n"
     "+Z up). Each light: direction, rgb = irradiance it delivers at normal incidence (the sum\n"
-    "of L dw it took), solid angle of its region and angular diameter (radians).\n"
-    "  -n N              number of lights (fit: default 4, at most 32; median, variance:\n"
-    "                    default 16; sun: at most, default 4)\n"
-    "  --method M        fit (default: non-negative least-squares lights + SH remainder),\n"
-    "                    median (Debevec 2005), variance (variance-minimising cut), sun (the\n"
-    "                    suns split off exactly: pixels above 50x the mean luminance, one\n"
-    "                    light per sun; the residual is the map less exactly their excess)\n"
-    "  --order L         fit: SH order of the low-frequency remainder (default 2; -1: none)\n"
-    "  --json, --csv     output format (default: a table)\n"
-    "  -o OUT            write the output to OUT (atomically) instead of stdout\n"
-    "  --residual FILE   save the residual environment (what the lights did not take)\n"
+    "of L dw it took), solid angle of its region and angular diameter (radians).\n",
     "Every result states its diffuse error (relative RMS irradiance error over 1024 normals\n"
     "against the exact integrator; sun: of the lights + the residual map) and the seconds it\n"
-    "took.\n";
+    "took.\n"};
 
 static void write_json(FILE *f, const envl_info *info, const envl_lights *ls)
 {
@@ -113,52 +104,36 @@ int cli_lights(int argc, char **argv)
 {
     cli_common c = {0};
     const char *file = NULL, *out = NULL, *residual = NULL;
-    envl_lights_options lo = {0};
+    int method = ENVL_METHOD_FIT, count = 0, order = ENVL_DEFAULT_ORDER, npos;
     int format = 0; /* 0 table, 1 json, 2 csv */
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v;
-        int r = cli_common_option("lights", argc, argv, &i, &c);
-        long long n;
-        if (r < 0)
-            return CLI_USAGE;
-        if (r > 0)
-            continue;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            printf("%s\n%s", lights_help, cli_common_help);
-            return CLI_OK;
-        }
-        if ((r = cli_value(argc, argv, &i, "-n", &v)) != 0 ||
-            (r = cli_value(argc, argv, &i, "--count", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 1, 1 << 24, &n))
-                return cli_usage("lights", "-n takes a number of lights from 1");
-            lo.count = (int32_t)n;
-        } else if ((r = cli_value(argc, argv, &i, "--method", &v)) != 0) {
-            if (r < 0 || (lo.method = envl_method_from_name(v)) < 0)
-                return cli_usage("lights", "--method takes fit, median, variance or sun");
-        } else if ((r = cli_value(argc, argv, &i, "--order", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, -1, 8, &n))
-                return cli_usage("lights", "--order takes -1..8");
-            lo.remainder_order = n < 0 ? ENVL_REMAINDER_NONE : n == 0 ? ENVL_ORDER_0 : (int32_t)n;
-        } else if ((r = cli_value(argc, argv, &i, "-o", &v)) != 0) {
-            if (r < 0)
-                return cli_usage("lights", "-o needs a file name");
-            out = v;
-        } else if ((r = cli_value(argc, argv, &i, "--residual", &v)) != 0) {
-            if (r < 0)
-                return cli_usage("lights", "--residual needs a file name");
-            residual = v;
-        } else if (!strcmp(a, "--json")) {
-            format = 1;
-        } else if (!strcmp(a, "--csv")) {
-            format = 2;
-        } else if (a[0] == '-' && a[1]) {
-            return cli_usage("lights", "unknown option '%s'", a);
-        } else if (file) {
-            return cli_usage("lights", "one FILE only");
-        } else {
-            file = a;
-        }
-    }
+    cli_option t[] = {
+        CLI_OPTION("-n|--count", "N", CLI_INT, .min = 1, .max = 1 << 24, .value = &count,
+                   .help = "number of lights (fit: default 4, at most 32; median, variance:\n"
+                           "default 16; sun: at most, default 4)"),
+        CLI_OPTION("--method", "M", CLI_CHOICE, .value = &method,
+                   .choices = "fit|median|variance|sun", .lookup = envl_method_from_name,
+                   .help = "fit (default: non-negative least-squares lights + SH remainder),\n"
+                           "median (Debevec 2005), variance (variance-minimising cut), sun (the\n"
+                           "suns split off exactly: pixels above 50x the mean luminance, one\n"
+                           "light per sun; the residual is the map less exactly their excess)"),
+        CLI_OPTION("--order", "L", CLI_INT, .min = -1, .max = ENVL_MAX_REMAINDER_ORDER,
+                   .value = &order,
+                   .help = "fit: SH order of the low-frequency remainder (default 2; -1: none)"),
+        CLI_OPTION("--json", NULL, CLI_FLAG, .max = 1, .value = &format, .help = "JSON output"),
+        CLI_OPTION("--csv", NULL, CLI_FLAG, .max = 2, .value = &format,
+                   .help = "CSV output (default: a table)"),
+        CLI_OPTION("-o", "OUT", CLI_TEXT, .value = &out, .takes = "a file name",
+                   .help = "write the output to OUT (atomically) instead of stdout"),
+        CLI_OPTION("--residual", "FILE", CLI_TEXT, .value = &residual, .takes = "a file name",
+                   .help = "save the residual environment (what the lights did not take)"),
+    };
+    int parsed = cli_parse(&lights_command, t, CLI_COUNT(t), &c, argc, argv, &file, 1, &npos);
+    if (parsed)
+        return parsed == CLI_HELP ? CLI_OK : parsed;
+    envl_lights_options lo = {.method = method, .count = count,
+                              .remainder_order = order < 0    ? ENVL_REMAINDER_NONE
+                                                 : order == 0 ? ENVL_ORDER_0
+                                                              : order};
     if (!cli_light_count_ok("lights", &lo)) /* once every option is read: any order */
         return CLI_USAGE;
     envl_envmap *map;

@@ -9,51 +9,25 @@
 #include <string.h>
 #include <sys/stat.h>
 
-static const char prefilter_help[] =
+static const cli_command prefilter_command = {
+    "prefilter",
     "Usage: envlight prefilter [FILE] -o DIR [--irradiance] [--specular] [--levels K]\n"
     "                          [--size S] [--samples M] [--format exr|hdr|pfm|rgbm-png]\n"
     "                          [--layout latlong|cube|cross|atlas] [--roughness LIST]\n"
     "                          [--json] [input options]\n"
     "Prefiltered maps into DIR (created if missing), with a JSON sidecar DIR/prefilter.json\n"
-    "giving the conventions (frame, roughness mapping, RGBM range, layout) and every file.\n"
-    "  --irradiance       the diffuse irradiance map (irradiance.EXT)\n"
-    "  --specular         the GGX specular chain (specular_NN.EXT); default: both\n"
-    "  --levels K         levels of the chain, roughness k / (K - 1), alpha = roughness^2\n"
-    "                     (default 6)\n"
-    "  --roughness LIST   comma-separated roughness values in [0, 1]: only these levels\n"
-    "                     (instead of the chain)\n"
-    "  --size S           lat-long width of the roughness-0 level (default 512), or the cube\n"
-    "                     face size for --layout cube|cross (default 256); level k is S >> k\n"
-    "  --min-size S       no level narrower than S (lat-long width; default 64)\n"
-    "  --samples M        GGX samples per texel at the base width S (default 64; a level w\n"
-    "                     wide: M (S / w)^2, at most 8 M; filtered importance sampling)\n"
-    "  --unfiltered       plain GGX importance sampling of the full map (the baseline)\n"
-    "  --sun-lights       the sun (pixels above 50x the mean luminance) as lights in the\n"
-    "                     sidecar, left out of the irradiance map and the glossy levels, for\n"
-    "                     the renderer to add analytically; errors are measured with them\n"
-    "  --irradiance-method resampled|sh|exact   (default resampled: exact sum over the map\n"
-    "                     area-averaged to 256 x 128; sh: SH of --irradiance-order with\n"
-    "                     the auto window (never negative); exact: every pixel, slow)\n"
-    "  --irradiance-order L   SH order for --irradiance-method sh (default 2)\n"
-    "  --irradiance-size S    lat-long width (default 64; cube face 32)\n"
-    "  --format F         exr (float, default), hdr, pfm, rgbm-png (RGBA8, rgb = 6 rgb.a)\n"
-    "  --layout L         latlong (default), cube (6 files per map), cross (vertical), atlas\n"
-    "                     (the levels stacked in one image; needs the 6-level chain or a list;\n"
-    "                     with rgbm-png also writes brdf_lut.png, sRGB)\n"
-    "  --brdf             also write the BRDF table (brdf_lut.EXT)\n"
-    "  --no-error         skip the error measures (the glossy one sums every pixel per\n"
-    "                     direction and can take seconds)\n"
-    "  --json             print the sidecar to stdout instead of the summary\n";
+    "giving the conventions (frame, roughness mapping, RGBM range, layout) and every file.\n",
+    NULL};
 
-static const char brdf_help[] =
+static const cli_command brdf_command = {
+    "brdf-lut",
     "Usage: envlight brdf-lut -o FILE [--size S] [--samples N] [--multiscatter] [--json]\n"
     "Split-sum GGX BRDF table (height-correlated Smith), integrated in double. Column i:\n"
     "NoV = (i + 0.5) / S; row j from the top: roughness = (j + 0.5) / S (alpha = roughness^2).\n"
     "Channels: R = A (scale), G = B (bias), specular = F0 A + B; --multiscatter: R = B,\n"
     "G = A + B, specular = mix(R, G, F0) * (1 + F0 (1 / G - 1)) (Turquin 2019 compensation).\n"
-    "FILE .exr/.pfm/.hdr: float R, G, blue 0; .png: 8-bit sRGB. A sidecar FILE.json says so.\n"
-    "  --size S       table size (default 128)\n"
-    "  --samples N    GGX samples per texel (default 4096)\n";
+    "FILE .exr/.pfm/.hdr: float R, G, blue 0; .png: 8-bit sRGB. A sidecar FILE.json says so.\n",
+    NULL};
 
 static int parse_list(const char *v, double **out, int32_t *n)
 {
@@ -105,88 +79,79 @@ int cli_prefilter(int argc, char **argv)
     const char *file = NULL, *dir = NULL;
     envl_request q = {0};
     envl_export_options eo = {0};
-    int want_irr = 0, want_spec = 0, json = 0, measure = 1, brdf = 0;
-    long long size = 0, irr_size = 0, min_size = 0;
+    int want_irr = 0, want_spec = 0, json = 0, no_error = 0, brdf = 0, npos;
+    int size = 0, irr_size = 0, min_size = 0, order = ENVL_DEFAULT_ORDER;
+    const char *roughness = NULL;
     double *list = NULL;
     int32_t nlist = 0;
     int rc = CLI_OK;
+    cli_option t[] = {
+        CLI_OPTION("--irradiance", NULL, CLI_FLAG, .value = &want_irr,
+                   .help = "the diffuse irradiance map (irradiance.EXT)"),
+        CLI_OPTION("--specular", NULL, CLI_FLAG, .value = &want_spec,
+                   .help = "the GGX specular chain (specular_NN.EXT); default: both"),
+        CLI_OPTION("--levels", "K", CLI_INT, .min = 1, .max = 16, .value = &q.prefilter.levels,
+                   .help = "levels of the chain, roughness k / (K - 1), alpha = roughness^2\n"
+                           "(default 6)"),
+        CLI_OPTION("--roughness", "LIST", CLI_TEXT, .value = &roughness,
+                   .takes = "a comma-separated list of values in [0, 1]",
+                   .help = "comma-separated roughness values in [0, 1]: only these levels\n"
+                           "(instead of the chain)"),
+        CLI_OPTION("--size", "S", CLI_INT, .min = 2, .max = 16384, .value = &size,
+                   .help = "lat-long width of the roughness-0 level (default 512), or the cube\n"
+                           "face size for --layout cube|cross (default 256); level k is S >> k"),
+        CLI_OPTION("--min-size", "S", CLI_INT, .min = 2, .max = 16384, .value = &min_size,
+                   .help = "no level narrower than S (lat-long width; default 64)"),
+        CLI_OPTION("--samples", "M", CLI_INT, .min = 1, .max = 1 << 20,
+                   .value = &q.prefilter.samples,
+                   .help = "GGX samples per texel at the base width S (default 64; a level w\n"
+                           "wide: M (S / w)^2, at most 8 M; filtered importance sampling)"),
+        CLI_OPTION("--unfiltered", NULL, CLI_FLAG, .value = &q.prefilter.unfiltered,
+                   .help = "plain GGX importance sampling of the full map (the baseline)"),
+        CLI_OPTION("--sun-lights", NULL, CLI_FLAG, .value = &q.prefilter.sun_lights,
+                   .help = "the sun (pixels above 50x the mean luminance) as lights in the\n"
+                           "sidecar, left out of the irradiance map and the glossy levels, for\n"
+                           "the renderer to add analytically; errors are measured with them"),
+        CLI_OPTION("--irradiance-method", "M", CLI_CHOICE,
+                   .value = &q.prefilter.irradiance_method, .choices = "resampled|sh|exact",
+                   .lookup = envl_irradiance_method_from_name,
+                   .help = "resampled (default: exact sum over the map area-averaged to\n"
+                           "256 x 128), sh (SH of --irradiance-order with the auto window:\n"
+                           "never negative), exact (every pixel, slow)"),
+        CLI_OPTION("--irradiance-order", "L", CLI_INT, .min = 0, .max = 32, .value = &order,
+                   .help = "SH order for --irradiance-method sh (default 2)"),
+        CLI_OPTION("--irradiance-size", "S", CLI_INT, .min = 2, .max = 16384, .value = &irr_size,
+                   .help = "lat-long width (default 64; cube face 32)"),
+        CLI_OPTION("--format", "F", CLI_TEXT, .value = &eo.format,
+                   .takes = "exr, hdr, pfm or rgbm-png",
+                   .help = "exr (float, default), hdr, pfm, rgbm-png (RGBA8, rgb = 6 rgb.a)"),
+        CLI_OPTION("--layout", "L", CLI_CHOICE, .value = &eo.layout,
+                   .choices = "latlong|cube|cross|atlas", .lookup = envl_export_layout_from_name,
+                   .help = "latlong (default), cube (6 files per map), cross (vertical), atlas\n"
+                           "(the levels stacked in one image; needs the 6-level chain or a list;\n"
+                           "with rgbm-png also writes brdf_lut.png, sRGB)"),
+        CLI_OPTION("--brdf", NULL, CLI_FLAG, .value = &brdf,
+                   .help = "also write the BRDF table (brdf_lut.EXT)"),
+        CLI_OPTION("--no-error", NULL, CLI_FLAG, .value = &no_error,
+                   .help = "skip the error measures (the glossy one sums every pixel per\n"
+                           "direction and can take seconds)"),
+        CLI_OPTION("--json", NULL, CLI_FLAG, .value = &json,
+                   .help = "print the sidecar to stdout instead of the summary"),
+        CLI_OPTION("-o", "DIR", CLI_TEXT, .value = &dir, .takes = "a directory",
+                   .help = "the folder of the maps and prefilter.json"),
+    };
 #define USAGE(...) (free(list), cli_usage("prefilter", __VA_ARGS__))
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v;
-        long long n;
-        int r = cli_common_option("prefilter", argc, argv, &i, &c);
-        if (r < 0)
-            return free(list), CLI_USAGE;
-        if (r > 0)
-            continue;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            printf("%s\n%s", prefilter_help, cli_common_help);
-            free(list);
-            return CLI_OK;
-        }
-        if ((r = cli_value(argc, argv, &i, "-o", &v)) != 0) {
-            if (r < 0)
-                return USAGE("-o needs a directory");
-            dir = v;
-        } else if ((r = cli_value(argc, argv, &i, "--levels", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 1, 16, &n))
-                return USAGE("--levels takes 1..16");
-            q.prefilter.levels = (int32_t)n;
-        } else if ((r = cli_value(argc, argv, &i, "--size", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 2, 16384, &size))
-                return USAGE("--size takes 2..16384");
-        } else if ((r = cli_value(argc, argv, &i, "--min-size", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 2, 16384, &min_size))
-                return USAGE("--min-size takes 2..16384");
-        } else if ((r = cli_value(argc, argv, &i, "--samples", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 1, 1 << 20, &n))
-                return USAGE("--samples takes 1..1048576");
-            q.prefilter.samples = (int32_t)n;
-        } else if ((r = cli_value(argc, argv, &i, "--format", &v)) != 0) {
-            if (r < 0 || (strcmp(v, "exr") && strcmp(v, "hdr") && strcmp(v, "pfm") &&
-                          strcmp(v, "rgbm-png")))
-                return USAGE("--format takes exr, hdr, pfm or rgbm-png");
-            eo.format = v;
-        } else if ((r = cli_value(argc, argv, &i, "--layout", &v)) != 0) {
-            if (r < 0 || (eo.layout = envl_export_layout_from_name(v)) < 0)
-                return USAGE("--layout takes latlong, cube, cross or atlas");
-        } else if ((r = cli_value(argc, argv, &i, "--roughness", &v)) != 0) {
-            free(list);
-            list = NULL;
-            if (r < 0 || parse_list(v, &list, &nlist))
-                return USAGE("--roughness takes a comma-separated list of values in [0, 1]");
-        } else if ((r = cli_value(argc, argv, &i, "--irradiance-method", &v)) != 0) {
-            if (r < 0 || (q.prefilter.irradiance_method = envl_irradiance_method_from_name(v)) < 0)
-                return USAGE("--irradiance-method takes resampled, sh or exact");
-        } else if ((r = cli_value(argc, argv, &i, "--irradiance-order", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 0, 32, &n))
-                return USAGE("--irradiance-order takes 0..32");
-            q.prefilter.irradiance_order = n == 0 ? ENVL_ORDER_0 : (int32_t)n;
-        } else if ((r = cli_value(argc, argv, &i, "--irradiance-size", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 2, 16384, &irr_size))
-                return USAGE("--irradiance-size takes 2..16384");
-        } else if (!strcmp(a, "--irradiance")) {
-            want_irr = 1;
-        } else if (!strcmp(a, "--specular")) {
-            want_spec = 1;
-        } else if (!strcmp(a, "--unfiltered")) {
-            q.prefilter.unfiltered = 1;
-        } else if (!strcmp(a, "--sun-lights")) {
-            q.prefilter.sun_lights = 1;
-        } else if (!strcmp(a, "--brdf")) {
-            brdf = 1;
-        } else if (!strcmp(a, "--no-error")) {
-            measure = 0;
-        } else if (!strcmp(a, "--json")) {
-            json = 1;
-        } else if (a[0] == '-' && a[1]) {
-            return USAGE("unknown option '%s'", a);
-        } else if (file) {
-            return USAGE("one FILE only");
-        } else {
-            file = a;
-        }
-    }
+    int parsed = cli_parse(&prefilter_command, t, CLI_COUNT(t), &c, argc, argv, &file, 1, &npos);
+    if (parsed)
+        return parsed == CLI_HELP ? CLI_OK : parsed;
+    if (eo.format && strcmp(eo.format, "exr") && strcmp(eo.format, "hdr") &&
+        strcmp(eo.format, "pfm") && strcmp(eo.format, "rgbm-png"))
+        return USAGE("--format takes exr, hdr, pfm or rgbm-png, not '%s'", eo.format);
+    if (roughness && parse_list(roughness, &list, &nlist))
+        return USAGE("--roughness takes a comma-separated list of values in [0, 1], not '%s'",
+                     roughness);
+    q.prefilter.irradiance_order = order ? order : ENVL_ORDER_0;
+    int measure = !no_error;
     if (!dir)
         return USAGE("-o DIR is required");
     if (nlist)
@@ -300,39 +265,24 @@ int cli_brdf_lut(int argc, char **argv)
 {
     const char *out = NULL;
     envl_brdf_options bo = {0};
-    int json = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v;
-        long long n;
-        int r;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            fputs(brdf_help, stdout);
-            return CLI_OK;
-        }
-        if ((r = cli_value(argc, argv, &i, "-o", &v)) != 0) {
-            if (r < 0)
-                return cli_usage("brdf-lut", "-o needs a file name");
-            out = v;
-        } else if ((r = cli_value(argc, argv, &i, "--size", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 1, 4096, &n))
-                return cli_usage("brdf-lut", "--size takes 1..4096");
-            bo.size = (int32_t)n;
-        } else if ((r = cli_value(argc, argv, &i, "--samples", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 1, 1 << 24, &n))
-                return cli_usage("brdf-lut", "--samples takes 1..16777216");
-            bo.samples = (int32_t)n;
-        } else if ((r = cli_value(argc, argv, &i, "--threads", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 1, ENVL_MAX_THREADS, &n))
-                return cli_usage("brdf-lut", "--threads takes 1..%d", ENVL_MAX_THREADS);
-            bo.threads = (int32_t)n;
-        } else if (!strcmp(a, "--multiscatter")) {
-            bo.multiscatter = 1;
-        } else if (!strcmp(a, "--json")) {
-            json = 1;
-        } else {
-            return cli_usage("brdf-lut", "unknown argument '%s'", a);
-        }
-    }
+    int json = 0, npos;
+    cli_option t[] = {
+        CLI_OPTION("-o", "FILE", CLI_TEXT, .value = &out, .takes = "a file name",
+                   .help = "the table (.exr, .pfm, .hdr or .png)"),
+        CLI_OPTION("--size", "S", CLI_INT, .min = 1, .max = 4096, .value = &bo.size,
+                   .help = "table size (default 128)"),
+        CLI_OPTION("--samples", "N", CLI_INT, .min = 1, .max = 1 << 24, .value = &bo.samples,
+                   .help = "GGX samples per texel (default 4096)"),
+        CLI_OPTION("--multiscatter", NULL, CLI_FLAG, .value = &bo.multiscatter,
+                   .help = "the multiscatter form (see above)"),
+        CLI_OPTION("--threads", "N", CLI_INT, .min = 1, .max = ENVL_MAX_THREADS,
+                   .value = &bo.threads, .help = "worker threads (default: all cores)"),
+        CLI_OPTION("--json", NULL, CLI_FLAG, .value = &json,
+                   .help = "print the sidecar to stdout"),
+    };
+    int parsed = cli_parse(&brdf_command, t, CLI_COUNT(t), NULL, argc, argv, NULL, 0, &npos);
+    if (parsed)
+        return parsed == CLI_HELP ? CLI_OK : parsed;
     if (!out)
         return cli_usage("brdf-lut", "-o FILE is required");
     const char *ext = ext_of(out);

@@ -5,19 +5,15 @@
 #include <math.h>
 #include <string.h>
 
-static const char sh_help[] =
+static const cli_command sh_command = {
+    "sh",
     "Usage: envlight sh [FILE] [--order L] [--window none|hann|lanczos|auto] [--json]\n"
     "                   [-o OUT] [input options]\n"
     "Real SH (no Condon-Shortley phase; l <= 2 as Ramamoorthi & Hanrahan 2001), coefficient\n"
-    "order l = 0..L, m = -l..l, canonical frame (Blender, +Z up). Irradiance = A_l x radiance.\n"
-    "  --order L     0..32 (default 2)\n"
-    "  --window W    auto (default: the least windowing that keeps the irradiance\n"
-    "                non-negative in every channel; the width found is reported; none when\n"
-    "                nothing rings), none (the plain truncated expansion: can go negative,\n"
-    "                said on stderr), hann, lanczos\n"
+    "order l = 0..L, m = -l..l, canonical frame (Blender, +Z up). Irradiance = A_l x radiance.\n",
     "Also reported: ambient + x/y/z deltas (E(n) ~ ambient + deltas . n) and the hemispheric\n"
     "sky/ground pair with its axis, in irradiance units (never negative: the best fit with\n"
-    "sky, ground >= 0, said on stderr when that clamps); the diffuse error and seconds.\n";
+    "sky, ground >= 0, said on stderr when that clamps); the diffuse error and seconds.\n"};
 
 static void coef_array(json_writer *j, const char *key, const double *c, int n)
 {
@@ -79,41 +75,25 @@ int cli_sh(int argc, char **argv)
 {
     cli_common c = {0};
     const char *file = NULL, *out = NULL;
-    envl_sh_options so = {.window = ENVL_WINDOW_AUTO};
-    int json = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v;
-        long long n;
-        int r = cli_common_option("sh", argc, argv, &i, &c);
-        if (r < 0)
-            return CLI_USAGE;
-        if (r > 0)
-            continue;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            printf("%s\n%s", sh_help, cli_common_help);
-            return CLI_OK;
-        }
-        if ((r = cli_value(argc, argv, &i, "--order", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 0, 32, &n))
-                return cli_usage("sh", "--order takes 0..32");
-            so.order = n == 0 ? ENVL_ORDER_0 : (int32_t)n;
-        } else if ((r = cli_value(argc, argv, &i, "--window", &v)) != 0) {
-            if (r < 0 || (so.window = envl_window_from_name(v)) < 0)
-                return cli_usage("sh", "--window takes none, hann, lanczos or auto");
-        } else if ((r = cli_value(argc, argv, &i, "-o", &v)) != 0) {
-            if (r < 0)
-                return cli_usage("sh", "-o needs a file name");
-            out = v;
-        } else if (!strcmp(a, "--json")) {
-            json = 1;
-        } else if (a[0] == '-' && a[1]) {
-            return cli_usage("sh", "unknown option '%s'", a);
-        } else if (file) {
-            return cli_usage("sh", "one FILE only");
-        } else {
-            file = a;
-        }
-    }
+    int order = ENVL_DEFAULT_ORDER, window = ENVL_WINDOW_AUTO, json = 0, npos;
+    cli_option t[] = {
+        CLI_OPTION("--order", "L", CLI_INT, .min = 0, .max = 32, .value = &order,
+                   .help = "0..32 (default 2)"),
+        CLI_OPTION("--window", "W", CLI_CHOICE, .value = &window,
+                   .choices = "none|hann|lanczos|auto", .lookup = envl_window_from_name,
+                   .help = "auto (default: the least windowing that keeps the irradiance\n"
+                           "non-negative in every channel; the width found is reported; none\n"
+                           "when nothing rings), none (the plain truncated expansion: can go\n"
+                           "negative, said on stderr), hann, lanczos"),
+        CLI_OPTION("--json", NULL, CLI_FLAG, .value = &json,
+                   .help = "JSON on stdout (default: a table)"),
+        CLI_OPTION("-o", "OUT", CLI_TEXT, .value = &out, .takes = "a file name",
+                   .help = "write the output to OUT (atomically) instead of stdout"),
+    };
+    int parsed = cli_parse(&sh_command, t, CLI_COUNT(t), &c, argc, argv, &file, 1, &npos);
+    if (parsed)
+        return parsed == CLI_HELP ? CLI_OK : parsed;
+    envl_sh_options so = {.order = order ? order : ENVL_ORDER_0, .window = window};
     envl_envmap *map;
     if (cli_load(file, &c, &map))
         return CLI_FAIL;
