@@ -65,6 +65,7 @@ typedef struct cli_option {
     const char *takes;        /* what a usage error says the option takes (default: its range
                                  or choices) */
     int empty_ok;             /* CLI_TEXT: an empty text is a value */
+    int bits;                 /* CLI_CHOICE: *value |= 1 << index (the option repeats) */
     int seen;                 /* set by cli_parse */
 } cli_option;
 typedef struct cli_command {

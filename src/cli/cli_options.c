@@ -144,7 +144,7 @@ static int store(cli_option *o, const char *v)
     case CLI_CHOICE:
         if ((n = o->lookup ? o->lookup(v) : choice_index(o->choices, v)) < 0)
             return -1;
-        *(int *)o->value = (int)n;
+        *(int *)o->value = o->bits ? *(int *)o->value | 1 << n : (int)n;
         return 0;
     case CLI_TEXT:
         if (!*v && !o->empty_ok)

@@ -4,7 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-static const char preview_help[] =
+static const cli_command preview_command = {
+    "preview",
     "Usage: envlight preview [FILE] -o OUT.png [options] [input options]\n"
     "One PNG: the lat-long map with the median cut regions outlined and the median cut and\n"
     "fitted lights marked, then spheres (rows: diffuse, glossy at two roughness values, mirror)\n"
@@ -13,18 +14,8 @@ static const char preview_help[] =
     "each with its error and seconds under it. The error is on what the picture shows:\n"
     "sqrt(mean((Ya - Yr)^2)) / mean(Yr) over the sphere's pixels, Y the luminance of the\n"
     "displayed (exposed, tone-mapped) colour. stderr repeats these and gives docs/design.md's\n"
-    "diffuse error of each product.\n"
-    "  -n N                 median cut lights (default 16)\n"
-    "  -k K                 fitted lights, 1..32 (default 4)\n"
-    "  --tonemap T          aces (default; Narkowicz 2015) or reinhard (x / (1 + x))\n"
-    "  --exposure EV        display = tonemap(2^EV x radiance) (default: automatic,\n"
-    "                       EV = log2(0.18 / log-average luminance of the map))\n"
-    "  --diffuse D          lambert (default) or oren-nayar (sigma 0.3)\n"
-    "  --specular S         ggx (default) or blinn-phong (exponent 2 / alpha^2 - 2)\n"
-    "  --roughness A,B      the two glossy rows, 0.05..1 (default 0.25,0.5; alpha = r^2)\n"
-    "  --sphere-size PX     48..512 (default 96); the PNG is 80 + 5 (PX + 24) + 8 wide\n"
-    "  --reference-width W  the diffuse and glossy references sum over the map area-resampled\n"
-    "                       to this width, 16..4096 (default 256)\n";
+    "diffuse error of each product.\n",
+    NULL};
 
 static int parse_roughness(const char *v, double r[2])
 {
@@ -47,70 +38,48 @@ int cli_preview(int argc, char **argv)
     cli_common c = {0};
     const char *file = NULL, *out = NULL;
     envl_preview_options po = {0};
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v;
-        long long n;
-        double x;
-        int r = cli_common_option("preview", argc, argv, &i, &c);
-        if (r < 0)
-            return CLI_USAGE;
-        if (r > 0)
-            continue;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            printf("%s\n%s", preview_help, cli_common_help);
-            return CLI_OK;
-        }
-        if ((r = cli_value(argc, argv, &i, "-o", &v)) != 0) {
-            if (r < 0)
-                return cli_usage("preview", "-o needs a file name");
-            out = v;
-        } else if ((r = cli_value(argc, argv, &i, "-n", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 1, 4096, &n))
-                return cli_usage("preview", "-n takes 1..4096");
-            po.median_count = (int32_t)n;
-        } else if ((r = cli_value(argc, argv, &i, "-k", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 1, 32, &n))
-                return cli_usage("preview", "-k takes 1..32");
-            po.fit_count = (int32_t)n;
-        } else if ((r = cli_value(argc, argv, &i, "--tonemap", &v)) != 0) {
-            if (r < 0 || (strcmp(v, "aces") && strcmp(v, "reinhard")))
-                return cli_usage("preview", "--tonemap takes aces or reinhard");
-            po.tonemap = strcmp(v, "aces") ? ENVL_PREVIEW_TONEMAP_REINHARD
-                                           : ENVL_PREVIEW_TONEMAP_ACES;
-        } else if ((r = cli_value(argc, argv, &i, "--exposure", &v)) != 0) {
-            if (r < 0 || cli_parse_double(v, &x) || !(x >= -64 && x <= 64))
-                return cli_usage("preview", "--exposure takes -64..64 (EV)");
-            po.exposure_set = 1;
-            po.exposure_ev = x;
-        } else if ((r = cli_value(argc, argv, &i, "--diffuse", &v)) != 0) {
-            if (r < 0 || (strcmp(v, "lambert") && strcmp(v, "oren-nayar")))
-                return cli_usage("preview", "--diffuse takes lambert or oren-nayar");
-            po.diffuse = strcmp(v, "lambert") ? ENVL_PREVIEW_DIFFUSE_OREN_NAYAR
-                                              : ENVL_PREVIEW_DIFFUSE_LAMBERT;
-        } else if ((r = cli_value(argc, argv, &i, "--specular", &v)) != 0) {
-            if (r < 0 || (strcmp(v, "ggx") && strcmp(v, "blinn-phong")))
-                return cli_usage("preview", "--specular takes ggx or blinn-phong");
-            po.specular = strcmp(v, "ggx") ? ENVL_PREVIEW_SPECULAR_BLINN_PHONG
-                                           : ENVL_PREVIEW_SPECULAR_GGX;
-        } else if ((r = cli_value(argc, argv, &i, "--roughness", &v)) != 0) {
-            if (r < 0 || parse_roughness(v, po.roughness))
-                return cli_usage("preview", "--roughness takes A,B with each in 0.05..1");
-        } else if ((r = cli_value(argc, argv, &i, "--sphere-size", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 48, 512, &n))
-                return cli_usage("preview", "--sphere-size takes 48..512");
-            po.sphere_size = (int32_t)n;
-        } else if ((r = cli_value(argc, argv, &i, "--reference-width", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 16, 4096, &n) || n % 2)
-                return cli_usage("preview", "--reference-width takes an even 16..4096");
-            po.reference_width = (int32_t)n;
-        } else if (a[0] == '-' && a[1]) {
-            return cli_usage("preview", "unknown option '%s'", a);
-        } else if (file) {
-            return cli_usage("preview", "one FILE only");
-        } else {
-            file = a;
-        }
-    }
+    const char *roughness = NULL;
+    int npos;
+    cli_option t[] = {
+        CLI_OPTION("-o", "OUT.png", CLI_TEXT, .value = &out, .takes = "a file name",
+                   .help = "the picture (PNG), written atomically"),
+        CLI_OPTION("-n", "N", CLI_INT, .min = 1, .max = 4096, .value = &po.median_count,
+                   .help = "median cut lights (default 16)"),
+        CLI_OPTION("-k", "K", CLI_INT, .min = 1, .max = ENVL_FIT_MAX_LIGHTS,
+                   .value = &po.fit_count, .help = "fitted lights, 1..32 (default 4)"),
+        CLI_OPTION("--tonemap", "T", CLI_CHOICE, .value = &po.tonemap, .choices = "aces|reinhard",
+                   .help = "aces (default; Narkowicz 2015) or reinhard (x / (1 + x))"),
+        CLI_OPTION("--exposure", "EV", CLI_REAL, .min = -64, .max = 64, .value = &po.exposure_ev,
+                   .help = "display = tonemap(2^EV x radiance) (default: automatic,\n"
+                           "EV = log2(0.18 / log-average luminance of the map))"),
+        CLI_OPTION("--diffuse", "D", CLI_CHOICE, .value = &po.diffuse,
+                   .choices = "lambert|oren-nayar",
+                   .help = "lambert (default) or oren-nayar (sigma 0.3)"),
+        CLI_OPTION("--specular", "S", CLI_CHOICE, .value = &po.specular,
+                   .choices = "ggx|blinn-phong",
+                   .help = "ggx (default) or blinn-phong (exponent 2 / alpha^2 - 2)"),
+        CLI_OPTION("--roughness", "A,B", CLI_TEXT, .value = &roughness,
+                   .takes = "A,B with each in 0.05..1",
+                   .help = "the two glossy rows, 0.05..1 (default 0.25,0.5; alpha = r^2)"),
+        CLI_OPTION("--sphere-size", "PX", CLI_INT, .min = 48, .max = 512,
+                   .value = &po.sphere_size,
+                   .help = "48..512 (default 96); the PNG is 80 + 5 (PX + 24) + 8 wide"),
+        CLI_OPTION("--reference-width", "W", CLI_INT, .min = 16, .max = 4096,
+                   .value = &po.reference_width, .takes = "an even 16..4096",
+                   .help = "the diffuse and glossy references sum over the map area-resampled\n"
+                           "to this width, 16..4096 (default 256)"),
+    };
+    int parsed = cli_parse(&preview_command, t, CLI_COUNT(t), &c, argc, argv, &file, 1, &npos);
+    if (parsed)
+        return parsed == CLI_HELP ? CLI_OK : parsed;
+    /* the table's order is the library's: ENVL_PREVIEW_TONEMAP_ACES 0, _REINHARD 1, ... */
+    po.exposure_set = cli_seen(t, CLI_COUNT(t), "--exposure") != NULL;
+    if (roughness && parse_roughness(roughness, po.roughness))
+        return cli_usage("preview", "--roughness takes A,B with each in 0.05..1, not '%s'",
+                         roughness);
+    if (po.reference_width % 2)
+        return cli_usage("preview", "--reference-width takes an even 16..4096, not '%d'",
+                         (int)po.reference_width);
     if (!out || !strcmp(out, "-"))
         return cli_usage("preview", "-o OUT.png is required");
     envl_envmap *map;

@@ -722,26 +722,19 @@ static int bench_memory(int width)
     return CLI_OK;
 }
 
-static const char bench_help[] =
+static const cli_command bench_command = {
+    "bench",
     "Usage: envlight bench [FILES...] [--runs N] [--quick] [--csv FILE] [--plots DIR]\n"
     "                      [--speed-width W] [--load-width W] [--memory-width W] [--only STEP]\n"
     "Accuracy against time as Markdown tables: every lights method at 1..256 lights (fit to\n"
     "16), diffuse error and median seconds of N runs (default 3), each from scratch. Default\n"
     "maps: the built-in sky and every .hdr under $ENVL_SHARED_DATA/latlong_hdri (default\n"
     "../shared/data). Then the speed of the stages on a large map as ratios to one plain pass\n"
-    "over its floats measured in the same run (--speed-width, default 8192; 0 skips).\n"
+    "over its floats measured in the same run.\n"
     "Also SH orders 1..8 with each window; the GGX level of roughness 0.25 and 0.5 against\n"
     "samples (M = 16..1024) and the base level's width (128..1024), glossy error; the\n"
-    "irradiance map by SH (orders 1, 2, 4, 8), resampled and exact sums, diffuse error.\n"
-    "--csv writes every point (map, measure, series, param, count, error, seconds); --plots\n"
-    "DIR writes one PNG per map and error measure (gnuplot): error against seconds, log axes,\n"
-    "the Pareto front marked.\n"
-    "Load: the built-in sky and the first real FILE, resampled to W x W/2 (--load-width,\n"
-    "default 4096; 0 skips) and written as RLE .hdr, read by envlight and by oiiotool\n"
-    "-i:now=1 (OpenImageIO), with oiiotool's start-up on a 1 x 1 file timed apart.\n"
-    "Memory: the whole pipeline on a W x W/2 built-in sky (--memory-width, default 8192;\n"
-    "0 skips) in a child process: its peak resident memory per stage against the map's floats.\n"
-    "--only tables|speed|load|memory runs that step alone (repeatable).\n";
+    "irradiance map by SH (orders 1, 2, 4, 8), resampled and exact sums, diffuse error.\n",
+    NULL};
 
 int cli_bench(int argc, char **argv)
 {
@@ -749,57 +742,38 @@ int cli_bench(int argc, char **argv)
     bench_opts o = {.runs = 3};
     const char *files[256], *csv_path = NULL, *plots = NULL;
     int nfiles = 0;
-    long long speed_width = 8192, load_width = 4096, memory_width = 8192, n;
+    int speed_width = 8192, load_width = 4096, memory_width = 8192;
     enum { TABLES = 1, SPEED = 2, LOAD = 4, MEMORY = 8 };
     int only = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i], *v;
-        int r = cli_common_option("bench", argc, argv, &i, &c);
-        if (r < 0)
-            return CLI_USAGE;
-        if (r > 0)
-            continue;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            printf("%s\n%s", bench_help, cli_common_help);
-            return CLI_OK;
-        }
-        if ((r = cli_value(argc, argv, &i, "--runs", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 1, 15, &n))
-                return cli_usage("bench", "--runs takes 1..15");
-            o.runs = (int)n;
-        } else if ((r = cli_value(argc, argv, &i, "--csv", &v)) != 0) {
-            if (r < 0)
-                return cli_usage("bench", "--csv needs a file name");
-            csv_path = v;
-        } else if ((r = cli_value(argc, argv, &i, "--plots", &v)) != 0) {
-            if (r < 0)
-                return cli_usage("bench", "--plots needs a folder");
-            plots = v;
-        } else if ((r = cli_value(argc, argv, &i, "--speed-width", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 0, 65536, &speed_width))
-                return cli_usage("bench", "--speed-width takes 0..65536");
-        } else if ((r = cli_value(argc, argv, &i, "--load-width", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 0, 32767, &load_width))
-                return cli_usage("bench", "--load-width takes 0..32767");
-        } else if ((r = cli_value(argc, argv, &i, "--memory-width", &v)) != 0) {
-            if (r < 0 || cli_parse_int(v, 0, 65536, &memory_width))
-                return cli_usage("bench", "--memory-width takes 0..65536");
-        } else if ((r = cli_value(argc, argv, &i, "--only", &v)) != 0) {
-            static const char *steps[] = {"tables", "speed", "load", "memory"};
-            int k = 0;
-            while (r > 0 && k < 4 && strcmp(v, steps[k]))
-                k++;
-            if (r < 0 || k == 4)
-                return cli_usage("bench", "--only takes tables, speed, load or memory");
-            only |= 1 << k;
-        } else if (!strcmp(a, "--quick")) {
-            o.quick = 1;
-        } else if (a[0] == '-' && a[1]) {
-            return cli_usage("bench", "unknown option '%s'", a);
-        } else if (nfiles < 256) {
-            files[nfiles++] = a;
-        }
-    }
+    cli_option t[] = {
+        CLI_OPTION("--runs", "N", CLI_INT, .min = 1, .max = 15, .value = &o.runs,
+                   .help = "runs of each measure, the median reported (default 3)"),
+        CLI_OPTION("--quick", NULL, CLI_FLAG, .value = &o.quick,
+                   .help = "fewer points (the test's run)"),
+        CLI_OPTION("--csv", "FILE", CLI_TEXT, .value = &csv_path, .takes = "a file name",
+                   .help = "every point (map, measure, series, param, count, error, seconds)"),
+        CLI_OPTION("--plots", "DIR", CLI_TEXT, .value = &plots, .takes = "a folder",
+                   .help = "one PNG per map and error measure (gnuplot): error against\n"
+                           "seconds, log axes, the Pareto front marked"),
+        CLI_OPTION("--speed-width", "W", CLI_INT, .min = 0, .max = 65536, .value = &speed_width,
+                   .help = "the stages' speed on a W x W/2 map (default 8192; 0 skips)"),
+        CLI_OPTION("--load-width", "W", CLI_INT, .min = 0, .max = 32767, .value = &load_width,
+                   .help = "load: the built-in sky and the first real FILE, resampled to\n"
+                           "W x W/2 (default 4096; 0 skips) and written as RLE .hdr, read by\n"
+                           "envlight and by oiiotool -i:now=1 (OpenImageIO), with oiiotool's\n"
+                           "start-up on a 1 x 1 file timed apart"),
+        CLI_OPTION("--memory-width", "W", CLI_INT, .min = 0, .max = 65536,
+                   .value = &memory_width,
+                   .help = "memory: the whole pipeline on a W x W/2 built-in sky (default\n"
+                           "8192; 0 skips) in a child process: its peak resident memory per\n"
+                           "stage against the map's floats"),
+        CLI_OPTION("--only", "STEP", CLI_CHOICE, .value = &only, .bits = 1,
+                   .choices = "tables|speed|load|memory",
+                   .help = "run that step alone (repeatable)"),
+    };
+    int parsed = cli_parse(&bench_command, t, CLI_COUNT(t), &c, argc, argv, files, 256, &nfiles);
+    if (parsed)
+        return parsed == CLI_HELP ? CLI_OK : parsed;
     static char found[64][2048];
     if (!nfiles) {
         files[nfiles++] = "-";
