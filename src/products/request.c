@@ -26,6 +26,196 @@ void envl_products_free(envl_products *p)
     free(p);
 }
 
+/* The work a request shares between its stages. */
+typedef struct plan {
+    double *want;             /* the roughness of each level, without repeats */
+    int32_t n_want;
+    int32_t sh_order;         /* of the diffuse SH */
+    int need_mips;            /* a filtered level of roughness > 0 */
+    split sp;                 /* the bright pixels, split once (bright_lobes.c) */
+} plan;
+
+/* Adds a level of roughness r unless the plan has it. */
+static void add_level(plan *pl, const resolved *o, double r)
+{
+    for (int32_t k = 0; k < pl->n_want; k++)
+        if (pl->want[k] == r)
+            return;
+    pl->want[pl->n_want++] = r;
+    pl->need_mips |= r > 0 && !o->unfiltered;
+}
+
+/* Checks the request and lists its levels: the mirror, the chain's K, then the requested
+ * roughness values not already there, in that order. */
+static envl_result plan_levels(const envl_request *q, envl_products *p, plan *pl)
+{
+    for (int32_t i = 0; i < q->n_roughness; i++)
+        if (!(q->roughness[i] >= 0 && q->roughness[i] <= 1))
+            return envl__fail(ENVL_ERR_ARGUMENT, "request: roughness %g is not in [0, 1]",
+                              q->roughness[i]);
+    pl->sh_order = envl__order(q->sh_order, ENVL_DEFAULT_ORDER);
+    if (pl->sh_order < 0 || pl->sh_order > 32)
+        return envl__fail(ENVL_ERR_ARGUMENT, "request: SH order %d (0..32)", (int)pl->sh_order);
+    int32_t K = p->opt.levels, cap = 1 + K + q->n_roughness;
+    pl->want = malloc(sizeof(double) * cap);
+    p->levels = calloc((size_t)cap, sizeof(envl_level));
+    p->level_px = calloc((size_t)cap, sizeof(float *));
+    if (!pl->want || !p->levels || !p->level_px)
+        return envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
+    if (q->mirror && !q->specular_chain)
+        add_level(pl, &p->opt, 0.0);
+    for (int32_t k = 0; q->specular_chain && k < K; k++)
+        add_level(pl, &p->opt, K > 1 ? (double)k / (K - 1) : 0.0);
+    for (int32_t i = 0; i < q->n_roughness; i++)
+        add_level(pl, &p->opt, q->roughness[i]);
+    return ENVL_OK;
+}
+
+/* Diffuse: one SH projection (window auto), shared with an SH irradiance map of its order. */
+static envl_result compute_diffuse(envl_envmap *m, envl_products *p, const plan *pl)
+{
+    double t = envl__seconds();
+    envl_sh_options so = {.order = envl__order_option(pl->sh_order), .window = ENVL_WINDOW_AUTO};
+    envl_result rc = envl_sh_compute(m, &so, &p->sh);
+    p->summary.sh_projections += !rc;
+    p->summary.seconds_sh += envl__seconds() - t;
+    return rc;
+}
+
+/* The map less what the sun lights took (their pixels at the split's threshold). */
+static envl_result without_sun_lights(const envl_envmap *m, const envl_sun_split *sun,
+                                      int32_t threads, envl_envmap **out)
+{
+    size_t npx = (size_t)m->width * m->height;
+    float *px = malloc(sizeof(float) * 3 * npx);
+    if (!px)
+        return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    memcpy(px, m->px, sizeof(float) * 3 * npx);
+    for (int32_t i = 0; i < sun->n; i++)
+        if (sun->lobes[i].taken) {
+            size_t at = 3 * ((size_t)sun->lobes[i].r * m->width + sun->lobes[i].c);
+            memcpy(px + at, sun->res + at, sizeof(float) * 3);
+        }
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
+    envl_result rc = envl_envmap_from_pixels(px, m->width, m->height, 3, &lo, out);
+    free(px);
+    return rc;
+}
+
+static envl_result compute_irradiance(envl_envmap *m, envl_products *p, const plan *pl)
+{
+    double t = envl__seconds();
+    int projected = 0;
+    const envl_sh *shared = p->sh && p->opt.irr_method == ENVL_IRRADIANCE_SH &&
+                                    p->opt.irr_order == pl->sh_order
+                                ? p->sh
+                                : NULL;
+    envl_envmap *residual = NULL;
+    envl_result rc = ENVL_OK;
+    if (p->n_sun) {
+        rc = without_sun_lights(m, &pl->sp.sun, p->opt.threads, &residual);
+        shared = NULL;
+    }
+    if (!rc)
+        rc = envl__irradiance_map(residual ? residual : m, &p->opt, shared, &p->irr_px, &p->irr,
+                                  &projected);
+    envl_envmap_free(residual);
+    if (rc)
+        return rc;
+    p->irr.rgb = p->irr_px;
+    p->has_irradiance = 1;
+    p->summary.sh_projections += projected;
+    p->summary.irradiance_maps++;
+    p->summary.seconds_irradiance += envl__seconds() - t;
+    return ENVL_OK;
+}
+
+static envl_result compute_shadows(envl_envmap *m, const envl_request *q, envl_products *p)
+{
+    double t = envl__seconds();
+    envl_result rc = envl_lights_compute(m, &q->lights, &p->lights);
+    p->summary.lights_computed = !rc;
+    p->summary.seconds_lights += envl__seconds() - t;
+    return rc;
+}
+
+/* One pyramid for every filtered level of non-zero roughness, then the levels. */
+static envl_result compute_levels(envl_envmap *m, envl_products *p, const plan *pl)
+{
+    envl_products_summary *s = &p->summary;
+    if (pl->need_mips) {
+        double t = envl__seconds();
+        int built = m->mip_levels == 0;
+        envl_result rc = envl_envmap_mips(m, &s->pyramid_levels);
+        if (rc)
+            return rc;
+        s->pyramids_built += built;
+        s->seconds_pyramid += envl__seconds() - t;
+    }
+    for (int32_t i = 0; i < pl->n_want; i++) {
+        double t = envl__seconds();
+        envl_level *l = &p->levels[i];
+        envl_result rc = envl__specular_level(m, &p->opt, pl->want[i], 0, &pl->sp,
+                                              &p->level_px[i], l);
+        if (!rc && !envl__floats_finite(p->level_px[i], 3 * (size_t)l->width * l->height))
+            rc = envl__fail(ENVL_ERR_NONFINITE, "%s: the specular level of roughness %g "
+                            "overflows the float range", m->info.file, pl->want[i]);
+        if (rc)
+            return rc;
+        l->rgb = p->level_px[i];
+        p->n_levels++;
+        s->specular_levels++;
+        s->seconds_specular += envl__seconds() - t;
+    }
+    return ENVL_OK;
+}
+
+static envl_result compute_brdf(const envl_request *q, envl_products *p)
+{
+    double t = envl__seconds();
+    envl_brdf_options bo = q->brdf;
+    if (!bo.threads)
+        bo.threads = p->opt.threads;
+    envl_result rc = envl__brdf_resolve(&bo, &bo);
+    if (!rc)
+        rc = envl_brdf_lut(&bo, &p->brdf, &p->brdf_size);
+    if (rc)
+        return rc;
+    p->brdf_multiscatter = bo.multiscatter;
+    p->brdf_samples = bo.samples;
+    p->summary.brdf_tables = 1;
+    p->summary.seconds_brdf += envl__seconds() - t;
+    return ENVL_OK;
+}
+
+/* The glossy error of every level and the diffuse error of the irradiance map (the sun lights
+ * added as the renderer adds them). */
+static envl_result measure(envl_envmap *m, envl_products *p)
+{
+    double *dirs = envl__fibonacci_dirs();
+    double *ref = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
+    envl_result rc = dirs && ref ? ENVL_OK
+                                 : envl__fail(ENVL_ERR_MEMORY, "error measure: out of memory");
+    for (int32_t i = 0; !rc && i < p->n_levels; i++) {
+        envl_level *l = &p->levels[i];
+        rc = envl_prefilter_reference(m, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
+        if (!rc)
+            rc = envl__sampled_error(dirs, ref, l->rgb, l->width, l->height, p->sun,
+                                     l->roughness > 0 ? p->n_sun : 0, l->roughness,
+                                     &l->glossy_error);
+    }
+    if (!rc && p->has_irradiance) {
+        const double *eref;
+        rc = envl_envmap_reference_irradiance(m, &eref);
+        if (!rc)
+            rc = envl__sampled_error(dirs, eref, p->irr_px, p->irr.width, p->irr.height, p->sun,
+                                     p->n_sun, -1, &p->irr.diffuse_error);
+    }
+    free(dirs);
+    free(ref);
+    return rc;
+}
+
 envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **out)
 {
     if (!m || !q || !out || q->n_roughness < 0 || (q->n_roughness && !q->roughness))
@@ -35,205 +225,38 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
     envl_products *p = calloc(1, sizeof *p);
     if (!p)
         return envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
-    envl_result rc = envl__prefilter_resolve(&q->prefilter, m, &p->opt);
-    if (rc)
-        goto fail;
     snprintf(p->file, sizeof p->file, "%s", m->info.file);
-    for (int32_t i = 0; i < q->n_roughness; i++)
-        if (!(q->roughness[i] >= 0 && q->roughness[i] <= 1)) {
-            rc = envl__fail(ENVL_ERR_ARGUMENT, "request: roughness %g is not in [0, 1]",
-                            q->roughness[i]);
-            goto fail;
-        }
-    int32_t sh_order = envl__order(q->sh_order, ENVL_DEFAULT_ORDER);
-    if (sh_order < 0 || sh_order > 32) {
-        rc = envl__fail(ENVL_ERR_ARGUMENT, "request: SH order %d (0..32)", (int)sh_order);
-        goto fail;
-    }
-    envl_products_summary *s = &p->summary;
-    double t;
-
-    /* The list of levels: (roughness, width), without repeats. */
-    int32_t cap = 1 + p->opt.levels + q->n_roughness;
-    double *want = malloc(sizeof(double) * cap);
-    p->levels = calloc((size_t)cap, sizeof(envl_level));
-    p->level_px = calloc((size_t)cap, sizeof(float *));
-    if (!want || !p->levels || !p->level_px) {
-        free(want);
-        rc = envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
-        goto fail;
-    }
-    int32_t nw = 0;
-#define WANT(r)                                                                                \
-    do {                                                                                       \
-        double r_ = (r);                                                                       \
-        int dup_ = 0;                                                                          \
-        for (int32_t k_ = 0; k_ < nw; k_++)                                                    \
-            dup_ |= want[k_] == r_;                                                            \
-        if (!dup_)                                                                             \
-            want[nw++] = r_;                                                                   \
-    } while (0)
-    int32_t K = p->opt.levels;
-    if (q->mirror && !q->specular_chain)
-        WANT(0.0);
-    if (q->specular_chain)
-        for (int32_t k = 0; k < K; k++)
-            WANT(K > 1 ? (double)k / (K - 1) : 0.0);
-    for (int32_t i = 0; i < q->n_roughness; i++)
-        WANT(q->roughness[i]);
-#undef WANT
-
-    /* Diffuse: one SH projection, shared with an SH irradiance map of the same order. */
-    int irr_sh = q->irradiance_map && p->opt.irr_method == ENVL_IRRADIANCE_SH;
-    if (q->diffuse) {
-        t = envl__seconds();
-        envl_sh_options so = {.order = envl__order_option(sh_order), .window = ENVL_WINDOW_AUTO};
-        if ((rc = envl_sh_compute(m, &so, &p->sh))) {
-            free(want);
-            goto fail;
-        }
-        s->sh_projections++;
-        s->seconds_sh += envl__seconds() - t;
-    }
-    /* The bright pixels split off once for every filtered level (see make_split), and for
-     * the irradiance map when they become lights. */
-    int need_mips = 0;
-    for (int32_t i = 0; i < nw; i++)
-        need_mips |= want[i] > 0 && !p->opt.unfiltered;
-    split sp = {0};
-    if ((need_mips || (p->opt.sun_lights && q->irradiance_map)) && (rc = envl__split_make(m, &sp))) {
-        free(want);
-        goto fail;
-    }
-    if (p->opt.sun_lights && (rc = envl__sun_split_lights(m, &sp.sun, &p->sun, &p->n_sun))) {
-        envl__split_free(&sp);
-        free(want);
-        goto fail;
-    }
-    if (q->irradiance_map) {
-        t = envl__seconds();
-        int projected = 0;
-        const envl_sh *shared = p->sh && irr_sh && p->opt.irr_order == sh_order ? p->sh : NULL;
-        envl_envmap *residual = NULL;
-        if (p->n_sun) { /* the map without what the lights took */
-            size_t npx = (size_t)m->width * m->height;
-            float *px = malloc(sizeof(float) * 3 * npx);
-            if (!px) {
-                rc = envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
-            } else {
-                memcpy(px, m->px, sizeof(float) * 3 * npx);
-                for (int32_t i = 0; i < sp.sun.n; i++)
-                    if (sp.sun.lobes[i].taken) {
-                        const envl_sun_lobe *b = sp.sun.lobes + i;
-                        size_t at = 3 * ((size_t)b->r * m->width + b->c);
-                        memcpy(px + at, sp.sun.res + at, sizeof(float) * 3);
-                    }
-                envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = p->opt.threads};
-                rc = envl_envmap_from_pixels(px, m->width, m->height, 3, &lo, &residual);
-                free(px);
-            }
-            shared = NULL;
-        }
-        if (!rc)
-            rc = envl__irradiance_map(residual ? residual : m, &p->opt, shared, &p->irr_px, &p->irr,
-                                &projected);
-        envl_envmap_free(residual);
-        if (rc) {
-            envl__split_free(&sp);
-            free(want);
-            goto fail;
-        }
-        p->irr.rgb = p->irr_px;
-        p->has_irradiance = 1;
-        s->sh_projections += projected;
-        s->irradiance_maps++;
-        s->seconds_irradiance += envl__seconds() - t;
-    }
-    if (q->shadows) {
-        t = envl__seconds();
-        if ((rc = envl_lights_compute(m, &q->lights, &p->lights))) {
-            envl__split_free(&sp);
-            free(want);
-            goto fail;
-        }
-        s->lights_computed = 1;
-        s->seconds_lights += envl__seconds() - t;
-    }
-    /* One pyramid for every filtered specular level of non-zero roughness. */
-    if (need_mips) {
-        t = envl__seconds();
-        int built = m->mip_levels == 0;
-        if ((rc = envl_envmap_mips(m, &s->pyramid_levels))) {
-            envl__split_free(&sp);
-            free(want);
-            goto fail;
-        }
-        s->pyramids_built += built;
-        s->seconds_pyramid += envl__seconds() - t;
-    }
-    for (int32_t i = 0; i < nw; i++) {
-        t = envl__seconds();
-        rc = envl__specular_level(m, &p->opt, want[i], 0, &sp, &p->level_px[i], &p->levels[i]);
-        if (!rc && !envl__floats_finite(p->level_px[i], 3 * (size_t)p->levels[i].width *
-                                                      p->levels[i].height))
-            rc = envl__fail(ENVL_ERR_NONFINITE, "%s: the specular level of roughness %g "
-                            "overflows the float range", m->info.file, want[i]);
-        if (rc) {
-            envl__split_free(&sp);
-            free(want);
-            goto fail;
-        }
-        p->levels[i].rgb = p->level_px[i];
-        p->n_levels++;
-        s->specular_levels++;
-        s->seconds_specular += envl__seconds() - t;
-    }
-    envl__split_free(&sp);
-    free(want);
-    if (q->brdf_lut) {
-        t = envl__seconds();
-        envl_brdf_options bo = q->brdf;
-        if (!bo.threads)
-            bo.threads = p->opt.threads;
-        if ((rc = envl__brdf_resolve(&bo, &bo)) || (rc = envl_brdf_lut(&bo, &p->brdf, &p->brdf_size)))
-            goto fail;
-        p->brdf_multiscatter = bo.multiscatter;
-        p->brdf_samples = bo.samples;
-        s->brdf_tables = 1;
-        s->seconds_brdf += envl__seconds() - t;
-    }
-    s->seconds = envl__seconds() - t0;
-
-    if (q->measure) {
-        double *dirs = envl__fibonacci_dirs();
-        double *ref = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
-        if (!dirs || !ref)
-            rc = envl__fail(ENVL_ERR_MEMORY, "error measure: out of memory");
-        for (int32_t i = 0; !rc && i < p->n_levels; i++) {
-            envl_level *l = &p->levels[i];
-            rc = envl_prefilter_reference(m, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
-            if (!rc)
-                rc = envl__sampled_error(dirs, ref, l->rgb, l->width, l->height, p->sun,
-                                   l->roughness > 0 ? p->n_sun : 0, l->roughness,
-                                   &l->glossy_error);
-        }
-        if (!rc && p->has_irradiance) {
-            const double *eref;
-            rc = envl_envmap_reference_irradiance(m, &eref);
-            if (!rc)
-                rc = envl__sampled_error(dirs, eref, p->irr_px, p->irr.width, p->irr.height, p->sun,
-                                   p->n_sun, -1, &p->irr.diffuse_error);
-        }
-        free(dirs);
-        free(ref);
-        if (rc)
-            goto fail;
+    plan pl = {0};
+    envl_result rc = envl__prefilter_resolve(&q->prefilter, m, &p->opt);
+    if (!rc)
+        rc = plan_levels(q, p, &pl);
+    if (!rc && q->diffuse)
+        rc = compute_diffuse(m, p, &pl);
+    /* the bright pixels split once for every filtered level, and for the irradiance map
+     * when they become lights */
+    if (!rc && (pl.need_mips || (p->opt.sun_lights && q->irradiance_map)))
+        rc = envl__split_make(m, &pl.sp);
+    if (!rc && p->opt.sun_lights)
+        rc = envl__sun_split_lights(m, &pl.sp.sun, &p->sun, &p->n_sun);
+    if (!rc && q->irradiance_map)
+        rc = compute_irradiance(m, p, &pl);
+    if (!rc && q->shadows)
+        rc = compute_shadows(m, q, p);
+    if (!rc)
+        rc = compute_levels(m, p, &pl);
+    envl__split_free(&pl.sp);
+    free(pl.want);
+    if (!rc && q->brdf_lut)
+        rc = compute_brdf(q, p);
+    p->summary.seconds = envl__seconds() - t0;
+    if (!rc && q->measure)
+        rc = measure(m, p);
+    if (rc) {
+        envl_products_free(p);
+        return rc;
     }
     *out = p;
     return ENVL_OK;
-fail:
-    envl_products_free(p);
-    return rc;
 }
 
 envl_result envl_products_get_summary(const envl_products *p, envl_products_summary *out)
