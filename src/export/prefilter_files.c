@@ -41,6 +41,7 @@ typedef struct exporter {
     pending *files;
     int32_t n, cap;
     FILE *json;               /* the sidecar being written (memory stream) */
+    json_writer jw;           /* ... through json.c */
     char *json_buf;
     size_t json_size;
 } exporter;
@@ -145,8 +146,13 @@ static envl_result put_map(exporter *x, int32_t layout, const char *stem, const 
                            int32_t w, int32_t h)
 {
     char name[512];
+    json_writer *j = &x->jw;
     if (layout == ENVL_EXPORT_LATLONG || layout == ENVL_EXPORT_ATLAS) {
-        fprintf(x->json, "\"files\": [\"%s.%s\"], \"layout\": \"latlong\"", stem, x->format);
+        snprintf(name, sizeof name, "%s.%s", stem, x->format);
+        json_array(j, "files");
+        json_string(j, NULL, name);
+        json_array_end(j);
+        json_string(j, "layout", "latlong");
         return put_image(x, stem, rgb, w, h);
     }
     envl_image src = {.width = w, .height = h, .px = (float *)rgb};
@@ -157,8 +163,12 @@ static envl_result put_map(exporter *x, int32_t layout, const char *stem, const 
     if (rc)
         return rc;
     if (layout == ENVL_EXPORT_CROSS) {
-        fprintf(x->json, "\"files\": [\"%s.%s\"], \"layout\": \"cross\", \"face_size\": %d", stem,
-                x->format, (int)face);
+        snprintf(name, sizeof name, "%s.%s", stem, x->format);
+        json_array(j, "files");
+        json_string(j, NULL, name);
+        json_array_end(j);
+        json_string(j, "layout", "cross");
+        json_int(j, "face_size", face);
         rc = put_image(x, stem, img.px, img.width, img.height);
         envl__image_free(&img);
         return rc;
@@ -170,27 +180,23 @@ static envl_result put_map(exporter *x, int32_t layout, const char *stem, const 
         envl__image_free(&img);
         return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
     }
-    fprintf(x->json, "\"files\": [");
+    json_array(j, "files");
     for (int k = 0; k < 6 && !rc; k++) {
         for (int32_t r = 0; r < face; r++)
             memcpy(f + 3 * (size_t)r * face, img.px + 3 * ((size_t)r * img.width + k * face),
                    sizeof(float) * 3 * face);
+        char file[600];
         snprintf(name, sizeof name, "%s_%s", stem, suffix[k]);
-        fprintf(x->json, "%s\"%s.%s\"", k ? ", " : "", name, x->format);
+        snprintf(file, sizeof file, "%s.%s", name, x->format);
+        json_string(j, NULL, file);
         rc = put_image(x, name, f, face, face);
     }
-    fprintf(x->json, "], \"layout\": \"cube\", \"face_size\": %d", (int)face);
+    json_array_end(j);
+    json_string(j, "layout", "cube");
+    json_int(j, "face_size", face);
     free(f);
     envl__image_free(&img);
     return rc;
-}
-
-static void json_num(FILE *f, const char *key, double v)
-{
-    if (isfinite(v))
-        fprintf(f, ", \"%s\": %.9g", key, v);
-    else
-        fprintf(f, ", \"%s\": null", key);
 }
 
 static int cmp_level(const void *a, const void *b)
@@ -213,12 +219,18 @@ static envl_result put_atlas(exporter *x, const envl_products *p)
     int32_t W = lv[0]->width;
     float *atlas = calloc((size_t)W * W * 3, sizeof(float));
     envl_result rc = atlas ? ENVL_OK : envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
-    fprintf(x->json, "\"atlas\": {\"file\": \"specular_atlas.%s\", \"width\": %d, \"height\": %d, "
-            "\"pixel_layout\": \"slot k (levels by increasing roughness) is a lat-long image of "
-            "(W >> k) x (W >> (k+1)) pixels at column 0, rows W >> (k+1) .. (W >> k) - 1 counted "
-            "from the top: the lowest roughness fills the bottom half, each next level is half "
-            "the size of the previous; unused pixels are 0\", \"slots\": [", x->format, (int)W,
-            (int)W);
+    json_writer *j = &x->jw;
+    char file[64];
+    snprintf(file, sizeof file, "specular_atlas.%s", x->format);
+    json_object(j, "atlas");
+    json_string(j, "file", file);
+    json_int(j, "width", W);
+    json_int(j, "height", W);
+    json_string(j, "pixel_layout", "slot k (levels by increasing roughness) is a lat-long image "
+                "of (W >> k) x (W >> (k+1)) pixels at column 0, rows W >> (k+1) .. (W >> k) - 1 "
+                "counted from the top: the lowest roughness fills the bottom half, each next "
+                "level is half the size of the previous; unused pixels are 0");
+    json_array(j, "slots");
     int32_t slots = 0;
     for (int32_t k = 0; !rc && k < p->n_levels && (W >> (k + 1)) >= 1; k++) {
         int32_t sw = W >> k, shh = W >> (k + 1);
@@ -230,11 +242,17 @@ static envl_result put_atlas(exporter *x, const envl_products *p)
             memcpy(atlas + 3 * (size_t)(shh + r) * W, px + 3 * (size_t)r * sw,
                    sizeof(float) * 3 * sw);
         free(px);
-        fprintf(x->json, "%s{\"roughness\": %.9g, \"x\": 0, \"y\": %d, \"width\": %d, "
-                "\"height\": %d}", k ? ", " : "", lv[k]->roughness, (int)shh, (int)sw, (int)shh);
+        json_object(j, NULL);
+        json_number(j, "roughness", lv[k]->roughness);
+        json_int(j, "x", 0);
+        json_int(j, "y", shh);
+        json_int(j, "width", sw);
+        json_int(j, "height", shh);
+        json_object_end(j);
         slots++;
     }
-    fprintf(x->json, "]}");
+    json_array_end(j);
+    json_object_end(j);
     if (!rc && slots < p->n_levels)
         rc = envl__fail(ENVL_ERR_ARGUMENT, "atlas: %d levels do not fit a %d-pixel atlas",
                         (int)p->n_levels, (int)W);
@@ -242,6 +260,40 @@ static envl_result put_atlas(exporter *x, const envl_products *p)
         rc = put_image(x, "specular_atlas", atlas, W, W);
     free(atlas);
     free(lv);
+    return rc;
+}
+
+/* The BRDF table as brdf_lut.EXT (float R, G, blue 0; rgbm-png: sRGB 8-bit) and its entry. */
+static envl_result put_brdf(exporter *x, const envl_products *p, const char *fmt)
+{
+    int32_t s = p->brdf_size;
+    char name[64], *tmp;
+    snprintf(name, sizeof name, "brdf_lut.%s", x->format);
+    json_writer *j = &x->jw;
+    json_object(j, "brdf_lut");
+    json_string(j, "file", name);
+    json_int(j, "size", s);
+    json_int(j, "samples", p->brdf_samples);
+    json_bool(j, "multiscatter", p->brdf_multiscatter);
+    json_string(j, "encoding", x->rgbm ? "sRGB 8-bit" : "float, blue = 0");
+    json_string(j, "axes", "column i: NoV = (i + 0.5) / S; row j from the top: roughness = "
+                "(j + 0.5) / S");
+    json_string(j, "channels", p->brdf_multiscatter
+                                   ? "R = B, G = A + B: specular = mix(R, G, F0) * (1 + F0 (1 "
+                                     "/ G - 1))"
+                                   : "R = A (scale), G = B (bias): specular = F0 A + B");
+    json_object_end(j);
+    float *rgb = malloc(sizeof(float) * 3 * (size_t)s * s);
+    if (!rgb)
+        return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    for (size_t i = 0; i < (size_t)s * s; i++)
+        rgb[3 * i] = p->brdf[2 * i], rgb[3 * i + 1] = p->brdf[2 * i + 1], rgb[3 * i + 2] = 0;
+    envl_result rc = add_pending(x, name, &tmp);
+    if (!rc && (rc = x->rgbm ? envl_png_save_srgb(tmp, rgb, s, s)
+                             : envl_image_save(tmp, rgb, s, s,
+                                               &(envl_save_options){.format = fmt})))
+        envl__fail_as(rc, x->files[x->n - 1].final, tmp);
+    free(rgb);
     return rc;
 }
 
@@ -267,117 +319,112 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
     x.json = open_memstream(&x.json_buf, &x.json_size);
     if (!x.json)
         return envl__fail(ENVL_ERR_MEMORY, "export: cannot buffer the sidecar");
-    FILE *j = x.json;
+    json_writer *j = &x.jw;
     const resolved *r = &p->opt;
-    fprintf(j, "{\"source\": ");
-    json_write_escaped(j, p->file); /* json.h: valid UTF-8 whatever the bytes */
-    fprintf(j, ",\n \"frame\": \"blender-z-up\", \"latlong\": \"column c, row r (0 = top) of W x "
-            "H: u = (c+0.5)/W, v = (r+0.5)/H, phi = pi (1 - 2u), theta = pi (0.5 - v), d = (cos "
-            "theta cos phi, cos theta sin phi, sin theta)\",\n \"format\": \"%s\", \"layout\": "
-            "\"%s\", \"units\": \"radiance as in the source (irradiance map: irradiance)\",\n",
-            fmt, envl_export_layout_name(o->layout));
+    char text[512];
+    json_begin(j, x.json);
+    json_string(j, "source", p->file);
+    json_string(j, "frame", "blender-z-up");
+    json_string(j, "latlong", "column c, row r (0 = top) of W x H: u = (c+0.5)/W, v = (r+0.5)/H, "
+                "phi = pi (1 - 2u), theta = pi (0.5 - v), d = (cos theta cos phi, cos theta sin "
+                "phi, sin theta)");
+    json_string(j, "format", fmt);
+    json_string(j, "layout", envl_export_layout_name(o->layout));
+    json_string(j, "units", "radiance as in the source (irradiance map: irradiance)");
     if (o->layout == ENVL_EXPORT_CUBE || o->layout == ENVL_EXPORT_CROSS)
-        fprintf(j, " \"cube_faces\": \"seen from inside; px = +X (front): right -Y, up +Z; nx = "
-                "-X: right +Y, up +Z; py = +Y: right +X, up +Z; ny = -Y: right -X, up +Z; pz = +Z:"
-                " right -Y, up -X; nz = -Z: right -Y, up +X; the cross: top, left front right, "
-                "bottom, back (turned 180 degrees)\",\n");
-    if (rgbm)
-        fprintf(j, " \"rgbm\": {\"range\": %g, \"decode\": \"rgb = %g * rgbm.rgb * rgbm.a "
-                "(bytes / 255, linear)\", \"encode\": \"a = ceil(255 min(max(rgb) / %g, 1)) / "
-                "255, rgb8 = round(255 rgb / (%g a)); values above %g clamp\"},\n",
-                ENVL_RGBM_RANGE, ENVL_RGBM_RANGE, ENVL_RGBM_RANGE, ENVL_RGBM_RANGE,
-                ENVL_RGBM_RANGE);
-    fprintf(j, " \"ggx\": {\"alpha\": \"roughness^2\", \"prefiltered_radiance\": \"P(R) = sum "
-            "L(l) D(h) max(R.l,0) dw / sum D(h) max(R.l,0) dw, h = normalize(R + l), N = V = R\", "
-            "\"roughness_mapping\": \"chain level k of K: roughness = k / (K - 1)\", "
-            "\"levels\": %d, \"base_width\": %d, \"min_width\": %d, \"samples\": %d, "
-            "\"filtered\": %s},\n", (int)r->levels, (int)r->width, (int)r->min_width,
-            (int)r->samples, r->unfiltered ? "false" : "true");
+        json_string(j, "cube_faces", "seen from inside; px = +X (front): right -Y, up +Z; nx = "
+                    "-X: right +Y, up +Z; py = +Y: right +X, up +Z; ny = -Y: right -X, up +Z; "
+                    "pz = +Z: right -Y, up -X; nz = -Z: right -Y, up +X; the cross: top, left "
+                    "front right, bottom, back (turned 180 degrees)");
+    if (rgbm) {
+        json_object(j, "rgbm");
+        json_number(j, "range", ENVL_RGBM_RANGE);
+        snprintf(text, sizeof text, "rgb = %g * rgbm.rgb * rgbm.a (bytes / 255, linear)",
+                 ENVL_RGBM_RANGE);
+        json_string(j, "decode", text);
+        snprintf(text, sizeof text, "a = ceil(255 min(max(rgb) / %g, 1)) / 255, rgb8 = round(255 "
+                 "rgb / (%g a)); values above %g clamp", ENVL_RGBM_RANGE, ENVL_RGBM_RANGE,
+                 ENVL_RGBM_RANGE);
+        json_string(j, "encode", text);
+        json_object_end(j);
+    }
+    json_object(j, "ggx");
+    json_string(j, "alpha", "roughness^2");
+    json_string(j, "prefiltered_radiance", "P(R) = sum L(l) D(h) max(R.l,0) dw / sum D(h) "
+                "max(R.l,0) dw, h = normalize(R + l), N = V = R");
+    json_string(j, "roughness_mapping", "chain level k of K: roughness = k / (K - 1)");
+    json_int(j, "levels", r->levels);
+    json_int(j, "base_width", r->width);
+    json_int(j, "min_width", r->min_width);
+    json_int(j, "samples", r->samples);
+    json_bool(j, "filtered", !r->unfiltered);
+    json_object_end(j);
     if (r->sun_lights) {
-        fprintf(j, " \"sun_lights\": {\"split\": \"pixels above 50x the mean luminance, one "
-                "light per 8-connected group; not in the irradiance map nor in the levels of "
-                "roughness > 0 (the roughness-0 level keeps them)\", \"add\": \"irradiance map: "
-                "+ rgb max(n.l, 0); level of roughness r: P(R) + rgb w(R.l) / N(alpha), w(u) = u / "
-                "q^2, q = ((1 + u) / 2)(alpha^2 - 1) + 1, N(alpha) = (2 pi / B^2)(ln(alpha^2 / A) + "
-                "A / alpha^2 - 1), A = (1 + alpha^2) / 2, B = (alpha^2 - 1) / 2 (pi at alpha = 1)\","
-                " \"count\": %d, \"lights\": [", (int)p->n_sun);
+        json_object(j, "sun_lights");
+        json_string(j, "split", "pixels above 50x the mean luminance, one light per 8-connected "
+                    "group; not in the irradiance map nor in the levels of roughness > 0 (the "
+                    "roughness-0 level keeps them)");
+        json_string(j, "add", "irradiance map: + rgb max(n.l, 0); level of roughness r: P(R) + "
+                    "rgb w(R.l) / N(alpha), w(u) = u / q^2, q = ((1 + u) / 2)(alpha^2 - 1) + 1, "
+                    "N(alpha) = (2 pi / B^2)(ln(alpha^2 / A) + A / alpha^2 - 1), A = (1 + "
+                    "alpha^2) / 2, B = (alpha^2 - 1) / 2 (pi at alpha = 1)");
+        json_int(j, "count", p->n_sun);
+        json_array(j, "lights");
         for (int32_t i = 0; i < p->n_sun; i++) {
             const envl_light *l = p->sun + i;
-            fprintf(j, "%s\n  {\"direction\": [%.9g, %.9g, %.9g], \"rgb\": [%.9g, %.9g, %.9g], "
-                    "\"solid_angle\": %.9g, \"angle\": %.9g}", i ? "," : "", l->direction[0],
-                    l->direction[1], l->direction[2], l->rgb[0], l->rgb[1], l->rgb[2],
-                    l->solid_angle, l->angle);
+            json_object(j, NULL);
+            json_numbers(j, "direction", l->direction, 3);
+            json_numbers(j, "rgb", l->rgb, 3);
+            json_number(j, "solid_angle", l->solid_angle);
+            json_number(j, "angle", l->angle);
+            json_object_end(j);
         }
-        fprintf(j, "]},\n");
+        json_array_end(j);
+        json_object_end(j);
     }
     envl_result rc = ENVL_OK;
     if (p->has_irradiance) {
-        fprintf(j, " \"irradiance\": {\"method\": \"%s\"",
-                envl_irradiance_method_name(p->irr.method));
+        json_object(j, "irradiance");
+        json_string(j, "method", envl_irradiance_method_name(p->irr.method));
         if (p->irr.method == ENVL_IRRADIANCE_SH)
-            fprintf(j, ", \"sh_order\": %d", (int)r->irr_order);
-        fprintf(j, ", \"width\": %d, \"height\": %d", (int)p->irr.width, (int)p->irr.height);
-        json_num(j, "diffuse_error", p->irr.diffuse_error >= 0 ? p->irr.diffuse_error : NAN);
-        json_num(j, "seconds", p->irr.seconds);
-        fprintf(j, ", ");
+            json_int(j, "sh_order", r->irr_order);
+        json_int(j, "width", p->irr.width);
+        json_int(j, "height", p->irr.height);
+        json_number(j, "diffuse_error", p->irr.diffuse_error >= 0 ? p->irr.diffuse_error : NAN);
+        json_number(j, "seconds", p->irr.seconds);
         rc = put_map(&x, o->layout == ENVL_EXPORT_ATLAS ? ENVL_EXPORT_LATLONG : o->layout,
                      "irradiance", p->irr.rgb, p->irr.width, p->irr.height);
-        fprintf(j, "},\n");
+        json_object_end(j);
     }
     if (!rc && p->n_levels) {
-        fprintf(j, " \"specular\": [");
+        json_array(j, "specular");
         for (int32_t i = 0; !rc && i < p->n_levels; i++) {
             const envl_level *l = &p->levels[i];
-            fprintf(j, "%s\n  {\"roughness\": %.9g, \"alpha\": %.9g, \"width\": %d, \"height\": "
-                    "%d, \"samples\": %d, \"filtered\": %s", i ? "," : "", l->roughness,
-                    l->alpha, (int)l->width, (int)l->height, (int)l->samples,
-                    l->filtered ? "true" : "false");
-            json_num(j, "energy_scale", l->energy_scale);
-            json_num(j, "glossy_error", l->glossy_error >= 0 ? l->glossy_error : NAN);
-            json_num(j, "seconds", l->seconds);
+            json_object(j, NULL);
+            json_number(j, "roughness", l->roughness);
+            json_number(j, "alpha", l->alpha);
+            json_int(j, "width", l->width);
+            json_int(j, "height", l->height);
+            json_int(j, "samples", l->samples);
+            json_bool(j, "filtered", l->filtered);
+            json_number(j, "energy_scale", l->energy_scale);
+            json_number(j, "glossy_error", l->glossy_error >= 0 ? l->glossy_error : NAN);
+            json_number(j, "seconds", l->seconds);
             if (o->layout != ENVL_EXPORT_ATLAS) {
                 char stem[32];
                 snprintf(stem, sizeof stem, "specular_%02d", (int)i);
-                fprintf(j, ", ");
                 rc = put_map(&x, o->layout, stem, l->rgb, l->width, l->height);
             }
-            fprintf(j, "}");
+            json_object_end(j);
         }
-        fprintf(j, "],\n");
-        if (!rc && o->layout == ENVL_EXPORT_ATLAS) {
-            fprintf(j, " ");
+        json_array_end(j);
+        if (!rc && o->layout == ENVL_EXPORT_ATLAS)
             rc = put_atlas(&x, p);
-            fprintf(j, ",\n");
-        }
     }
-    if (!rc && p->brdf) {
-        int32_t s = p->brdf_size;
-        float *rgb = malloc(sizeof(float) * 3 * (size_t)s * s);
-        if (!rgb) {
-            rc = envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
-        } else {
-            for (size_t i = 0; i < (size_t)s * s; i++)
-                rgb[3 * i] = p->brdf[2 * i], rgb[3 * i + 1] = p->brdf[2 * i + 1],
-                rgb[3 * i + 2] = 0;
-            char name[64], *tmp;
-            snprintf(name, sizeof name, "brdf_lut.%s", x.format);
-            rc = add_pending(&x, name, &tmp);
-            if (!rc &&
-                (rc = rgbm ? envl_png_save_srgb(tmp, rgb, s, s)
-                           : envl_image_save(tmp, rgb, s, s, &(envl_save_options){.format = fmt})))
-                envl__fail_as(rc, x.files[x.n - 1].final, tmp);
-            free(rgb);
-        }
-        fprintf(j, " \"brdf_lut\": {\"file\": \"brdf_lut.%s\", \"size\": %d, \"samples\": %d, "
-                "\"multiscatter\": %s, \"encoding\": \"%s\", \"axes\": \"column i: NoV = (i + "
-                "0.5) / S; row j from the top: roughness = (j + 0.5) / S\", \"channels\": \"%s\"},\n",
-                x.format, (int)s, (int)p->brdf_samples, p->brdf_multiscatter ? "true" : "false",
-                rgbm ? "sRGB 8-bit" : "float, blue = 0",
-                p->brdf_multiscatter ? "R = B, G = A + B: specular = mix(R, G, F0) * (1 + F0 (1 / "
-                                       "G - 1))"
-                                     : "R = A (scale), G = B (bias): specular = F0 A + B");
-    }
-    fprintf(j, " \"seconds\": %.9g}\n", p->summary.seconds);
+    if (!rc && p->brdf)
+        rc = put_brdf(&x, p, fmt);
+    json_number(j, "seconds", p->summary.seconds);
+    json_end(j);
     fclose(x.json);
     if (!rc) {
         char *tmp;
