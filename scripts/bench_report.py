@@ -34,8 +34,9 @@ import platform
 import shlex
 import subprocess
 import sys
-import tempfile
 import time
+
+from scene_bench import write_atomic  # the one atomic writer of the benchmarks
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -72,20 +73,6 @@ def parse_args(argv):
     if a.runs is not None and a.runs < 1:
         p.error("--runs must be at least 1")
     return a
-
-
-def write_atomic(path, text):
-    d = os.path.dirname(os.path.abspath(path))
-    os.makedirs(d, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=d, prefix=".%s." % os.path.basename(path))
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def machine():
