@@ -10,12 +10,12 @@
  * frame (east, north, R), serve every texel, so results are deterministic and smooth.
  * Filtered importance sampling (Colbert & Krivanek 2007): sample i stands for the solid angle
  * omega_i = 1 / (n pdf_i) = 4 / (n D(h_i)); it reads the mip level whose texels are as tall as
- * that footprint, lod = 0.5 log2(omega_i / (pi / H)^2) + 0.5 (H: the map's height; a texel of
- * level k spans pi 2^k / H in elevation and less in azimuth, so this never blurs more than the
- * footprint in either direction). Measured on real maps, a bias of 0.5 level beat Colbert &
- * Krivanek's 1 and 0, and the elevation rule beat matching the texel's area (which blurs the
- * polar rows). Lookups are linear in azimuth and linear in z between the rows' z-midpoints
- * (see mip_view), blending into the row mean at the poles. The pyramid is the map
+ * that footprint, lod = 0.5 log2(omega_i / (pi / H)^2) + LOD_BIAS (H: the map's height; a texel
+ * of level k spans pi 2^k / H in elevation and less in azimuth, so this never blurs more than
+ * the footprint in either direction; LOD_BIAS below says why it is 0). The elevation rule beat
+ * matching the texel's area (which blurs the polar rows). Lookups are bilinear in the lat-long
+ * image (linear in azimuth and between row centres; see mip_view), blending into the row mean
+ * at the poles. The pyramid is the map
  * area-averaged by envl__latlong_resample (exact), built once per map.
  * Roughness exactly 0 is the map itself, area-resampled to the level's size.
  *
