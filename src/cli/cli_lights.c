@@ -82,7 +82,9 @@ static void write_table(FILE *f, const envl_info *info, const envl_lights *ls)
     envl_lights_get_summary(ls, &s);
     fprintf(f, "%s: %d lights by %s %s%s, diffuse error %.3f %%, %.3f s\n", info->file,
             (int)s.count, envl_method_name(s.method),
-            s.method == ENVL_METHOD_SUN ? "split (+ the residual map)" : "cut",
+            s.method == ENVL_METHOD_SUN   ? "split (+ the residual map)"
+            : s.method == ENVL_METHOD_FIT ? "least squares"
+                                          : "cut",
             s.remainder_order >= 0 ? " + SH remainder" : "", 100 * s.diffuse_error, s.seconds);
     if (s.no_light)
         fprintf(f, "no light: the environment is black\n");
