@@ -555,7 +555,8 @@ ENVL_API envl_result envl_products_export(const envl_products *products, const c
                                              shadow others assumed): sh or dome */
 #define ENVL_POV_RECIPE_CUSTOM 1          /* the low-level fields as given (method, count,
                                              ambient, order: fit 4 + SH order 2 by default);
-                                             AUTO becomes this when one of them is set */
+                                             AUTO becomes this when one of them is set (but
+                                             see recipe_is_set) */
 #define ENVL_POV_RECIPE_SH 2              /* 4 fitted lights + the SH ambient (exact where
                                              nothing is occluded) */
 #define ENVL_POV_RECIPE_DOME 3            /* 32 or 64 variance-cut lights (the fewer within
@@ -587,6 +588,10 @@ ENVL_API int32_t envl_pov_recipe_from_name(const char *name); /* -1 if unknown *
 
 typedef struct envl_pov_options {
     int32_t recipe;           /* ENVL_POV_RECIPE_*; default AUTO */
+    int32_t recipe_is_set;    /* nonzero: recipe was asked for, so AUTO picks from the scene
+                                 even when a low-level field (method, count, ambient, order) is
+                                 set, and they adjust the recipe picked; 0: AUTO with one of
+                                 them set is CUSTOM */
     const char *scene_path;   /* the .pov scene the include is for: what it uses (shadows
                                  between objects, glossy finishes, a ground plane and its
                                  colour, radiosity) picks the recipe (AUTO) and the ground. Read
@@ -637,7 +642,9 @@ typedef struct envl_pov_options {
 } envl_pov_options;
 
 typedef struct envl_pov_result {
-    int32_t recipe;           /* the recipe written (never AUTO) */
+    int32_t recipe;           /* the recipe written (never AUTO). On failure the fields of
+                                 the plan (recipe, reason, method, count, ambient, bounce) are
+                                 set once it was made, the others are 0 */
     char reason[320];         /* why that recipe, as the header's "// recipe:" line says */
     int32_t method, count;    /* the lights' */
     int32_t ambient;          /* ENVL_POV_AMBIENT_SH, _HEMI or _NONE, as written */

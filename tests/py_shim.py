@@ -541,6 +541,7 @@ POV_CASES = [
       "--scene-radius", "7", "--exposure", "2"],
      dict(n=8, method="median", order=4, shadows="soft", place=False, scene_radius=7,
           exposure=2)),
+    (["--recipe", "auto", "-n", "8"], dict(recipe="auto", n=8)),  # the dome picked, 8 lights
 ]
 
 

@@ -156,8 +156,18 @@ static void test_atomic_and_result(void)
     o.sky = 1;
     CHECK_RC(envl_pov_include_write(map, &o, NULL, &res), ENVL_ERR_ARGUMENT);
     envl_pov_result_free(&res);
-    envl_pov_options bad = {.count = 40, .method = ENVL_METHOD_FIT, .method_is_set = 1};
-    CHECK_RC(envl_pov_include_write(map, &bad, NULL, NULL), ENVL_ERR_ARGUMENT);
+    /* a fit of more than 32 lights: refused on the plan, which the result still carries */
+    envl_pov_options bad = {.count = 40};
+    CHECK_RC(envl_pov_include_write(map, &bad, NULL, &res), ENVL_ERR_ARGUMENT);
+    CHECK(res.recipe == ENVL_POV_RECIPE_CUSTOM && res.method == ENVL_METHOD_FIT);
+    CHECK(res.count == 40 && !res.text && !res.sky_file);
+    envl_pov_result_free(&res);
+    /* recipe_is_set: AUTO still picks (a dome, no scene) and the count sizes it */
+    bad.recipe_is_set = 1;
+    CHECK_OK(envl_pov_include_write(map, &bad, NULL, &res));
+    CHECK(res.recipe == ENVL_POV_RECIPE_DOME && res.method == ENVL_METHOD_VARIANCE);
+    CHECK(res.count == 40 && res.bounce);
+    envl_pov_result_free(&res);
     bad = (envl_pov_options){.method = ENVL_METHOD_SUN, .method_is_set = 1};
     CHECK_RC(envl_pov_include_write(map, &bad, NULL, NULL), ENVL_ERR_ARGUMENT);
     bad = (envl_pov_options){.source = "a\nb"};

@@ -522,7 +522,7 @@ class Envmap(_Handle):
         _check(lib.envl_sh_compute(self._handle(), byref(o), byref(h)))
         return SHResult(h)
 
-    def pov_include(self, path=None, recipe="auto", scene=None, ground=None, method=None,
+    def pov_include(self, path=None, recipe=None, scene=None, ground=None, method=None,
                     n=None, order=None, ambient=None, shadows="hard", sky=False,
                     sky_residual=False, sky_image=None, scene_radius=None, exposure=None,
                     place=True, source=None, command=None, threads=None):
@@ -530,8 +530,10 @@ class Envmap(_Handle):
         `envlight pov` writes, README "POV-Ray"), written atomically to `path`, or returned as
         text when path is None.
 
-        recipe: 'auto' (from the scene), 'dome', 'dome-ambient', 'sh', 'image-radiosity' or
-        'custom' (method, n, order, ambient as given; 'auto' becomes it when one is given);
+        recipe: 'auto' (from the scene; method, n, order, ambient adjust the recipe picked),
+        'dome', 'dome-ambient', 'sh', 'image-radiosity' or 'custom' (method, n, order, ambient
+        as given); None: 'custom' when one of those is given, else 'auto' (as `envlight pov`
+        without --recipe);
         scene: the .pov file the include is for (what it uses picks the recipe and the ground);
         ground: the albedo 0..1 of a ground plane (None: the scene's, if any); method: 'fit',
         'median' or 'variance'; n: lights 1..65536 (fit 1..32); order: the ambient's SH order
@@ -546,8 +548,10 @@ class Envmap(_Handle):
         no_light, sky_file, text (None when written to path) and warnings (a list of lines)."""
         f = "Envmap.pov_include"
         o = _lib.PovOptions()
-        o.recipe = A.enum(recipe, f + ": recipe", lib.envl_pov_recipe_from_name,
-                          lib.envl_pov_recipe_name)
+        if recipe is not None:
+            o.recipe = A.enum(recipe, f + ": recipe", lib.envl_pov_recipe_from_name,
+                              lib.envl_pov_recipe_name)
+            o.recipe_is_set = 1
         keep = []  # the bytes the C strings point into, alive until the call returns
         if scene is not None:
             keep.append(A.path(scene, f + ": scene"))

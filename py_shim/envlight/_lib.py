@@ -249,6 +249,7 @@ class ExportOptions(Structure):
 class PovOptions(Structure):
     _fields_ = [
         ("recipe", c_int32),
+        ("recipe_is_set", c_int32),
         ("scene_path", c_char_p),
         ("method", c_int32),
         ("method_is_set", c_int32),

@@ -59,7 +59,6 @@ static const char pov_help[] =
 typedef struct pov_args {
     const char *file, *out;
     envl_pov_options o;
-    int recipe_set;
 } pov_args;
 
 static int parse_ambient(const char *v, int32_t *out)
@@ -109,7 +108,7 @@ static int pov_value_option(int argc, char **argv, int *i, pov_args *a)
             o->recipe == ENVL_POV_RECIPE_CUSTOM)
             return cli_usage("pov", "--recipe takes auto, dome, dome-ambient, sh or "
                              "image-radiosity"), -2;
-        a->recipe_set = 1;
+        o->recipe_is_set = 1;
     } else if ((r = cli_value(argc, argv, i, "--scene", &v)) != 0) {
         if (r < 0 || !*v)
             return cli_usage("pov", "--scene needs the scene's .pov file"), -2;
@@ -187,24 +186,27 @@ static int pov_parse(int argc, char **argv, cli_common *c, pov_args *a)
     return CLI_OK;
 }
 
-/* Usage errors the options alone show (the scene cannot change them: -n makes the recipe
- * custom unless --recipe names one, and auto never picks image-radiosity). */
+/* Usage errors the options alone show, before the map is read: -n against the recipe's
+ * method (the library's rule: dome variance, dome-ambient median, the others fit; -n makes the
+ * recipe custom unless --recipe names one; --recipe auto picks it from the scene, so that is
+ * checked on the library's plan), and a sky image without a name (auto never picks
+ * image-radiosity). */
 static int pov_usage_checks(const pov_args *a)
 {
     const envl_pov_options *o = &a->o;
-    int custom = !a->recipe_set || o->recipe == ENVL_POV_RECIPE_AUTO;
-    /* the recipe's method (the library's rule): dome variance, dome-ambient median, else fit */
+    int picked = a->o.recipe_is_set && o->recipe == ENVL_POV_RECIPE_AUTO && !o->method_is_set;
     envl_lights_options lo = {.count = o->count ? o->count : 4};
-    lo.method = o->method_is_set                              ? o->method
-                : !custom && o->recipe == ENVL_POV_RECIPE_DOME ? ENVL_METHOD_VARIANCE
-                : !custom && o->recipe == ENVL_POV_RECIPE_DOME_AMBIENT ? ENVL_METHOD_MEDIAN
-                                                                       : ENVL_METHOD_FIT;
-    if (!cli_light_count_ok("pov", &lo))
+    lo.method = o->method_is_set                               ? o->method
+                : !o->recipe_is_set                            ? ENVL_METHOD_FIT
+                : o->recipe == ENVL_POV_RECIPE_DOME            ? ENVL_METHOD_VARIANCE
+                : o->recipe == ENVL_POV_RECIPE_DOME_AMBIENT    ? ENVL_METHOD_MEDIAN
+                                                               : ENVL_METHOD_FIT;
+    if (!picked && !cli_light_count_ok("pov", &lo))
         return CLI_USAGE;
     int ir = o->recipe == ENVL_POV_RECIPE_IMAGE_RADIOSITY;
-    int stdin_map = !a->file || !strcmp(a->file, "-");
+    int builtin_sky = !a->file || !strcmp(a->file, "-");
     if ((o->sky || ir) && !o->sky_image && (!a->out || !strcmp(a->out, "-")) &&
-        (o->sky_residual || ir || stdin_map))
+        (o->sky_residual || ir || builtin_sky))
         return cli_usage("pov", "--sky needs -o or --sky-image to name the sky image");
     return CLI_OK;
 }
@@ -262,7 +264,10 @@ int cli_pov(int argc, char **argv)
     envl_pov_result res;
     envl_result r = envl_pov_include_write(map, &a.o, to_file ? a.out : NULL, &res);
     pov_warnings(res.warnings, c.quiet);
-    if (r)
+    envl_lights_options planned = {.method = res.method, .count = res.count};
+    if (r == ENVL_ERR_ARGUMENT && !cli_light_count_ok("pov", &planned))
+        rc = CLI_USAGE; /* --recipe auto picked a fit for more than 32 lights */
+    else if (r)
         rc = cli_fail();
     else if (!to_file && (fputs(res.text, stdout) < 0 || fflush(stdout)))
         rc = CLI_FAIL;

@@ -122,11 +122,12 @@ static void plan_scene(const char *path, pov_plan *p)
 
 /* The recipe: given, implied by the low-level options (custom), or picked (auto); then what
  * it implies for the lights, the ambient, the sky and the ground. */
-static void plan_recipe(const envl_pov_options *o, pov_plan *p)
+static envl_result plan_recipe(const envl_pov_options *o, pov_plan *p)
 {
     int method_set = o->method_is_set != 0, count_set = o->count != 0;
     p->recipe = o->recipe;
-    if (p->recipe == POV_RECIPE_AUTO && (method_set || count_set || p->ambient_set || p->order_set))
+    if (p->recipe == POV_RECIPE_AUTO && !o->recipe_is_set &&
+        (method_set || count_set || p->ambient_set || p->order_set))
         p->recipe = POV_RECIPE_CUSTOM;
     if (p->recipe == POV_RECIPE_AUTO)
         p->recipe = pov_recipe_pick(p->scene, p->shadows != SHADOW_NONE, p->why, sizeof p->why);
@@ -165,6 +166,10 @@ static void plan_recipe(const envl_pov_options *o, pov_plan *p)
         p->ground = -1;
         p->ground_from = NULL;
     }
+    /* the fit solves one NNLS of at most 128 unknowns: 32 lights + 81 coefficients */
+    if (p->lo.method == ENVL_METHOD_FIT && p->lo.count > 32)
+        return envl__fail(ENVL_ERR_ARGUMENT, "pov: fit takes 1..32 lights, not %d (median and "
+                          "variance take more)", (int)p->lo.count);
     if (p->lo.method == ENVL_METHOD_FIT)
         p->lo.remainder_bands = (p->ambient == ENVL_POV_AMBIENT_NONE && !p->order_set) ||
                                         p->order < 0
@@ -172,6 +177,7 @@ static void plan_recipe(const envl_pov_options *o, pov_plan *p)
                                     : p->order + 1;
     if (p->order < 0)
         p->order = 2; /* the ambient of a fit without remainder: SH of its residual */
+    return ENVL_OK;
 }
 
 /* ---- the computation ---- */
@@ -397,18 +403,26 @@ static envl_result sky_write(const pov_plan *p, pov_work *w)
 
 /* ---- the call ---- */
 
-static void fill_result(const pov_plan *p, pov_work *w, envl_pov_result *res)
+/* What the plan says, before anything is computed. */
+static void fill_plan(const pov_plan *p, envl_pov_result *res)
 {
     res->recipe = p->recipe;
     snprintf(res->reason, sizeof res->reason, "%s", p->why);
+    res->method = p->lo.method;
+    res->count = p->lo.count;
+    res->ambient = p->ambient;
+    res->bounce = p->bounce;
+}
+
+static void fill_result(const pov_plan *p, pov_work *w, envl_pov_result *res)
+{
+    fill_plan(p, res);
     res->method = w->s.method;
     res->count = w->s.count;
-    res->ambient = p->ambient;
     res->ambient_order = p->ambient != ENVL_POV_AMBIENT_NONE ? w->amb_order : -1;
     res->ambient_terms = p->ambient != ENVL_POV_AMBIENT_NONE ? w->rd.terms : 0;
     res->ambient_least = w->amb_least;
     res->ambient_negative = w->amb_negative;
-    res->bounce = p->bounce;
     res->ground_plane = w->grounded != NULL;
     res->ground_albedo = w->grounded ? p->ground : 0;
     memcpy(res->ground_radiance, w->ground_radiance, sizeof res->ground_radiance);
@@ -429,8 +443,10 @@ static envl_result pov_run(envl_envmap *map, const envl_pov_options *o, const ch
     if ((r = envl_envmap_info(map, &w->info)) || (r = plan_options(o, &w->info, p)))
         return r;
     plan_scene(o->scene_path, p);
-    plan_recipe(o, p);
-    if ((r = sky_name(p, path, w)) || (r = compute(p, o->threads, w)) || (r = sky_write(p, w)))
+    r = plan_recipe(o, p);
+    if (res)
+        fill_plan(p, res);
+    if (r || (r = sky_name(p, path, w)) || (r = compute(p, o->threads, w)) || (r = sky_write(p, w)))
         return r;
     char *text = NULL;
     size_t size = 0;
