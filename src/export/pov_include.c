@@ -230,9 +230,8 @@ static envl_result ambient_sh(const pov_plan *p, int32_t threads, pov_work *w)
         w->amb_sh = w->ground_sh;
         return ENVL_OK;
     }
-    int32_t rem_order;
-    if ((w->rem = envl_lights_remainder(w->ls, &rem_order))) {
-        w->amb_order = rem_order;
+    if (w->rem) {
+        w->amb_order = w->rem_order;
         w->amb_sh = w->rem;
         return ENVL_OK;
     }
@@ -256,7 +255,7 @@ static envl_result ambient_form(const pov_plan *p, pov_work *w)
 {
     if (p->ambient == ENVL_POV_AMBIENT_SH) {
         double dev = pov_ridge_from_sh(w->amb_order, w->amb_sh, &w->rd);
-        if (dev < 0 || dev > 1e-9)
+        if (!(dev >= 0 && dev <= 1e-9)) /* NaN too */
             return envl__fail(ENVL_ERR_NONFINITE, "pov: internal error: the slope-pattern form "
                               "of the SH ambient deviates by %g", dev);
     } else {
@@ -282,8 +281,7 @@ static envl_result compute_try(const pov_plan *p, int32_t count, int32_t threads
     if (r)
         return r;
     envl_lights_get_summary(w->ls, &w->s);
-    int32_t rem_order;
-    w->rem = envl_lights_remainder(w->ls, &rem_order);
+    w->rem = envl_lights_remainder(w->ls, &w->rem_order);
     w->amb_order = -1;
     w->amb_sh = NULL;
     if (p->ambient != ENVL_POV_AMBIENT_NONE) {

@@ -53,6 +53,7 @@ typedef struct pov_work {
     const double *ref;        /* exact irradiance at the 1024 normals of what is measured */
     double *emit;             /* 1024 x RGB */
     const double *rem;        /* the fit's remainder, or NULL */
+    int32_t rem_order;        /* its order */
     int amb_order;            /* the ambient's SH order, -1: none */
     const double *amb_sh;     /* its irradiance SH: ground_sh, rem or the residual's */
     double ground_sh[4 * 3];
