@@ -602,6 +602,141 @@ ENVL_API envl_result envl_preview_write(envl_envmap *map, const envl_preview_opt
                                         const char *path, FILE *notes, int32_t *width,
                                         int32_t *height);
 
+/* ---- POV-Ray 3.7 include (pov_include.c; README "POV-Ray") ---------------------------------
+ * An include for povray_include/envlight.inc: the lights (directions, colours rgb / pi), the
+ * ambient the lights did not take, the sky; then the macro calls that place them. POV-Ray's
+ * frame is left-handed, +Y up: a canonical vector (x, y, z) is written <x, z, y>. Its header
+ * states the source, the recipe and why, the lights, the ambient and its least value, the
+ * diffuse error of lights + ambient as written (docs/design.md's measure) and the seconds.
+ * The recipes (docs/scene_bench_pov.md measured them in scenes): */
+#define ENVL_POV_RECIPE_AUTO 0            /* from the scene (scene_path; none: objects that
+                                             shadow others assumed): sh or dome */
+#define ENVL_POV_RECIPE_CUSTOM 1          /* the low-level fields as given (method, count,
+                                             ambient, order: fit 4 + SH order 2 by default);
+                                             AUTO becomes this when one of them is set (but
+                                             see recipe_is_set) */
+#define ENVL_POV_RECIPE_SH 2              /* 4 fitted lights + the SH ambient (exact where
+                                             nothing is occluded) */
+#define ENVL_POV_RECIPE_DOME 3            /* 32 or 64 variance-cut lights (the fewer within
+                                             1 % diffuse error) with shadows, + radiosity with
+                                             no sky for the bounces when there are several
+                                             objects */
+#define ENVL_POV_RECIPE_DOME_AMBIENT 4    /* 64, 128 or 256 median-cut lights (within 0.5 %)
+                                             + the ground's bounce as an ambient, no radiosity */
+#define ENVL_POV_RECIPE_IMAGE_RADIOSITY 5 /* 4 fitted lights + the residual sky under
+                                             radiosity (implies sky_residual) */
+#define ENVL_POV_RECIPE_COUNT 6
+/* "auto", "custom", "sh", "dome", "dome-ambient", "image-radiosity"; NULL for an unknown value. */
+ENVL_API const char *envl_pov_recipe_name(int32_t recipe);
+ENVL_API int32_t envl_pov_recipe_from_name(const char *name); /* -1 if unknown */
+
+#define ENVL_POV_AMBIENT_AUTO 0     /* the recipe's: custom and sh: SH; dome-ambient: the
+                                       ground's bounce (SH order 1) with a ground, else none;
+                                       dome and image-radiosity: none */
+#define ENVL_POV_AMBIENT_SH 1       /* the SH ambient as slope-pattern pigments (no radiosity) */
+#define ENVL_POV_AMBIENT_HEMI 2     /* its hemispheric form (sky, ground, axis: the pair of
+                                       envl_sh_summary, never negative) */
+#define ENVL_POV_AMBIENT_NONE 3
+#define ENVL_POV_SHADOWS_HARD 0     /* default */
+#define ENVL_POV_SHADOWS_SOFT 1     /* area lights sized by each light's angular diameter */
+#define ENVL_POV_SHADOWS_NONE 2     /* shadowless lights */
+#define ENVL_POV_EXPOSURE_AUTO (-1.0) /* envl_pov_options.exposure: a white surface facing up,
+                                         unshadowed, reads 0.6 (for an 8-bit image) */
+#define ENVL_POV_MAX_ORDER 8        /* the ambient's largest SH order */
+
+typedef struct envl_pov_options {
+    int32_t recipe;           /* ENVL_POV_RECIPE_*; default AUTO */
+    int32_t recipe_is_set;    /* nonzero: recipe was asked for, so AUTO picks from the scene
+                                 even when a low-level field (method, count, ambient, order) is
+                                 set, and they adjust the recipe picked; 0: AUTO with one of
+                                 them set is CUSTOM */
+    const char *scene_path;   /* the .pov scene the include is for: what it uses (shadows
+                                 between objects, glossy finishes, a ground plane and its
+                                 colour, radiosity) picks the recipe (AUTO) and the ground. Read
+                                 tolerantly (no macro expansion, no #include followed); a scene
+                                 it cannot read is a warning and the defaults apply; default
+                                 NULL: none */
+    int32_t method;           /* ENVL_METHOD_FIT, _MEDIAN or _VARIANCE, used when method_is_set;
+                                 default: the recipe's (dome: variance, dome-ambient: median,
+                                 the others fit) */
+    int32_t method_is_set;    /* nonzero: method is used */
+    int32_t count;            /* lights, 1..65536 (fit 1..32); default: the recipe's (4; the
+                                 domes by their error, see the recipes) */
+    int32_t ambient;          /* ENVL_POV_AMBIENT_*; default AUTO */
+    int32_t order;            /* SH order of the ambient (fit: of its remainder), -1..8, used
+                                 when order_is_set; -1: a fit without remainder (the ambient is
+                                 then the SH of its residual, order 2); default 2 (a fit with
+                                 ambient none: no remainder) */
+    int32_t order_is_set;     /* nonzero: order is used */
+    int32_t ground_plane;     /* nonzero: the scene stands on a plane (canonical z = 0, POV-Ray
+                                 y = 0) of albedo ground_albedo: lights, ambient and error are
+                                 those of the map with its lower hemisphere the plane's radiance
+                                 albedo E_up / pi (envl_ground_plane_map); a dome takes its
+                                 lights from the sky half. Default 0: the scene's plane if it
+                                 has one (its literal colour's luminance, else 0.5), else none;
+                                 image-radiosity uses none (radiosity bounces the scene's) */
+    double ground_albedo;     /* 0..1, with ground_plane */
+    int32_t shadows;          /* ENVL_POV_SHADOWS_*; default hard */
+    int32_t sky;              /* nonzero: declare the environment as a sky_sphere
+                                 (EnvLight_Sky(); under a dome's radiosity a backdrop) */
+    int32_t sky_residual;     /* nonzero: the sky shows the residual (what the lights did not
+                                 take); implies sky */
+    const char *sky_image;    /* where the sky's lat-long .hdr is written (atomically); default:
+                                 the include's path without ".inc" + "_sky.hdr", or, for a map
+                                 read from a lat-long .hdr (without apply_exposure), that file
+                                 itself; the include names it by its absolute path */
+    double scene_radius;      /* lights are placed at 2 R from the scene centre; default 100 */
+    double exposure;          /* the default of EnvLight_Exposure, which scales everything
+                                 envlight adds: > 0, or ENVL_POV_EXPOSURE_AUTO; default 0: not
+                                 declared (envlight.inc's 1: the map's radiometry) */
+    int32_t no_place;         /* nonzero: only declare; the scene calls EnvLight_Place_Lights()
+                                 etc. itself */
+    const char *source;       /* the map's name in the include (EnvLight_Source, the header);
+                                 default: the file it was read from (envl_info.file), "sky"
+                                 for the built-in sky, "memory" for pixels from memory */
+    const char *command;      /* the header's "// command: " line (control characters shown as
+                                 '?'); default "envl_pov_include_write" */
+    int32_t threads;          /* worker threads; default: all cores */
+} envl_pov_options;
+
+typedef struct envl_pov_result {
+    int32_t recipe;           /* the recipe written (never AUTO). On failure the fields of
+                                 the plan (recipe, reason, method, count, ambient, bounce) are
+                                 set once it was made, the others are 0 */
+    char reason[320];         /* why that recipe, as the header's "// recipe:" line says */
+    int32_t method, count;    /* the lights' */
+    int32_t ambient;          /* ENVL_POV_AMBIENT_SH, _HEMI or _NONE, as written */
+    int32_t ambient_order;    /* SH order of the ambient; -1 without one */
+    int32_t ambient_terms;    /* its slope-pattern terms (ridge functions); 0 without one */
+    double ambient_least;     /* the ambient's least irradiance in a channel at 4096 Fibonacci
+                                 normals (0 without one) */
+    int32_t ambient_negative; /* of those normals, how many see it negative in some channel
+                                 (the fit's remainder as fitted; also a warning) */
+    int32_t bounce;           /* 1: radiosity carries the bounces (a dome among objects) */
+    int32_t ground_plane;     /* 1: a ground plane was used (ground_plane or the scene's) */
+    double ground_albedo;     /* its albedo (0 without) */
+    double ground_radiance[3];/* its radiance albedo E_up / pi (0 without) */
+    double diffuse_error;     /* lights + ambient as written against the exact irradiance
+                                 (docs/design.md); under bounce, of the sky the lights take */
+    double exposure_auto;     /* the exposure at which a white surface facing up reads 0.6 */
+    double seconds;           /* the computation (the scene's reading and the writing excluded) */
+    int32_t no_light;         /* 1: the map is black (also a warning) */
+    char *sky_file;           /* the sky image the include names, NULL without a sky */
+    char *text;               /* path NULL: the include itself (NUL-terminated), else NULL */
+    char *warnings;           /* the warnings, one a line, each ended by '\n' (control
+                                 characters shown as \xHH); NULL when there are none */
+} envl_pov_result;
+
+/* Writes the include to `path` atomically (an existing file is replaced whole or left as it
+ * was) or, path NULL, returns it in result->text; the sky image, when asked for, is written
+ * first, atomically. `result` (may be NULL) is zeroed, then receives what was written and the
+ * warnings (on failure, those met before it); release its strings with envl_pov_result_free.
+ * Names with control characters cannot be written into the include (ENVL_ERR_ARGUMENT). */
+ENVL_API envl_result envl_pov_include_write(envl_envmap *map, const envl_pov_options *options,
+                                           const char *path, envl_pov_result *result);
+/* Frees the result's strings (sky_file, text, warnings) and sets them to NULL; NULL-safe. */
+ENVL_API void envl_pov_result_free(envl_pov_result *result);
+
 #ifdef __cplusplus
 }
 #endif

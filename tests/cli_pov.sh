@@ -57,6 +57,11 @@ has ir.inc "^EnvLight_Sky()$"
 has ir.inc "EnvLight_Sky_File = \"$PWD/ir_sky.hdr\"; // the residual"
 usage "$ENVLIGHT" pov - $S --recipe custom
 has err.txt "recipe takes auto, dome, dome-ambient, sh or image-radiosity"
+# --recipe auto with -n: the recipe is still picked (a dome here), -n sizes it; when the scene
+# picks the fit, more than 32 lights is a usage error (known once the scene is read)
+run "$ENVLIGHT" pov - $S --recipe auto -n 8 -o auto8.inc
+has auto8.inc "^// 8 lights by variance; ambient none"
+has auto8.inc "^// recipe: dome: no --scene given"
 usage "$ENVLIGHT" pov - $S --recipe
 usage "$ENVLIGHT" pov - $S --scene
 
@@ -66,6 +71,9 @@ run "$ENVLIGHT" pov - $S --scene matte.pov -o matte.inc
 has matte.inc "^// recipe: sh: no object of the scene can shadow another and no finish is glossy"
 has matte.inc "^// scene: 1 object (1 casting shadows), matte finishes only, no ground plane"
 has matte.inc "highlights (no glossy finish in the scene)"
+usage "$ENVLIGHT" pov - $S --scene matte.pov --recipe auto -n 40 -o auto40.inc
+has err.txt "fit takes 1..32 lights, not 40"
+checks=$((checks + 1)); [ ! -e auto40.inc ] || { fails=$((fails + 1)); echo "FAIL: auto40.inc written"; }
 printf 'sphere { <0,1,0>, 1 pigment { rgb 1 } finish { specular 0.5 } }\n' > glossy.pov
 run "$ENVLIGHT" pov - $S --scene glossy.pov -o glossy.inc
 has glossy.inc "^// recipe: dome: glossy finishes: POV-Ray draws highlights from light sources"

@@ -7,6 +7,7 @@ import array
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -548,3 +549,124 @@ def test_sun_lights_through_the_shim():
             approx = np.array(res.irradiance(normals)) + np.array(r.reference_irradiance())
         err = envlight.relative_rms_luminance(approx, env.reference_irradiance())
         assert err == pytest.approx(s["diffuse_error"], rel=1e-6) and err < 1e-3
+
+
+# ---- the POV-Ray include (envl_pov_include_write) -------------------------------------------
+
+POVRAY = shutil.which("povray")
+SPHERE_ON_PLANE = os.path.join(SRC, "povray_include", "examples", "sphere_on_plane.pov")
+# `envlight pov - --sky-width 128 ARGS` and Envmap.pov_include(**KW) on envlight.sky(width=128)
+POV_CASES = [
+    ([], {}),
+    (["--recipe", "sh"], dict(recipe="sh")),
+    (["--recipe", "dome-ambient", "--ground", "0.5"], dict(recipe="dome-ambient", ground=0.5)),
+    (["--recipe", "image-radiosity"], dict(recipe="image-radiosity")),
+    (["--ground", "0.3", "--ambient", "hemi", "--sky", "--exposure", "auto"],
+     dict(ground=0.3, ambient="hemi", sky=True, exposure="auto")),
+    (["--scene", SPHERE_ON_PLANE], dict(scene=SPHERE_ON_PLANE)),
+    (["-n", "8", "--method", "median", "--order", "4", "--shadows", "soft", "--no-place",
+      "--scene-radius", "7", "--exposure", "2"],
+     dict(n=8, method="median", order=4, shadows="soft", place=False, scene_radius=7,
+          exposure=2)),
+    (["--recipe", "auto", "-n", "8"], dict(recipe="auto", n=8)),  # the dome picked, 8 lights
+]
+
+
+def include_lines(text):
+    """The include's lines but what changes from run to run: the command, the seconds."""
+    lines = []
+    for line in text.splitlines():
+        if line.startswith(("// command: ", "#declare EnvLight_Seconds = ")):
+            continue
+        lines.append(re.sub(r"; [0-9.]+ s$", "; (seconds)", line))
+    return lines
+
+
+def povray_parses(inc, folder):
+    """POV-Ray 3.7 parses a scene that includes `inc` (no render: +W8 +H8 -F), as
+    tests/cli_pov.sh does; once more when its threads did not start in time."""
+    with open(os.path.join(folder, "parse.pov"), "w") as f:
+        f.write('#version 3.7;\nglobal_settings { assumed_gamma 1 }\n#include "%s"\n'
+                'camera { location <0,0,-5> look_at 0 }\n'
+                'sphere { 0, 1 EnvLight_Diffuse_Texture(<1,1,1>) }\n' % inc)
+    args = [POVRAY, "+Iparse.pov", "-F", "+W8", "+H8", "-D", "-P",
+            "+L" + os.path.join(SRC, "povray_include")]
+    for _ in range(2):
+        r = subprocess.run(args, cwd=folder, capture_output=True, text=True)
+        if r.returncode == 0 or "Timed out waiting for worker thread" not in r.stderr:
+            break
+    assert r.returncode == 0, r.stderr[-2000:]
+
+
+@pytest.mark.parametrize("args,kw", POV_CASES, ids=[" ".join(a) or "defaults"
+                                                     for a, _ in POV_CASES])
+def test_pov_include_matches_the_cli(args, kw):
+    """Envmap.pov_include writes what `envlight pov` writes for the same options (both through
+    envl_pov_include_write): the same text but the command and the seconds, at the same path
+    (so the same sky image name); its result says what the text says; POV-Ray parses it."""
+    if not CLI:
+        pytest.skip("SKIP: ENVLIGHT (the CLI) not set")
+    folder = os.path.join(TMP, "pov_include")
+    os.makedirs(folder, exist_ok=True)
+    inc = os.path.join(folder, "env.inc")
+    subprocess.run([CLI, "pov", "-", "--sky-width", "128", *args, "-o", inc], check=True,
+                   capture_output=True)
+    with open(inc) as f:
+        cli_text = f.read()
+    with envlight.sky(width=128) as env:
+        res = env.pov_include(inc, **kw)
+        assert res["text"] is None
+        if not (kw.get("sky") or kw.get("recipe") == "image-radiosity"):
+            again = env.pov_include(None, **kw)["text"]  # the text handed back, not written
+            assert include_lines(again) == include_lines(cli_text)
+    with open(inc) as f:
+        text = f.read()
+    assert include_lines(text) == include_lines(cli_text)
+    assert "// command: envl_pov_include_write\n" in text
+    assert "#declare EnvLight_Count = %d;\n" % res["count"] in text
+    assert "#declare EnvLight_Method = \"%s\";\n" % res["method"] in text
+    assert "// recipe: %s: %s\n" % (res["recipe"], res["reason"]) in text
+    error = float(re.search(r"#declare EnvLight_Diffuse_Error = ([^;]*);", text).group(1))
+    assert error == pytest.approx(res["diffuse_error"], rel=1e-8)
+    assert res["ambient"] == (re.search(r'EnvLight_Ambient_Mode = "(\w+)"', text) or
+                              re.search("(none)", "none")).group(1)
+    assert (res["ground"] is None) == ("EnvLight_Ground_Albedo" not in text)
+    if res["sky_file"]:
+        assert os.path.isabs(res["sky_file"]) and os.path.exists(res["sky_file"])
+        assert "#declare EnvLight_Sky_File = \"%s\";" % res["sky_file"] in text
+    if POVRAY:
+        povray_parses(inc, folder)
+    else:
+        print("SKIP: povray absent: the include is not parsed")
+
+
+def test_pov_include_warnings_and_errors():
+    """The warnings come back as lines (the CLI prints them); a failed write leaves the old
+    include as it was."""
+    folder = os.path.join(TMP, "pov_include_warnings")
+    os.makedirs(folder, exist_ok=True)
+    with envlight.sky(width=64) as env:
+        res = env.pov_include(scene=os.path.join(folder, "no_such.pov"))
+        assert len(res["warnings"]) == 1
+        assert res["warnings"][0].startswith("pov: warning: ")
+        assert res["warnings"][0].endswith("; the defaults apply")
+        assert res["recipe"] == "dome"
+        res = env.pov_include(recipe="image-radiosity", ground=0.5,
+                              sky_image=os.path.join(folder, "sky.hdr"))
+        assert res["warnings"] == ["pov: warning: --ground is not used by image-radiosity: "
+                                   "radiosity bounces the scene's own plane"]
+        assert res["ground"] is None and res["sky_file"] == os.path.join(folder, "sky.hdr")
+        inc = os.path.join(folder, "keep.inc")
+        env.pov_include(inc)
+        with open(inc, "rb") as f:
+            before = f.read()
+        with pytest.raises(envlight.ArgumentError, match="control characters"):
+            env.pov_include(inc, sky=True, sky_image=os.path.join(folder, "a\nb.hdr"))
+        with open(inc, "rb") as f:
+            assert f.read() == before
+    black = np.zeros((16, 32, 3), np.float32)
+    with envlight.from_pixels(black) as env:
+        res = env.pov_include(recipe="sh")
+        assert res["no_light"] and res["count"] == 0
+        assert res["warnings"] == ["memory: no light: the environment is black"]
+        assert '#declare EnvLight_Source = "memory";' in res["text"]

@@ -355,6 +355,33 @@ def test_sh_refuses(env, kw, arg, kind):
     refused(lambda: env.sh(**kw).close(), kind, "Envmap.sh: " + arg)
 
 
+POV = [
+    ("n", dict(n=0), ARG),                      # would be the recipe's default
+    ("n", dict(n=BIG + 3), ARG),
+    ("n", dict(n=True), TypeError),
+    ("order", dict(order=9), ARG),
+    ("order", dict(order=-2), ARG),
+    ("ground", dict(ground=1.5), ARG),
+    ("ground", dict(ground=NAN), ARG),
+    ("recipe", dict(recipe="nope"), ARG),
+    ("recipe", dict(recipe=BIG), ARG),
+    ("method", dict(method="sun"), ARG),
+    ("ambient", dict(ambient="nope"), ARG),
+    ("shadows", dict(shadows=1), TypeError),
+    ("exposure", dict(exposure=0), ARG),        # would be "not declared"
+    ("exposure", dict(exposure="bright"), TypeError),
+    ("scene_radius", dict(scene_radius=-1), ARG),
+    ("scene", dict(scene=""), ARG),
+    ("source", dict(source="a\0b"), ARG),
+    ("path", dict(path="a\0b"), ARG),
+]
+
+
+@pytest.mark.parametrize("arg,kw,kind", POV, ids=["%s=%r" % (a, kw) for a, kw, _ in POV])
+def test_pov_include_refuses(env, arg, kw, kind):
+    refused(lambda: env.pov_include(**kw), kind, "Envmap.pov_include: " + arg)
+
+
 PREFILTER = [
     ("sh_order", dict(diffuse=True, sh_order=-1), ARG),
     ("sh_order", dict(diffuse=True, sh_order=33), ARG),

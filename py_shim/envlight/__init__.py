@@ -529,6 +529,80 @@ class Envmap(_Handle):
         _check(lib.envl_sh_compute(self._handle(), byref(o), byref(h)))
         return SHResult(h)
 
+    def pov_include(self, path=None, recipe=None, scene=None, ground=None, method=None,
+                    n=None, order=None, ambient=None, shadows="hard", sky=False,
+                    sky_residual=False, sky_image=None, scene_radius=None, exposure=None,
+                    place=True, source=None, command=None, threads=None):
+        """A POV-Ray 3.7 include for povray_include/envlight.inc (envl_pov_include_write: what
+        `envlight pov` writes, README "POV-Ray"), written atomically to `path`, or returned as
+        text when path is None.
+
+        recipe: 'auto' (from the scene; method, n, order, ambient adjust the recipe picked),
+        'dome', 'dome-ambient', 'sh', 'image-radiosity' or 'custom' (method, n, order, ambient
+        as given); None: 'custom' when one of those is given, else 'auto' (as `envlight pov`
+        without --recipe);
+        scene: the .pov file the include is for (what it uses picks the recipe and the ground);
+        ground: the albedo 0..1 of a ground plane (None: the scene's, if any); method: 'fit',
+        'median' or 'variance'; n: lights 1..65536 (fit 1..32); order: the ambient's SH order
+        -1..8; ambient: 'sh', 'hemi' or 'none'; shadows: 'hard', 'soft' or 'none'; sky: declare
+        the sky (sky_residual: the residual as the sky), its image written to sky_image (None:
+        next to the include, or the map's own lat-long .hdr); scene_radius > 0; exposure: 'auto'
+        or > 0 (None: not declared); place: False only declares; source: the map's name in the
+        include (None: its file); command: the header's command line; a None is the library's
+        default. Returns a dict of envl_pov_result: recipe (name), reason, method, count,
+        ambient, ambient_order, ambient_terms, ambient_least, ambient_negative, bounce, ground
+        (albedo, None without a plane), ground_radiance, diffuse_error, exposure_auto, seconds,
+        no_light, sky_file, text (None when written to path) and warnings (a list of lines)."""
+        f = "Envmap.pov_include"
+        o = _lib.PovOptions()
+        if recipe is not None:
+            o.recipe = A.enum(recipe, f + ": recipe", lib.envl_pov_recipe_from_name,
+                              lib.envl_pov_recipe_name)
+            o.recipe_is_set = 1
+        keep = []  # the bytes the C strings point into, alive until the call returns
+        if scene is not None:
+            keep.append(A.path(scene, f + ": scene"))
+            o.scene_path = keep[-1]
+        if method is not None:
+            o.method = _method(method, f + ": method")
+            if o.method not in (_FIT, lib.envl_method_from_name(b"median"),
+                                lib.envl_method_from_name(b"variance")):
+                raise ArgumentError("%s: method %r: fit, median or variance" % (f, method))
+            o.method_is_set = 1
+        o.count = A.integer(n, f + ": n", 1, 1 << 16, 0, "the recipe's")
+        if order is not None:
+            o.order = A.integer(order, f + ": order", -1, _lib.ENVL_POV_MAX_ORDER)
+            o.order_is_set = 1
+        o.ambient = _choice(ambient, f + ": ambient", _lib.ENVL_POV_AMBIENT, 0)
+        o.shadows = _choice(shadows, f + ": shadows", _lib.ENVL_POV_SHADOWS, 0)
+        if ground is not None:
+            o.ground_albedo = A.real(ground, f + ": ground", 0.0, 1.0)
+            o.ground_plane = 1
+        o.sky = A.flag(sky, f + ": sky")
+        o.sky_residual = A.flag(sky_residual, f + ": sky_residual")
+        if sky_image is not None:
+            keep.append(A.path(sky_image, f + ": sky_image"))
+            o.sky_image = keep[-1]
+        o.scene_radius = A.real(scene_radius, f + ": scene_radius", above=0.0, hi=1e12,
+                                default=0.0, note="the default 100")
+        if isinstance(exposure, str) and exposure == "auto":
+            o.exposure = _lib.ENVL_POV_EXPOSURE_AUTO
+        else:
+            o.exposure = A.real(exposure, f + ": exposure", above=0.0, hi=1e12, default=0.0,
+                                note="not declared")
+        o.no_place = 0 if A.flag(place, f + ": place") else 1
+        o.source = A.text(source, f + ": source", None)
+        o.command = A.text(command, f + ": command", None)
+        o.threads = _threads(threads, f + ": threads")
+        out = A.path(path, f + ": path") if path is not None else None
+        res = _lib.PovResult()
+        rc = lib.envl_pov_include_write(self._handle(), byref(o), out, byref(res))
+        try:
+            _check(rc)
+            return _pov_result(res)
+        finally:
+            lib.envl_pov_result_free(byref(res))
+
 
     @staticmethod
     def _prefilter_options(f, levels=None, width=None, min_width=None, samples=None,
@@ -611,6 +685,38 @@ class Envmap(_Handle):
             return _image(p, st.width, st.height), _level_dict(st, with_rgb=False)
         finally:
             lib.envl_free(p)
+
+
+def _choice(value, what, table, default):
+    """A name of `table` (None: default) -> its value."""
+    if value is None:
+        return default
+    if not isinstance(value, str):
+        raise TypeError("%s must be a name (%s), not %s"
+                        % (what, ", ".join(table), type(value).__name__))
+    if value not in table:
+        func, _, arg = what.rpartition(": ")
+        raise ArgumentError("%s: unknown %s %r (%s)" % (func, arg, value, ", ".join(table)))
+    return table[value]
+
+
+def _pov_result(r):
+    """envl_pov_result -> dict (names for the enums)."""
+    ambient = {v: k for k, v in _lib.ENVL_POV_AMBIENT.items()}
+    return {
+        "recipe": _str(lib.envl_pov_recipe_name(r.recipe)), "reason": _str(r.reason),
+        "method": _str(lib.envl_method_name(r.method)), "count": r.count,
+        "ambient": ambient.get(r.ambient, "none"), "ambient_order": r.ambient_order,
+        "ambient_terms": r.ambient_terms, "ambient_least": r.ambient_least,
+        "ambient_negative": r.ambient_negative, "bounce": bool(r.bounce),
+        "ground": r.ground_albedo if r.ground_plane else None,
+        "ground_radiance": _t(r.ground_radiance), "diffuse_error": r.diffuse_error,
+        "exposure_auto": r.exposure_auto, "seconds": r.seconds, "no_light": bool(r.no_light),
+        # a file name's bytes kept as os.fsdecode keeps them
+        "sky_file": r.sky_file.decode("utf-8", "surrogateescape") if r.sky_file else None,
+        "text": r.text.decode("utf-8", "surrogateescape") if r.text is not None else None,
+        "warnings": _str(r.warnings).splitlines() if r.warnings else [],
+    }
 
 
 def _level_dict(st, with_rgb=True):

@@ -262,6 +262,57 @@ class PreviewOptions(Structure):
     ]
 
 
+class PovOptions(Structure):
+    _fields_ = [
+        ("recipe", c_int32),
+        ("recipe_is_set", c_int32),
+        ("scene_path", c_char_p),
+        ("method", c_int32),
+        ("method_is_set", c_int32),
+        ("count", c_int32),
+        ("ambient", c_int32),
+        ("order", c_int32),
+        ("order_is_set", c_int32),
+        ("ground_plane", c_int32),
+        ("ground_albedo", c_double),
+        ("shadows", c_int32),
+        ("sky", c_int32),
+        ("sky_residual", c_int32),
+        ("sky_image", c_char_p),
+        ("scene_radius", c_double),
+        ("exposure", c_double),
+        ("no_place", c_int32),
+        ("source", c_char_p),
+        ("command", c_char_p),
+        ("threads", c_int32),
+    ]
+
+
+class PovResult(Structure):
+    _fields_ = [
+        ("recipe", c_int32),
+        ("reason", c_char * 320),
+        ("method", c_int32),
+        ("count", c_int32),
+        ("ambient", c_int32),
+        ("ambient_order", c_int32),
+        ("ambient_terms", c_int32),
+        ("ambient_least", c_double),
+        ("ambient_negative", c_int32),
+        ("bounce", c_int32),
+        ("ground_plane", c_int32),
+        ("ground_albedo", c_double),
+        ("ground_radiance", c_double * 3),
+        ("diffuse_error", c_double),
+        ("exposure_auto", c_double),
+        ("seconds", c_double),
+        ("no_light", c_int32),
+        ("sky_file", c_char_p),
+        ("text", c_char_p),
+        ("warnings", c_char_p),
+    ]
+
+
 #: Every public struct mirrored here, by its C name (the tests compare sizes and offsets
 #: against the C compiler's).
 STRUCTS = {
@@ -282,6 +333,8 @@ STRUCTS = {
     "envl_products_summary": ProductsSummary,
     "envl_export_options": ExportOptions,
     "envl_preview_options": PreviewOptions,
+    "envl_pov_options": PovOptions,
+    "envl_pov_result": PovResult,
 }
 
 # ---- the one table of functions: name -> (restype, argtypes) -------------------------------
@@ -387,6 +440,11 @@ FUNCTIONS = {
     # FILE *notes: c_void_p (NULL from Python)
     "envl_preview_write": (_R, [_map, POINTER(PreviewOptions), c_char_p, c_void_p,
                                 POINTER(c_int32), POINTER(c_int32)]),
+    # the POV-Ray include
+    "envl_pov_recipe_name": (c_char_p, [c_int32]),
+    "envl_pov_recipe_from_name": (c_int32, [c_char_p]),
+    "envl_pov_include_write": (_R, [_map, POINTER(PovOptions), c_char_p, POINTER(PovResult)]),
+    "envl_pov_result_free": (None, [POINTER(PovResult)]),
 }
 
 # Constants of envlight.h the Python side uses.
@@ -397,6 +455,10 @@ ENVL_ORDER_0 = -2
 ENVL_ERROR_NORMALS = 1024
 ENVL_PIXEL_FLOAT = 0
 ENVL_PIXEL_HALF = 1
+ENVL_POV_AMBIENT = {"sh": 1, "hemi": 2, "none": 3}      # ENVL_POV_AMBIENT_* (0: auto)
+ENVL_POV_SHADOWS = {"hard": 0, "soft": 1, "none": 2}    # ENVL_POV_SHADOWS_*
+ENVL_POV_EXPOSURE_AUTO = -1.0
+ENVL_POV_MAX_ORDER = 8
 
 
 def _candidates():

@@ -130,6 +130,7 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
     info->has_primaries = img->meta.has_primaries;
     memcpy(info->primaries, img->meta.primaries, sizeof info->primaries);
     info->rotate_degrees = o->rotate_degrees;
+    m->apply_exposure = o->apply_exposure != 0;
     m->threads = envl__threads(o->threads);
 
     envl_result rc = sanitise(img, o->strict, file, info);

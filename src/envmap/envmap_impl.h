@@ -13,6 +13,9 @@ struct envl_envmap {
     double *col_cos;      /* cos(phi) at each column's centre */
     double *col_sin;      /* sin(phi) */
     envl_info info;
+    int32_t apply_exposure; /* the load option apply_exposure was given: the pixels may be the
+                               file's divided by its EXPOSURE (the POV-Ray include then does
+                               not name the file as its sky) */
     int32_t threads;
     double *reference;    /* cached exact irradiance at the ENVL_ERROR_NORMALS Fibonacci normals */
     double *region_table; /* cached region table of the lights (region_table.c) */

@@ -1,4 +1,4 @@
-/* Which lighting recipe `envlight pov` writes, from what the scene uses (README, "POV-Ray").
+/* Which lighting recipe the POV-Ray include uses, from what the scene uses (README, "POV-Ray").
  *
  * The scene benchmark (scripts/scene_bench.py --host pov, docs/scene_bench_pov.md) decides:
  * an ambient term (SH, hemispheric, or the ground's bounce as one) cannot be shadowed, so on
@@ -15,12 +15,17 @@ static const char *const names[POV_RECIPE_COUNT] = {"auto",         "custom",
                                                     "sh",           "dome",
                                                     "dome-ambient", "image-radiosity"};
 
-int pov_recipe_from_name(const char *name)
+int32_t envl_pov_recipe_from_name(const char *name)
 {
-    for (int r = 0; r < POV_RECIPE_COUNT; r++)
-        if (r != POV_RECIPE_CUSTOM && !strcmp(name, names[r]))
+    for (int r = 0; name && r < POV_RECIPE_COUNT; r++)
+        if (!strcmp(name, names[r]))
             return r;
     return -1;
+}
+
+const char *envl_pov_recipe_name(int32_t recipe)
+{
+    return recipe >= 0 && recipe < POV_RECIPE_COUNT ? names[recipe] : NULL;
 }
 
 const char *pov_recipe_name(int recipe)

@@ -1,26 +1,33 @@
-/* Which lighting recipe `envlight pov` writes for a scene, and why (pov_recipe.c). */
+/* Which lighting recipe the POV-Ray include uses for a scene, and why (pov_recipe.c).
+ * Not installed. */
 #ifndef ENVL_POV_RECIPE_H
 #define ENVL_POV_RECIPE_H
 
+#include "envlight.h"
 #include "pov_scene.h"
 
 #include <stddef.h>
 
+/* The public ENVL_POV_RECIPE_* values. */
 enum {
-    POV_RECIPE_AUTO,            /* pick one of the three below from the scene */
-    POV_RECIPE_CUSTOM,          /* --method / -n / --ambient / --order given without --recipe */
-    POV_RECIPE_SH,              /* fit 4 + SH ambient: exact for unoccluded normals */
-    POV_RECIPE_DOME,            /* median-cut lights of the sky with shadows + radiosity for
-                                   the bounces between surfaces (no sky in it) */
-    POV_RECIPE_DOME_AMBIENT,    /* the same lights, the ground's bounce as an ambient instead
-                                   of radiosity (unshadowed) */
-    POV_RECIPE_IMAGE_RADIOSITY, /* fit 4 + the residual sky under radiosity */
-    POV_RECIPE_COUNT
+    POV_RECIPE_AUTO = ENVL_POV_RECIPE_AUTO,       /* pick one of the three below from the scene */
+    POV_RECIPE_CUSTOM = ENVL_POV_RECIPE_CUSTOM,   /* method / count / ambient / order given
+                                                     without a recipe */
+    POV_RECIPE_SH = ENVL_POV_RECIPE_SH,           /* fit 4 + SH ambient: exact for unoccluded
+                                                     normals */
+    POV_RECIPE_DOME = ENVL_POV_RECIPE_DOME,       /* cut lights of the sky with shadows +
+                                                     radiosity for the bounces between surfaces
+                                                     (no sky in it) */
+    POV_RECIPE_DOME_AMBIENT = ENVL_POV_RECIPE_DOME_AMBIENT, /* the same lights, the ground's
+                                                     bounce as an ambient instead of radiosity
+                                                     (unshadowed) */
+    POV_RECIPE_IMAGE_RADIOSITY = ENVL_POV_RECIPE_IMAGE_RADIOSITY, /* fit 4 + the residual sky
+                                                     under radiosity */
+    POV_RECIPE_COUNT = ENVL_POV_RECIPE_COUNT
 };
 
-/* "auto", "custom", "sh", "dome", "dome-ambient", "image-radiosity"; from_name: -1 for anything else
- * ("custom" is not a name a user gives). */
-int pov_recipe_from_name(const char *name);
+/* "auto", "custom", "sh", "dome", "dome-ambient", "image-radiosity"; "?" for anything else
+ * (envl_pov_recipe_name and envl_pov_recipe_from_name are the public forms). */
 const char *pov_recipe_name(int recipe);
 
 /* The recipe for a scene (NULL: none given) and the shadows asked for (0: shadowless lights);

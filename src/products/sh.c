@@ -11,6 +11,7 @@
 #include "clock.h"
 #include "options.h"
 #include "sh_basis.h"
+#include "sh_forms.h"
 
 #include <float.h>
 #include <math.h>
@@ -355,6 +356,38 @@ static void hemi_pair(double a, double b, double *sky, double *ground)
     *ground = b > 0 ? 0 : lit;
 }
 
+void envl__sh_artist_forms(int32_t order, const double *irradiance, double ambient[3],
+                           double deltas[3][3], double axis[3], double sky[3], double ground[3])
+{
+    /* E(n) ~ Y00 E00 + 0.488603 (E11 x + E1-1 y + E10 z) */
+    const double y00 = 0.28209479177387814, y1 = 0.4886025119029199;
+    double amb[3], d[3][3], dy[3];
+    for (int ch = 0; ch < 3; ch++) {
+        amb[ch] = y00 * irradiance[ch];
+        d[0][ch] = order >= 1 ? y1 * irradiance[3 * 3 + ch] : 0;
+        d[1][ch] = order >= 1 ? y1 * irradiance[3 * 1 + ch] : 0;
+        d[2][ch] = order >= 1 ? y1 * irradiance[3 * 2 + ch] : 0;
+    }
+    for (int a = 0; a < 3; a++)
+        dy[a] = envl__lum(d[a][0], d[a][1], d[a][2]);
+    double len = sqrt(dy[0] * dy[0] + dy[1] * dy[1] + dy[2] * dy[2]);
+    /* Hemispheric: axis along the luminance gradient (up when there is none); per channel
+     * the best fit of c0 + c1 (axis . n) is c0 = ambient, c1 = deltas . axis, unless that
+     * makes sky or ground negative (hemi_pair: never negative). */
+    for (int a = 0; a < 3; a++)
+        axis[a] = len > 0 ? dy[a] / len : (a == 2);
+    for (int ch = 0; ch < 3; ch++) {
+        double c1 = 0;
+        for (int a = 0; a < 3; a++)
+            c1 += d[a][ch] * axis[a];
+        hemi_pair(amb[ch], c1, &sky[ch], &ground[ch]);
+    }
+    if (ambient)
+        memcpy(ambient, amb, sizeof amb);
+    if (deltas)
+        memcpy(deltas, d, sizeof d);
+}
+
 /* Every number a product carries must be finite (a map near FLT_MAX could overflow). */
 static int all_finite(const double *v, size_t n)
 {
@@ -436,30 +469,8 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
     }
     s->seconds = envl__seconds() - t0;
 
-    /* Artist forms from bands 0 and 1 (the least-squares linear fit over the sphere, by
-     * orthogonality): E(n) ~ Y00 E00 + 0.488603 (E11 x + E1-1 y + E10 z). */
-    const double y00 = 0.28209479177387814, y1 = 0.4886025119029199;
-    double dy[3] = {0, 0, 0};
-    for (int ch = 0; ch < 3; ch++) {
-        s->ambient[ch] = y00 * sh->irradiance[ch];
-        s->deltas[0][ch] = L >= 1 ? y1 * sh->irradiance[3 * 3 + ch] : 0;
-        s->deltas[1][ch] = L >= 1 ? y1 * sh->irradiance[3 * 1 + ch] : 0;
-        s->deltas[2][ch] = L >= 1 ? y1 * sh->irradiance[3 * 2 + ch] : 0;
-    }
-    for (int a = 0; a < 3; a++)
-        dy[a] = envl__lum(s->deltas[a][0], s->deltas[a][1], s->deltas[a][2]);
-    double len = sqrt(dy[0] * dy[0] + dy[1] * dy[1] + dy[2] * dy[2]);
-    /* Hemispheric: axis along the luminance gradient (up when there is none); per channel
-     * the best fit of c0 + c1 (axis . n) is c0 = ambient, c1 = deltas . axis, unless that
-     * makes sky or ground negative (hemi_pair: never negative). */
-    for (int a = 0; a < 3; a++)
-        s->hemi_axis[a] = len > 0 ? dy[a] / len : (a == 2);
-    for (int ch = 0; ch < 3; ch++) {
-        double c1 = 0;
-        for (int a = 0; a < 3; a++)
-            c1 += s->deltas[a][ch] * s->hemi_axis[a];
-        hemi_pair(s->ambient[ch], c1, &s->hemi_sky[ch], &s->hemi_ground[ch]);
-    }
+    envl__sh_artist_forms(L, sh->irradiance, s->ambient, s->deltas, s->hemi_axis, s->hemi_sky,
+                          s->hemi_ground);
 
     /* Error of the irradiance reconstruction against the exact integrator. */
     const double *ref;

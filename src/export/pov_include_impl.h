@@ -1,0 +1,82 @@
+/* What the POV-Ray include's call (pov_include.c) and its text (pov_text.c) share: the plan
+ * (the options resolved) and the work (what was computed). Not installed. */
+#ifndef ENVL_POV_INCLUDE_IMPL_H
+#define ENVL_POV_INCLUDE_IMPL_H
+
+#include "internal.h"
+#include "pov_ambient.h"
+#include "pov_recipe.h"
+
+#include <stdio.h>
+
+/* The dome's own (unoccluded) diffuse error it grows until it meets: its lights are a
+ * quadrature of the sky, and this keeps that part well below the in-scene errors. */
+#define POV_DOME_ERROR 0.005
+/* The dome under radiosity: its lights are also what each radiosity sample gathers, so their
+ * number sets the cost. Variance cut (whose regions follow the sky's spread, not its energy:
+ * 0.75-1.3 % unoccluded error with 32 lights where median cut has 2.1-3.9 %), 32 lights, or 64
+ * where 32 leave more than POV_DOME_BOUNCE_ERROR: the scene benchmark's choice
+ * (docs/scene_bench_pov.md). */
+#define POV_DOME_BOUNCE_ERROR 0.01
+/* ENVL_POV_EXPOSURE_AUTO: the value a white surface facing up shows (sRGB ~0.8 in an 8-bit
+ * image). */
+#define POV_AUTO_WHITE 0.6
+/* The include's EnvLight_Shadows: 0 none, 1 hard, 2 soft. */
+enum { SHADOW_NONE, SHADOW_HARD, SHADOW_SOFT };
+
+/* The plan: the options resolved (the scene read, the recipe, the lights, the ambient). */
+typedef struct pov_plan {
+    int recipe;
+    char why[320];
+    pov_scene scene_uses;
+    const pov_scene *scene;   /* NULL: none given or unreadable */
+    envl_lights_options lo;
+    int order, order_set, ambient, ambient_set, shadows;
+    int sky, sky_residual, place, dome_auto_count, bounce;
+    double ground;            /* < 0: no ground plane */
+    const char *ground_from;  /* where the ground came from, for the header; NULL: none */
+    double radius, exposure;
+    const char *source, *command, *sky_image;
+    FILE *warn;               /* the warnings, a line each */
+} pov_plan;
+
+/* The work: what was computed for the plan. */
+typedef struct pov_work {
+    envl_envmap *map;         /* the environment as read (info, the sky image) */
+    envl_envmap *lit;         /* what the objects see: map, or with a ground the map over it */
+    envl_envmap *cut_map;     /* where the lights come from (a dome over a ground: the sky half) */
+    envl_envmap *grounded, *sky_half, *residual; /* owned */
+    envl_info info;
+    envl_lights *ls;
+    envl_lights_summary s;
+    envl_sh *sh;              /* the residual's SH, when that is the ambient */
+    const double *ref;        /* exact irradiance at the 1024 normals of what is measured */
+    double *emit;             /* 1024 x RGB */
+    const double *rem;        /* the fit's remainder, or NULL */
+    int32_t rem_order;        /* its order */
+    int amb_order;            /* the ambient's SH order, -1: none */
+    const double *amb_sh;     /* its irradiance SH: ground_sh, rem or the residual's */
+    double ground_sh[4 * 3];
+    double ground_radiance[3];
+    pov_ridge rd;
+    double hemi_axis[3], hemi_sky[3], hemi_ground[3];
+    double error, amb_least, exposure_auto, seconds;
+    int amb_negative;
+    char *sky_path;           /* the sky image, NULL without a sky */
+    int sky_use_input;        /* 1: the map's own .hdr file is the sky image */
+    double sky_rotate;
+} pov_work;
+
+/* A POV-Ray string literal cannot hold control characters. */
+static inline int pov_string_ok(const char *s)
+{
+    for (const unsigned char *q = (const unsigned char *)s; *q; q++)
+        if (*q < 0x20 || *q == 0x7f)
+            return 0;
+    return 1;
+}
+
+/* The whole include, in memory (*text, *size; NUL-terminated): ENVL_OK or ENVL_ERR_MEMORY. */
+envl_result pov_text_build(const pov_plan *p, const pov_work *w, char **text, size_t *size);
+
+#endif

@@ -1,0 +1,358 @@
+/* The POV-Ray include's text (envl_pov_include_write, pov_include.c): the header that states
+ * the source, the recipe and why, the error and the seconds; the declarations of the lights,
+ * the ambient and the sky; envlight.inc and the calls that place them. POV-Ray's frame is
+ * left-handed, +Y up: a canonical vector (x, y, z) is written <x, z, y>. */
+#include "pov_include_impl.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* A POV-Ray string literal: quotes, with \ and " escaped (pov_string_ok checked first). */
+static void pov_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; *s; s++) {
+        if (*s == '\\' || *s == '"')
+            fputc('\\', f);
+        fputc(*s, f);
+    }
+    fputc('"', f);
+}
+
+/* Text inside a // comment: control characters (a newline would end the comment) become '?'. */
+static void pov_comment_text(FILE *f, const char *s)
+{
+    for (const unsigned char *q = (const unsigned char *)s; *q; q++)
+        fputc(*q < 0x20 || *q == 0x7f ? '?' : *q, f);
+}
+
+/* Canonical (x, y, z) -> POV-Ray <x, z, y>. */
+static void pov_vector(FILE *f, const double v[3])
+{
+    fprintf(f, "<%.9g, %.9g, %.9g>", v[0], v[2], v[1]);
+}
+
+static void pov_rgb(FILE *f, const double c[3], double scale)
+{
+    fprintf(f, "<%.9g, %.9g, %.9g>", c[0] * scale, c[1] * scale, c[2] * scale);
+}
+
+static const char *const amb_names[] = {"?", "sh", "hemi", "none"};
+
+/* Source, command, lights and ambient. */
+static void text_header(FILE *f, const pov_plan *p, const pov_work *w)
+{
+    const envl_info *in = &w->info;
+    fprintf(f, "// envlight %s: POV-Ray 3.7 include, for povray_include/envlight.inc\n",
+            envl_version_string());
+    fputs("// source: ", f);
+    pov_comment_text(f, p->source);
+    fprintf(f, " (%s, %d x %d canonical lat-long, rotated %.9g degrees about +Z)\n", in->format,
+            (int)in->width, (int)in->height, in->rotate_degrees);
+    fputs("// command: ", f);
+    pov_comment_text(f, p->command);
+    static const char *shadow_names[] = {"none", "hard", "soft"};
+    fprintf(f, "\n// %d lights by %s%s; ambient %s", (int)w->s.count,
+            envl_method_name(w->s.method), w->rem ? " (+ SH remainder)" : "",
+            amb_names[p->ambient]);
+    if (p->ambient != ENVL_POV_AMBIENT_NONE)
+        fprintf(f, " (%s order %d, %d slope terms)",
+                w->amb_sh == w->ground_sh ? "the ground's bounce,"
+                : w->rem                  ? "fit remainder"
+                                          : "residual SH",
+                w->amb_order, w->rd.terms);
+    fprintf(f, "; shadows %s\n", shadow_names[p->shadows]);
+    if (p->ambient != ENVL_POV_AMBIENT_NONE) {
+        fprintf(f, "// ambient %s: least irradiance %.6g in a channel at 4096 normals",
+                p->ambient == ENVL_POV_AMBIENT_HEMI ? "(sky/ground: the best fit with both >= 0)"
+                : w->amb_sh == w->ground_sh         ? "(the ground's bounce: never negative)"
+                : w->sh && w->amb_sh == envl_sh_irradiance(w->sh)
+                    ? "(SH window auto: never negative)"
+                    : "(the fit's SH remainder, as fitted)",
+                w->amb_least);
+        if (w->amb_negative)
+            fprintf(f, ": NEGATIVE at %d of them (POV-Ray takes light away there)",
+                    w->amb_negative);
+        fputc('\n', f);
+    }
+}
+
+/* What was skipped, and why (a line of the recipe's account). */
+static void text_skipped(FILE *f, const pov_plan *p)
+{
+    int recipe = p->recipe, bounce = p->bounce, any = 0;
+    fputs("// skipped:", f);
+    if (!p->ground_from && recipe != POV_RECIPE_IMAGE_RADIOSITY && !bounce) {
+        fputs(" the ground's bounce (no ground plane: --ground ALBEDO or a plane in --scene);", f);
+        any = 1;
+    }
+    if (p->ambient == ENVL_POV_AMBIENT_NONE && recipe != POV_RECIPE_IMAGE_RADIOSITY) {
+        fputs(bounce ? " an ambient (the lights take the whole sky, radiosity the bounces);"
+                     : " an ambient (the lights take the whole sky);", f);
+        any = 1;
+    }
+    if (recipe == POV_RECIPE_DOME && !bounce) {
+        fputs(" radiosity for bounces (one object: nothing to bounce between);", f);
+        any = 1;
+    }
+    if (!p->sky) {
+        fputs(" the sky image (not asked for: --sky);", f);
+        any = 1;
+    }
+    if (recipe != POV_RECIPE_IMAGE_RADIOSITY && recipe != POV_RECIPE_DOME) {
+        fputs(" radiosity (not needed);", f);
+        any = 1;
+    }
+    if (p->scene && !p->scene->glossy) {
+        fputs(" highlights (no glossy finish in the scene);", f);
+        any = 1;
+    }
+    fputs(any ? "\n" : " nothing\n", f);
+}
+
+/* The header's account of the recipe: which, why, what the scene gets and what was skipped,
+ * and the in-scene error the scene benchmark measured for it. */
+static void text_recipe(FILE *f, const pov_plan *p, const pov_work *w)
+{
+    const pov_scene *scene = p->scene;
+    fprintf(f, "// recipe: %s: %s\n", pov_recipe_name(p->recipe), p->why);
+    if (p->bounce)
+        fputs("//   bounces: radiosity with no sky in it (EnvLight_Bounce_Settings(): recursion "
+              "2, count 50),\n//   the lights' light gathered from the surfaces it reached "
+              "(occluded like the lights)\n", f);
+    if (p->dome_auto_count && w->s.count)
+        fprintf(f, "//   dome of %d lights: the smallest of %s whose diffuse error is within "
+                "%.1f %%\n", (int)w->s.count, p->bounce ? "32, 64" : "64, 128, 256",
+                100 * (p->bounce ? POV_DOME_BOUNCE_ERROR : POV_DOME_ERROR));
+    if (scene)
+        fprintf(f, "// scene: %d object%s (%d casting shadows)%s%s%s\n", scene->objects,
+                scene->objects == 1 ? "" : "s", scene->casters,
+                scene->glossy ? ", glossy finishes" : ", matte finishes only",
+                scene->ground ? ", a ground plane" : ", no ground plane",
+                scene->radiosity ? ", radiosity" : "");
+    if (p->ground_from)
+        fprintf(f, "// ground: albedo from %s\n", p->ground_from);
+    text_skipped(f, p);
+    /* the dome's figures are those of the dome with its bounce pass */
+    const char *expected = p->recipe == POV_RECIPE_DOME && !p->bounce
+                               ? NULL
+                               : pov_recipe_expected_error(p->recipe);
+    fprintf(f, "// in-scene error to expect (scene benchmark, not this map): %s\n",
+            expected ? expected : "not measured for this recipe");
+}
+
+/* The ground plane, the error and the seconds; the frames and units. */
+static void text_error(FILE *f, const pov_plan *p, const pov_work *w)
+{
+    const double *g = w->ground_radiance;
+    if (w->grounded && p->bounce) {
+        fprintf(f, "// ground plane (canonical z = 0, POV-Ray y = 0), albedo %.9g: the lights "
+                "come from the sky\n//   above it; its bounce (albedo * E_up / pi = <%.6g, "
+                "%.6g, %.6g> unoccluded) is radiosity's\n", p->ground, g[0], g[1], g[2]);
+    } else if (w->grounded) {
+        fprintf(f, "// ground plane (canonical z = 0, POV-Ray y = 0), albedo %.9g: the lower "
+                "hemisphere\n//   is its radiance albedo * E_up / pi = <%.6g, %.6g, %.6g>; "
+                "lights, ambient and\n//   error are those of the map so edited\n", p->ground,
+                g[0], g[1], g[2]);
+    }
+    fprintf(f, "// diffuse error %.4f %% (lights + ambient as written, against the exact "
+            "integrator%s,\n//   relative RMS luminance over 1024 normals, unoccluded); "
+            "%.3f s\n", 100 * w->error,
+            p->bounce ? (w->grounded ? " of the sky half: the bounces are radiosity's"
+                                     : ": the bounces are radiosity's")
+                      : "",
+            w->seconds);
+    fputs("//\n"
+          "// Frames: the canonical frame is Blender's (right-handed, +Z up); POV-Ray's is\n"
+          "// left-handed, +Y up. A canonical vector (x, y, z) is the POV-Ray vector <x, z, y>.\n"
+          "// Sky: the canonical lat-long image has u = 0 -> -X, 0.25 -> +Y, 0.5 -> +X,\n"
+          "// 0.75 -> -Y (canonical), i.e. POV-Ray -X, +Z, +X, -Z; a map_type 1 image_map puts\n"
+          "// u = 0 at +X, 0.25 at +Z, 0.5 at -X, 0.75 at -Z. They differ by the mirror\n"
+          "// x -> -x: EnvLight_Sky() uses `scale <-1, 1, 1>` (= a mirror in z and a half\n"
+          "// turn), then `rotate -EnvLight_Sky_Rotate * y` for a --rotate of the source.\n"
+          "// Units: a light's rgb is the irradiance it delivers (sum of L dw); its POV-Ray\n"
+          "// colour is rgb / pi (a light_source colour C on diffuse 1 gives radiance C cos).\n",
+          f);
+    if (p->ambient != ENVL_POV_AMBIENT_NONE)
+        fputs("// The ambient irradiance E(n) = sum_k sum_l EnvLight_Ambient_Coef[k][l]\n"
+              "//   * P_l(EnvLight_Ambient_Direction[k] . n) (P_l Legendre), in POV-Ray's "
+              "frame.\n", f);
+}
+
+/* The declarations about the source, the ground and the scene. */
+static void text_scene(FILE *f, const pov_plan *p, const pov_work *w)
+{
+    fputs("#ifndef (EnvLight_Generated_Inc_Temp)\n"
+          "#declare EnvLight_Generated_Inc_Temp = 1;\n", f);
+    fputs("#declare EnvLight_Source = ", f);
+    pov_string(f, p->source);
+    fprintf(f, ";\n#declare EnvLight_Rotate = %.9g; // degrees about canonical +Z (POV-Ray +Y)\n",
+            w->info.rotate_degrees);
+    fprintf(f, "#declare EnvLight_Method = \"%s\";\n", envl_method_name(w->s.method));
+    fprintf(f, "#declare EnvLight_Diffuse_Error = %.9g;\n", w->error);
+    fprintf(f, "#declare EnvLight_Seconds = %.6g;\n", w->seconds);
+    if (w->grounded) {
+        fprintf(f, "#declare EnvLight_Ground_Albedo = %.9g;\n", p->ground);
+        fputs("#declare EnvLight_Ground_Radiance = ", f);
+        pov_rgb(f, w->ground_radiance, 1);
+        fputs("; // below the horizon: albedo * E_up / pi\n", f);
+    }
+    fprintf(f, "#ifndef (EnvLight_Scene_Center) #declare EnvLight_Scene_Center = <0, 0, 0>; "
+               "#end\n");
+    fprintf(f, "#ifndef (EnvLight_Scene_Radius) #declare EnvLight_Scene_Radius = %.9g; #end\n",
+            p->radius);
+    fprintf(f, "#ifndef (EnvLight_Shadows) #declare EnvLight_Shadows = %d; #end "
+               "// 0 none, 1 hard, 2 soft\n", p->shadows);
+}
+
+/* The lights: five arrays, one value per light. */
+static void text_lights(FILE *f, const pov_work *w)
+{
+    int count = (int)w->s.count;
+    fprintf(f, "#declare EnvLight_Count = %d;\n", count);
+    if (count <= 0)
+        return;
+    static const char *names[] = {"EnvLight_Direction", "EnvLight_Colour",
+                                  "EnvLight_Irradiance", "EnvLight_Solid_Angle",
+                                  "EnvLight_Angle"};
+    static const char *notes[] = {"unit, towards the light, POV-Ray frame",
+                                  "light_source colour = rgb / pi",
+                                  "rgb: irradiance at normal incidence",
+                                  "sr, of the region the light took",
+                                  "angular diameter, degrees"};
+    for (int a = 0; a < 5; a++) {
+        fprintf(f, "#declare %s = array[%d] { // %s\n", names[a], count, notes[a]);
+        for (int j = 0; j < count; j++) {
+            envl_light l;
+            envl_lights_get(w->ls, j, &l);
+            fputs("  ", f);
+            if (a == 0)
+                pov_vector(f, l.direction);
+            else if (a == 1)
+                pov_rgb(f, l.rgb, 1 / ENVL_PI);
+            else if (a == 2)
+                pov_rgb(f, l.rgb, 1);
+            else if (a == 3)
+                fprintf(f, "%.9g", l.solid_angle);
+            else
+                fprintf(f, "%.9g", l.angle * 180 / ENVL_PI);
+            fputs(j + 1 < count ? ",\n" : "\n", f);
+        }
+        fputs("};\n", f);
+    }
+}
+
+/* The ambient: its SH (or hemispheric form), then its ridge functions. */
+static void text_ambient(FILE *f, const pov_plan *p, const pov_work *w)
+{
+    if (p->ambient == ENVL_POV_AMBIENT_NONE)
+        return;
+    fprintf(f, "#declare EnvLight_Ambient_Mode = \"%s\";\n", amb_names[p->ambient]);
+    if (p->ambient == ENVL_POV_AMBIENT_SH) {
+        int n = (w->amb_order + 1) * (w->amb_order + 1);
+        fprintf(f, "#declare EnvLight_Ambient_SH_Order = %d;\n", w->amb_order);
+        fprintf(f, "// irradiance SH, canonical frame (Blender, +Z up), docs/design.md's basis\n");
+        fprintf(f, "#declare EnvLight_Ambient_SH = array[%d] {\n", n);
+        for (int j = 0; j < n; j++) {
+            fputs("  ", f);
+            pov_rgb(f, w->amb_sh + 3 * j, 1);
+            fputs(j + 1 < n ? ",\n" : "\n", f);
+        }
+        fputs("};\n", f);
+    } else {
+        fputs("#declare EnvLight_Hemi_Axis = ", f);
+        pov_vector(f, w->hemi_axis);
+        fputs(";\n#declare EnvLight_Hemi_Sky = ", f);
+        pov_rgb(f, w->hemi_sky, 1);
+        fputs("; // irradiance at n = axis\n#declare EnvLight_Hemi_Ground = ", f);
+        pov_rgb(f, w->hemi_ground, 1);
+        fputs("; // at n = -axis\n", f);
+    }
+    const pov_ridge *rd = &w->rd;
+    fprintf(f, "#declare EnvLight_Ambient_Terms = %d;\n", rd->terms);
+    fprintf(f, "#declare EnvLight_Ambient_Order = %d;\n", rd->order);
+    fprintf(f, "#declare EnvLight_Ambient_Direction = array[%d] {\n", rd->terms);
+    for (int k = 0; k < rd->terms; k++) {
+        fputs("  ", f);
+        pov_vector(f, rd->dir[k]);
+        fputs(k + 1 < rd->terms ? ",\n" : "\n", f);
+    }
+    fprintf(f, "};\n#declare EnvLight_Ambient_Coef = array[%d][%d] {\n", rd->terms,
+            rd->order + 1);
+    for (int k = 0; k < rd->terms; k++) {
+        fputs("  {", f);
+        for (int l = 0; l <= rd->order; l++) {
+            pov_rgb(f, rd->coef[k][l], 1);
+            fputs(l < rd->order ? ", " : "", f);
+        }
+        fputs(k + 1 < rd->terms ? "},\n" : "}\n", f);
+    }
+    fputs("};\n", f);
+}
+
+/* `#include "envlight.inc"`: from POV-Ray's library path (+L) when it is there, else from
+ * this build's povray_include/ (so a scene renders without +L). */
+static void text_include_envlight(FILE *f)
+{
+#ifdef ENVL_POV_INCLUDE_DIR
+    const char *path = ENVL_POV_INCLUDE_DIR "/envlight.inc";
+    if (access(path, R_OK) == 0 && pov_string_ok(path)) {
+        fputs("#if (file_exists(\"envlight.inc\"))\n#include \"envlight.inc\"\n#else\n#include ", f);
+        pov_string(f, path);
+        fputs("\n#end\n", f);
+        return;
+    }
+#endif
+    fputs("#include \"envlight.inc\" // POV-Ray's +L: the folder of envlight.inc\n", f);
+}
+
+/* The sky, the exposure, envlight.inc and the calls that place everything. */
+static void text_tail(FILE *f, const pov_plan *p, const pov_work *w)
+{
+    if (p->sky) {
+        fputs("#declare EnvLight_Sky_File = ", f);
+        pov_string(f, w->sky_path);
+        fprintf(f, ";%s\n#declare EnvLight_Sky_Rotate = %.9g;\n",
+                p->sky_residual ? " // the residual: what the lights did not take" : "",
+                w->sky_rotate);
+    }
+    fprintf(f, "#declare EnvLight_Exposure_Auto = %.9g; // a white surface facing up reads "
+            "%.1f\n", w->exposure_auto, POV_AUTO_WHITE);
+    if (p->exposure != 0)
+        fprintf(f, "#ifndef (EnvLight_Exposure) #declare EnvLight_Exposure = %.9g; #end // "
+                "--exposure %s\n", p->exposure < 0 ? w->exposure_auto : p->exposure,
+                p->exposure < 0 ? "auto" : "X");
+    text_include_envlight(f);
+    if (p->place) {
+        fputs("EnvLight_Place_Lights()\n", f);
+        if (p->sky) /* under the bounce's radiosity the sky is for the camera only */
+            fputs(p->bounce ? "EnvLight_Sky_Backdrop()\n" : "EnvLight_Sky()\n", f);
+        if (p->recipe == POV_RECIPE_IMAGE_RADIOSITY)
+            fputs("global_settings { EnvLight_Radiosity_Residual_Settings() }\n", f);
+        if (p->bounce)
+            fputs("global_settings { EnvLight_Bounce_Settings() }\n", f);
+    }
+    fputs("#end\n", f);
+}
+
+envl_result pov_text_build(const pov_plan *p, const pov_work *w, char **text, size_t *size)
+{
+    FILE *f = open_memstream(text, size);
+    if (!f)
+        return envl__fail(ENVL_ERR_MEMORY, "pov: out of memory");
+    text_header(f, p, w);
+    text_recipe(f, p, w);
+    text_error(f, p, w);
+    text_scene(f, p, w);
+    text_lights(f, w);
+    text_ambient(f, p, w);
+    text_tail(f, p, w);
+    int bad = ferror(f);
+    if (fclose(f) || bad) {
+        free(*text);
+        *text = NULL;
+        return envl__fail(ENVL_ERR_MEMORY, "pov: out of memory");
+    }
+    return ENVL_OK;
+}
