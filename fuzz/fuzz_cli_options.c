@@ -22,15 +22,29 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         i += strlen(buf + i) + 1;
     }
     argv[argc] = NULL;
+    /* a table with every kind of option, and the input options */
+    static const cli_command cmd = {"fuzz", "Usage: fuzz\n", NULL};
     cli_common c = {0};
-    for (int i = 1; i < argc; i++) {
-        const char *v;
-        if (cli_common_option("fuzz", argc, argv, &i, &c) == 0 &&
-            cli_value(argc, argv, &i, "-n", &v) > 0) {
-            long long n;
-            cli_parse_int(v, 1, 1 << 24, &n);
-        }
-    }
+    int n = 0, flag = 0, choice = 0, bits = 0;
+    int64_t big = 0;
+    double x = 0;
+    const char *text = NULL, *pos[4];
+    cli_option t[] = {
+        CLI_OPTION("-n|--count", "N", CLI_INT, .min = 1, .max = 1 << 24, .value = &n, .help = ""),
+        CLI_OPTION("--flag", NULL, CLI_FLAG, .max = 2, .value = &flag, .help = ""),
+        CLI_OPTION("--big", "N", CLI_INT64, .min = 1, .max = 9.2e18, .value = &big, .help = ""),
+        CLI_OPTION("--x", "X", CLI_REAL, .min = -1, .max = 1, .value = &x, .help = "a\nb"),
+        CLI_OPTION("--choice", "C", CLI_CHOICE, .value = &choice, .choices = "a|bb|c",
+                   .help = ""),
+        CLI_OPTION("--method", "M", CLI_CHOICE, .value = &choice, .choices = "fit|median",
+                   .lookup = envl_method_from_name, .help = ""),
+        CLI_OPTION("--bits", "B", CLI_CHOICE, .value = &bits, .bits = 1, .choices = "a|b|c",
+                   .help = ""),
+        CLI_OPTION("--text", "T", CLI_TEXT, .value = &text, .help = ""),
+    };
+    int npos;
+    /* usage errors go to stderr; the parse must never read or write out of bounds */
+    cli_parse(&cmd, t, CLI_COUNT(t), &c, argc, argv, pos, 4, &npos);
     free(buf);
     return 0;
 }

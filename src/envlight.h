@@ -663,11 +663,10 @@ typedef struct envl_pov_options {
     int32_t count;            /* lights, 1..65536 (fit 1..32); default: the recipe's (4; the
                                  domes by their error, see the recipes) */
     int32_t ambient;          /* ENVL_POV_AMBIENT_*; default AUTO */
-    int32_t order;            /* SH order of the ambient (fit: of its remainder), -1..8, used
-                                 when order_is_set; -1: a fit without remainder (the ambient is
-                                 then the SH of its residual, order 2); default 2 (a fit with
-                                 ambient none: no remainder) */
-    int32_t order_is_set;     /* nonzero: order is used */
+    int32_t order;            /* SH order of the ambient (fit: of its remainder), 1..8 or
+                                 ENVL_ORDER_0; ENVL_REMAINDER_NONE: a fit without remainder (the
+                                 ambient is then the SH of its residual, order 2); default 2 (a
+                                 fit with ambient none: no remainder) */
     int32_t ground_plane;     /* nonzero: the scene stands on a plane (canonical z = 0, POV-Ray
                                  y = 0) of albedo ground_albedo: lights, ambient and error are
                                  those of the map with its lower hemisphere the plane's radiance

@@ -285,7 +285,7 @@ def test_errors_raise_with_the_library_message():
 def test_lights_error_from_the_library():
     with envlight.sky(width=64) as env:
         with pytest.raises(envlight.Error) as e:
-            env.lights(4, method="fit", order=40)   # remainder bands 41 > 9
+            env.lights(4, method="fit", order=40)   # remainder order 40 > 8
         assert e.value.name == "ENVL_ERR_ARGUMENT" and e.value.message
 
 

@@ -60,7 +60,7 @@ static void test_hemi_is_the_sh_pair(void)
     envl_sky_options so = {.width = 128};
     envl_envmap *map;
     CHECK_OK(envl_envmap_sky(&so, &map));
-    envl_sh_options sho = {.bands = 3, .window = ENVL_WINDOW_AUTO};
+    envl_sh_options sho = {.order = 2, .window = ENVL_WINDOW_AUTO};
     envl_sh *sh;
     CHECK_OK(envl_sh_compute(map, &sho, &sh));
     envl_sh_summary s;

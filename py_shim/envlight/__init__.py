@@ -570,9 +570,9 @@ class Envmap(_Handle):
                 raise ArgumentError("%s: method %r: fit, median or variance" % (f, method))
             o.method_is_set = 1
         o.count = A.integer(n, f + ": n", 1, 1 << 16, 0, "the recipe's")
-        if order is not None:
-            o.order = A.integer(order, f + ": order", -1, _lib.ENVL_POV_MAX_ORDER)
-            o.order_is_set = 1
+        if order is not None:  # -1: a fit without remainder
+            v = A.integer(order, f + ": order", -1, _lib.ENVL_POV_MAX_ORDER)
+            o.order = _lib.ENVL_REMAINDER_NONE if v < 0 else _order(v, f + ": order", v)
         o.ambient = _choice(ambient, f + ": ambient", _lib.ENVL_POV_AMBIENT, 0)
         o.shadows = _choice(shadows, f + ": shadows", _lib.ENVL_POV_SHADOWS, 0)
         if ground is not None:

@@ -272,7 +272,6 @@ class PovOptions(Structure):
         ("count", c_int32),
         ("ambient", c_int32),
         ("order", c_int32),
-        ("order_is_set", c_int32),
         ("ground_plane", c_int32),
         ("ground_albedo", c_double),
         ("shadows", c_int32),

@@ -27,21 +27,13 @@ int cli_usage(const char *command, const char *fmt, ...) __attribute__((format(p
 /* Reports the library's last error; returns CLI_FAIL. */
 int cli_fail(void);
 
-/* If argv[*i] is `name` ("--x VALUE" or "--x=VALUE"), sets *value, advances *i and returns 1;
- * returns -1 when the value is missing, 0 when argv[*i] is another option. */
-int cli_value(int argc, char **argv, int *i, const char *name, const char **value);
 /* Parses numbers strictly (the whole string); 0 on success, -1 on failure. */
 int cli_parse_double(const char *s, double *out);
 int cli_parse_int(const char *s, long long min, long long max, long long *out);
 
-/* Tries the common options at argv[*i]: 1 consumed (i advanced), 0 not a common option,
- * CLI_USAGE-style negative (-2) after printing a usage error. */
-int cli_common_option(const char *command, int argc, char **argv, int *i, cli_common *c);
 /* 1 if the options' light count suits their method; else prints a usage error naming the
  * limit and returns 0 (call it once every option is read: -n and --method come in any order). */
 int cli_light_count_ok(const char *command, const envl_lights_options *lo);
-/* Help text for the common options. */
-extern const char cli_common_help[];
 
 /* ---- option tables (cli_options.c) ----
  * Each command lists its options in one table that cli_parse reads and cli_help prints. */

@@ -14,6 +14,7 @@
 #include "envmap_impl.h"
 #include "clock.h"
 #include "escape.h"
+#include "options.h"
 #include "sh_forms.h"
 
 #include <math.h>
@@ -56,9 +57,10 @@ static envl_result plan_options(const envl_pov_options *o, const envl_info *info
         return envl__fail(ENVL_ERR_ARGUMENT, "pov: count %d: 1..65536 lights", (int)o->count);
     if (o->ambient < 0 || o->ambient > ENVL_POV_AMBIENT_NONE)
         return envl__fail(ENVL_ERR_ARGUMENT, "pov: ambient %d out of range", (int)o->ambient);
-    if (o->order_is_set && (o->order < -1 || o->order > POV_MAX_ORDER))
-        return envl__fail(ENVL_ERR_ARGUMENT, "pov: order %d: -1..%d", (int)o->order,
-                          POV_MAX_ORDER);
+    int32_t order = envl__order(o->order, ENVL_DEFAULT_ORDER);
+    if (order < -1 || order > POV_MAX_ORDER)
+        return envl__fail(ENVL_ERR_ARGUMENT, "pov: order %d: 0..%d, ENVL_ORDER_0 or "
+                          "ENVL_REMAINDER_NONE", (int)o->order, POV_MAX_ORDER);
     if (o->ground_plane && !(o->ground_albedo >= 0 && o->ground_albedo <= 1))
         return envl__fail(ENVL_ERR_ARGUMENT, "pov: ground albedo %g: within [0, 1]",
                           o->ground_albedo);
@@ -81,8 +83,8 @@ static envl_result plan_options(const envl_pov_options *o, const envl_info *info
         return bad_name();
     p->lo = (envl_lights_options){.method = o->method_is_set ? o->method : ENVL_METHOD_FIT,
                                   .count = o->count ? o->count : 4};
-    p->order_set = o->order_is_set != 0;
-    p->order = p->order_set ? o->order : 2;
+    p->order_set = o->order != 0;
+    p->order = order;
     p->ambient_set = o->ambient != ENVL_POV_AMBIENT_AUTO;
     p->ambient = p->ambient_set ? o->ambient : ENVL_POV_AMBIENT_SH;
     p->shadows = o->shadows == ENVL_POV_SHADOWS_SOFT   ? SHADOW_SOFT
@@ -171,10 +173,10 @@ static envl_result plan_recipe(const envl_pov_options *o, pov_plan *p)
         return envl__fail(ENVL_ERR_ARGUMENT, "pov: fit takes 1..32 lights, not %d (median and "
                           "variance take more)", (int)p->lo.count);
     if (p->lo.method == ENVL_METHOD_FIT)
-        p->lo.remainder_bands = (p->ambient == ENVL_POV_AMBIENT_NONE && !p->order_set) ||
+        p->lo.remainder_order = (p->ambient == ENVL_POV_AMBIENT_NONE && !p->order_set) ||
                                         p->order < 0
                                     ? ENVL_REMAINDER_NONE
-                                    : p->order + 1;
+                                    : envl__order_option(p->order);
     if (p->order < 0)
         p->order = 2; /* the ambient of a fit without remainder: SH of its residual */
     return ENVL_OK;
@@ -237,7 +239,7 @@ static envl_result ambient_sh(const pov_plan *p, int32_t threads, pov_work *w)
     }
     envl_load_options rl = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
     /* window auto: the least windowing that keeps it non-negative */
-    envl_sh_options so = {.bands = p->order + 1, .window = ENVL_WINDOW_AUTO};
+    envl_sh_options so = {.order = envl__order_option(p->order), .window = ENVL_WINDOW_AUTO};
     envl_result r = envl_envmap_from_pixels(envl_lights_residual(w->ls), w->info.width,
                                             w->info.height, 3, &rl, &w->residual);
     if (!r)
