@@ -1,6 +1,6 @@
 /* envlight — HDR environment images into lights, SH and prefiltered maps.
  *
- * Public C API. Conventions (see README "Library API"):
+ * Public C API. Conventions (README, "Library API"; docs/design.md):
  *  - every call returns an envl_result (ENVL_OK = 0); on failure envl_last_error() gives a
  *    message for this thread naming the file, the offset and what was expected;
  *  - options structs: zero means "sensible default" (each field's comment gives the default),
@@ -359,7 +359,7 @@ ENVL_API void envl_sh_basis(int32_t order, const double direction[3], double *y)
 ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l; 0 for l < 0 (no such band) */
 
 /* ---- prefiltered maps, the split-sum BRDF table, requests (prefilter.c, brdf.c, png.c) ------
- * Conventions (README "Prefiltered maps"; docs/design.md): every map is a lat-long image in the
+ * Conventions (docs/methods.md, "Prefiltered maps"; docs/design.md): every map is a lat-long image in the
  * canonical frame. GGX alpha = roughness^2. The prefiltered specular radiance of roughness r
  * (split sum, N = V = R, Karis 2013) is
  *   P(R) = sum L(l) D(h) max(R.l, 0) dw / sum D(h) max(R.l, 0) dw,  h = normalize(R + l).
@@ -394,7 +394,7 @@ typedef struct envl_prefilter_options {
                                  levels of roughness > 0 nor into the irradiance map but
                                  returned as lights (envl_products_sun_lights) that the renderer
                                  adds analytically, as engines light with a sun; each product's
-                                 error is measured with them added (README "Prefiltered maps") */
+                                 error is measured with them added (docs/methods.md, "Prefiltered maps") */
 } envl_prefilter_options;
 
 /* Width of the specular level of `roughness` under `options` (height = width / 2). */
@@ -549,14 +549,14 @@ ENVL_API envl_result envl_png_save_rgbm(const char *path, const float *rgb, int3
 ENVL_API envl_result envl_png_save_srgb(const char *path, const float *rgb, int32_t width,
                                         int32_t height);
 
-/* Export of products into a directory (README "Prefiltered maps" gives names and layouts). All
+/* Export of products into a directory (docs/methods.md, "Files and layouts", gives names and layouts). All
  * files are written to temporaries first and renamed only when every one is complete, so a
  * failed export leaves existing files as they were. A JSON sidecar `prefilter.json` states the
  * conventions (frame, roughness mapping, RGBM range, layout) and every file. */
 #define ENVL_EXPORT_LATLONG 0
 #define ENVL_EXPORT_CUBE 1     /* six files per map: _px _nx _py _ny _pz _nz (canonical axes) */
 #define ENVL_EXPORT_CROSS 2    /* vertical cross, as envl_envmap_to_layout */
-#define ENVL_EXPORT_ATLAS 3    /* the specular levels in one image (see README) */
+#define ENVL_EXPORT_ATLAS 3    /* the specular levels in one image (docs/methods.md) */
 #define ENVL_EXPORT_COUNT 4
 ENVL_API const char *envl_export_layout_name(int32_t layout); /* "latlong", "cube", ... */
 ENVL_API int32_t envl_export_layout_from_name(const char *name);
@@ -567,7 +567,7 @@ typedef struct envl_export_options {
 ENVL_API envl_result envl_products_export(const envl_products *products, const char *dir,
                                           const envl_export_options *options);
 
-/* ---- the preview picture (README "Preview") ------------------------------------------------ */
+/* ---- the preview picture (docs/methods.md, "Preview") ----------------------------------------------- */
 /* One sRGB PNG: the lat-long map with the median cut regions and the median cut and fitted
  * lights marked, then spheres (rows: diffuse, glossy at two roughness values, mirror) lit by
  * the exact reference and by each approximation in the rows it serves (median cut, fit + SH
@@ -602,7 +602,7 @@ ENVL_API envl_result envl_preview_write(envl_envmap *map, const envl_preview_opt
                                         const char *path, FILE *notes, int32_t *width,
                                         int32_t *height);
 
-/* ---- POV-Ray 3.7 include (pov_include.c; README "POV-Ray") ---------------------------------
+/* ---- POV-Ray 3.7 include (pov_include.c; docs/methods.md, "POV-Ray") --------------------------------
  * An include for povray_include/envlight.inc: the lights (directions, colours rgb / pi), the
  * ambient the lights did not take, the sky; then the macro calls that place them. POV-Ray's
  * frame is left-handed, +Y up: a canonical vector (x, y, z) is written <x, z, y>. Its header

@@ -685,7 +685,7 @@ def test_dome_occlusion(kind):
     assert errors["default"] < errors["fit4_sh"] and errors["dome64"] < errors["fit4_sh"]
 
 
-# ---- a scene author's first render (README.md, "POV-Ray") ----
+# ---- a scene author's first render (README.md, "Your first render") ----
 
 def readme_example():
     """The README's example scene: the ```pov block that starts like sphere_on_plane.pov."""

@@ -83,7 +83,7 @@ class EnvLightSettings(bpy.types.PropertyGroup):
         name="Bake Volume Probe", default=False,
         description="EEVEE-Next (4.2+): bake a volume light probe around the objects (not the "
         "ground): the light they bounce onto one another and the sky they hide; with or "
-        "without Read Scene. Nearer Cycles on some maps, further on others (README)")
+        "without Read Scene. Nearer Cycles on some maps, further on others (docs/blender_scenes.md)")
     # results, shown by the panel
     has_result: BoolProperty(default=False)
     result_count: IntProperty(name="Lamps")

@@ -38,7 +38,7 @@ MAX_SUNS = 4
 #: map's light (luminance): then the sun lamp takes away what makes the plain world noisy
 #: (the built-in sky, 56 %: 2.1x sooner on a matte scene, 37x with a glossy sphere); below it
 #: the plain world is as fast (immenstadter_horn, 22 %: 0.6x; scripts/scene_bench.py --host
-#: blender, README)
+#: blender, docs/blender_scenes.md)
 SUN_SHARE_MIN = 0.5
 
 
@@ -534,7 +534,7 @@ def sh_radiance_socket(tree, coeffs, x, y, sky_only=False):
     vector, d = the ray direction in the canonical frame: a polynomial in x, y, z (vector math
     SCALE of each coefficient colour by its basis term, then ADD). sky_only: 0 below the
     horizon (z < 0), where a ground hides the world: Cycles then spends no light sample there
-    (measured on kiara_1_dawn over a plane: the ground's noise 6.7 % -> see README)."""
+    (measured on kiara_1_dawn over a plane: the ground's noise 6.7 % -> see docs/blender_scenes.md)."""
     tc = _new(tree, "ShaderNodeTexCoord", "SH Direction", x, y)
     norm = _new(tree, "ShaderNodeVectorMath", "SH Normalize", x + 160, y)
     norm.operation = "NORMALIZE"

@@ -330,7 +330,7 @@ def read_scene(scene, volume_probe=False):
     # plain HDR world noisy), every other ray the map less the suns, importance-sampled by
     # Cycles: exact. The faster SH world (sh-ground: fitted lamps + an order-2 SH of the sky
     # half) is biased where the sky has structure the SH cannot hold: measured -1.6 to -14 %
-    # on a matte sphere on a ground, -2 to -19 % under an overhang (README, scene benchmark),
+    # on a matte sphere on a ground, -2 to -19 % under an overhang (docs/blender_scenes.md, the scene benchmark),
     # so it is the panel's choice (Read Scene off), never picked.
     p.world_mode, p.count, p.camera_only = "RESIDUAL", 0, True
     if p.glossy:

@@ -1,5 +1,4 @@
-// envlight scene benchmark, scene (a) (scripts/scene_bench.py --host pov renders it; README.md,
-// "Accuracy against time in POV-Ray"): a matte sphere and a glossy sphere on a grey plane.
+// envlight scene benchmark, scene (a) (scripts/scene_bench.py --host pov renders it; docs/pov_scenes.md): a matte sphere and a glossy sphere on a grey plane.
 // The lighting comes from "lighting.inc", written by the script for each recipe and for the
 // reference; it places the lights, the sky and any radiosity settings itself. Every object gets
 // its ambient through EnvLight_Add_Ambient(T, Albedo), a no-op when the lighting declares no

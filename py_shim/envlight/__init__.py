@@ -534,7 +534,7 @@ class Envmap(_Handle):
                     sky_residual=False, sky_image=None, scene_radius=None, exposure=None,
                     place=True, source=None, command=None, threads=None):
         """A POV-Ray 3.7 include for povray_include/envlight.inc (envl_pov_include_write: what
-        `envlight pov` writes, README "POV-Ray"), written atomically to `path`, or returned as
+        `envlight pov` writes, README "POV-Ray: an include for your scene"), written atomically to `path`, or returned as
         text when path is None.
 
         recipe: 'auto' (from the scene; method, n, order, ambient adjust the recipe picked),
@@ -609,7 +609,7 @@ class Envmap(_Handle):
                            unfiltered=False, irradiance_method="resampled",
                            irradiance_width=None, irradiance_order=2, threads=None,
                            sun_lights=False):
-        """envl_prefilter_options for function f; None = the library's default (README)."""
+        """envl_prefilter_options for function f; None = the library's default (envlight.h, docs/design.md)."""
         o = _lib.PrefilterOptions()
         o.levels = A.integer(levels, f + ": levels", 1, A.PREFILTER_MAX_LEVELS, 0, "the default 6")
         o.width = A.integer(width, f + ": width", 2, A.PREFILTER_MAX_WIDTH, 0, "the default 512")

@@ -1,5 +1,5 @@
 /* envl_pov_include_write: a POV-Ray 3.7 include with the lights, the ambient and the sky of an
- * environment, for povray_include/envlight.inc's macros (README, "POV-Ray").
+ * environment, for povray_include/envlight.inc's macros (docs/methods.md, "POV-Ray").
  *
  * Frames. The canonical frame is Blender's (right-handed, +Z up); POV-Ray's is left-handed,
  * +Y up. A canonical vector (x, y, z) is written as the POV-Ray vector <x, z, y> (a swap of

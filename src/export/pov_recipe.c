@@ -1,4 +1,4 @@
-/* Which lighting recipe the POV-Ray include uses, from what the scene uses (README, "POV-Ray").
+/* Which lighting recipe the POV-Ray include uses, from what the scene uses (docs/methods.md, "POV-Ray").
  *
  * The scene benchmark (scripts/scene_bench.py --host pov, docs/scene_bench_pov.md) decides:
  * an ambient term (SH, hemispheric, or the ground's bounce as one) cannot be shadowed, so on

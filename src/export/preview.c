@@ -4,7 +4,7 @@
  * remainder, SH order 2, prefiltered maps), each with its error and seconds under it; a cell
  * whose method does not serve its row (preview_serves) is left empty with a note.
  *
- * Shading (README "Preview"): the camera is orthographic, looking along -v, v = the horizontal
+ * Shading (docs/methods.md, "Preview"): the camera is orthographic, looking along -v, v = the horizontal
  * direction of azimuth 45 degrees (between +X and +Y), +Z up on screen.
  *  - diffuse: radiance = E(n) / pi (Lambert, albedo 1), or Oren-Nayar;
  *  - glossy and mirror: the prefiltered radiance of docs/design.md (split sum, N = V = R) at the

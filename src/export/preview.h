@@ -29,7 +29,7 @@ typedef struct preview_data {
                                  docs/design.md's measure */
     envl_lights *median, *fit;
     int32_t median_lights, fit_lights; /* the counts the methods returned (the fit may stop
-                                 before fit_count: README "Lights") */
+                                 before fit_count: docs/methods.md, "Lights") */
 } preview_data;
 
 void preview_defaults(envl_preview_options *o);

@@ -125,7 +125,7 @@ int32_t envl__level_width(const resolved *r, double roughness)
  * it, at most ROUGH_SAMPLES_MAX x M: a rough level's few texels get the samples its wide lobe
  * needs for about the base level's cost (at roughness 1 the sum of 128 mip footprints was
  * 0.4-6.8 % off the lobe on the built-in sky, adams_place_bridge, lebombo and forest_slope;
- * of 512, 0.1-2.9 %; README "Accuracy against time (specular)" has today's figures). The
+ * of 512, 0.1-2.9 %; docs/specular_bench.md has today's figures). The
  * unfiltered baseline always takes M. */
 #define ROUGH_SAMPLES_MAX 8
 int32_t envl__level_samples(const resolved *r, int32_t w)
