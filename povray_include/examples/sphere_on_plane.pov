@@ -1,4 +1,4 @@
-// envlight example: a sphere on a plane lit by an environment (README.md, "POV-Ray: an include for your scene").
+// envlight example: a sphere on a plane lit by an environment (README.md, "POV-Ray").
 //   envlight pov MAP.hdr --scene sphere_on_plane.pov --sky --exposure auto -o env.inc
 //   povray sphere_on_plane.pov +W640 +H480 +A0.1                       (sphere_on_plane.png)
 //   povray sphere_on_plane.pov +W640 +H480 +A0.1 +FH Declare=EnvLight_Exposure=1
