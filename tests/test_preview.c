@@ -286,6 +286,22 @@ static void test_mirror_sun(void)
     envl_envmap_free(m);
 }
 
+/* preview_compute with its notes written to the file `name` under the test folder, read back
+ * into notes (size bytes, NUL-terminated). */
+static void compute_with_notes(envl_envmap *m, const envl_preview_options *o, const char *name,
+                               preview_data *d, char *notes, size_t size)
+{
+    FILE *f = fopen(tmp_path(name), "w+");
+    CHECK(f != NULL);
+    CHECK_OK(preview_compute(m, o, f, d));
+    notes[0] = 0;
+    if (f) {
+        rewind(f);
+        notes[fread(notes, 1, size - 1, f)] = 0;
+        fclose(f);
+    }
+}
+
 /* The built-in sky at 128 wide, -k 4, --diffuse oren-nayar: the fit stops at fewer lights
  * (docs/methods.md, "Lights"), and the header, the legend's count and stderr say how many it
  * returned; stderr's notes are printed once everything is computed and hold, per column, the
@@ -297,17 +313,9 @@ static void test_counts_and_notes(void)
     CHECK_OK(envl_envmap_sky(&(envl_sky_options){.width = 128}, &m));
     envl_preview_options o = {.sphere_size = 48, .fit_count = 4, .median_count = 8,
                               .reference_width = 64, .diffuse = ENVL_PREVIEW_DIFFUSE_OREN_NAYAR};
-    const char *path = tmp_path("preview_notes.txt");
-    FILE *f = fopen(path, "w+");
-    CHECK(f != NULL);
     preview_data d;
-    CHECK_OK(preview_compute(m, &o, f, &d));
-    char notes[8192] = "";
-    if (f) {
-        rewind(f);
-        notes[fread(notes, 1, sizeof notes - 1, f)] = 0;
-        fclose(f);
-    }
+    char notes[8192];
+    compute_with_notes(m, &o, "preview_notes.txt", &d, notes, sizeof notes);
     CHECK(d.fit_lights == envl_lights_count(d.fit) && d.fit_lights < 4);
     CHECK(d.median_lights == envl_lights_count(d.median) && d.median_lights == 8);
     char h[32], want[64];
@@ -435,16 +443,9 @@ static void test_split_reference(void)
     CHECK_OK(envl_envmap_from_pixels(os->res, W, H, 3, &lo, &rest));
     envl_preview_options o = {.sphere_size = S, .median_count = 4, .fit_count = 1,
                               .reference_width = 64};
-    const char *path = tmp_path("preview_split_notes.txt");
-    FILE *f = fopen(path, "w+");
     preview_data d;
-    CHECK_OK(preview_compute(m, &o, f, &d));
-    char notes[8192] = "";
-    if (f) {
-        rewind(f);
-        notes[fread(notes, 1, sizeof notes - 1, f)] = 0;
-        fclose(f);
-    }
+    char notes[8192];
+    compute_with_notes(m, &o, "preview_split_notes.txt", &d, notes, sizeof notes);
     CHECK(strstr(notes, "references on a 64-wide copy + 4096 points") != NULL);
     preview_defaults(&o);
     for (int32_t j = 0; j < S; j++)
