@@ -29,6 +29,26 @@ expect 2 "missing value" -- "$ENVLIGHT" info --rotate
 expect 0 "help" -- "$ENVLIGHT" info --help
 has out.txt "Usage: envlight info" "help on stdout"
 expect 0 "convert help" -- "$ENVLIGHT" convert --help
+# One option table per command (src/cli/cli_options.c) is both what is parsed and what --help
+# prints: every command's help lists its options and, where it reads a map, the input options;
+# a value outside the table's range names the option, the range and the value (exit 2).
+for cmd in info convert lights sh prefilter brdf-lut pov preview bench; do
+  expect 0 "$cmd help" -- "$ENVLIGHT" "$cmd" --help
+  has out.txt "^Usage: envlight $cmd" "$cmd: help on stdout"
+  [ "$cmd" = brdf-lut ] || has out.txt "^  --layout-in L" "$cmd: the input options listed"
+done
+expect 0 "main help" -- "$ENVLIGHT" --help
+for cmd in info convert lights sh prefilter brdf-lut pov preview bench version; do
+  has out.txt "^  $cmd " "envlight --help lists $cmd"
+done
+expect 2 "order out of range" -- "$ENVLIGHT" sh - --order=33
+has err.txt "envlight sh: --order takes 0..32, not '33'" "range and value named"
+expect 2 "choice unknown" -- "$ENVLIGHT" lights - --method nope
+has err.txt "--method takes fit, median, variance or sun, not 'nope'" "choices listed"
+expect 2 "flag with a value" -- "$ENVLIGHT" info --json=1
+has err.txt "--json takes no value" "a flag takes no value"
+expect 2 "two files" -- "$ENVLIGHT" sh a.hdr b.hdr
+has err.txt "one FILE only" "one FILE only"
 
 expect 1 "missing file" -- "$ENVLIGHT" info does-not-exist.hdr
 has err.txt "does-not-exist.hdr: cannot open" "error names the file and the cause"
