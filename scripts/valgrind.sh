@@ -5,8 +5,10 @@
 #   bash scripts/valgrind.sh [BUILD_DIR] [--all | --quick] [-j N] [--docs DIR]
 # BUILD_DIR (default build) is built first (scripts/build.sh). Without --all the tests that take
 # more than ~10 s natively are left out (memcheck runs code 20-50x slower): test_layout,
-# test_lights and test_prefilter (their large maps; the same code runs on small maps in the
-# others and in the CLI tests). The POV-Ray, main-job and Python/Blender tests are always left
+# test_lights, test_prefilter and test_preview (their large maps; the same code runs on small
+# maps in the others and in the CLI tests), and test_pov_include (7 s, but its write-fault loop
+# writes the include once per write step: 339 s under memcheck; CI runs it under ASan and
+# UBSan). The POV-Ray, main-job and Python/Blender tests are always left
 # out: they spend their time in external programs, not in envlight. Memcheck runs all threads
 # of a program on one core, so N tests run at once (default: the number of cores). --quick (what
 # CI runs) keeps, of the CLI tests, cli_basics and cli_malformed: the bad-input paths.
@@ -50,7 +52,7 @@ rm -rf "$logs" && mkdir -p "$logs" && chmod 1777 "$logs"
 vg=(valgrind --tool=memcheck --leak-check=full --errors-for-leak-kinds=definite,indirect
     --show-leak-kinds=definite,indirect --track-origins=yes --error-exitcode=99 --quiet)
 shared=${ENVL_SHARED_DATA:-$root/../shared/data}
-slow='^(test_layout|test_lights|test_prefilter)$'
+slow='^(test_layout|test_lights|test_prefilter|test_preview|test_pov_include)$'
 start=$(date +%s); date0=$(date +%Y-%m-%dT%H:%M:%S); load0=$(cut -d' ' -f1-3 /proc/loadavg)
 
 # The CLI tests call $ENVLIGHT: a wrapper that runs the real binary under memcheck, one log per

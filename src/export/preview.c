@@ -534,16 +534,235 @@ static void print_notes(FILE *f, const envl_preview_options *o, const preview_da
     }
 }
 
-envl_result preview_compute(envl_envmap *map, const envl_preview_options *opt, FILE *notes,
-                            preview_data *d)
+/* What preview_compute's stages share. */
+typedef struct work {
+    envl_envmap *map;
+    envl_preview_options o;
+    preview_data *d;
+    pixels p;
+    split sp;
+    lobe lobes[3];            /* per row; the diffuse row's is the first glossy row's */
+    double *dirs, *buf, *refv, *buf16;
+} work;
+
+/* Sphere (row, col) gets the np values of src (the sphere's pixels in p's order). */
+static void store(work *w, int row, int col, const double *src)
 {
-    envl_preview_options o = *opt;
-    preview_defaults(&o);
+    for (int32_t q = 0; q < w->p.count; q++)
+        for (int ch = 0; ch < 3; ch++)
+            w->d->sphere[row][col][3 * w->p.index[q] + ch] = src[3 * q + ch];
+}
+
+/* The mirror reference: the full map's pixel that contains R, 16 per sphere pixel, + the
+ * points deposited where they reflect. */
+static void mirror_reference(work *w)
+{
+    const pixels *p = &w->p;
+    int32_t W = envl_envmap_width(w->map), H = envl_envmap_height(w->map);
+    for (int32_t i = 0; i < 16 * p->count; i++) {
+        double c, r;
+        envl_latlong_pixel(W, H, p->r16 + 3 * i, &c, &r);
+        int32_t ci = (int32_t)floor(c + 0.5) % W, ri = (int32_t)floor(r + 0.5);
+        ci = ci < 0 ? ci + W : ci;
+        ri = ri < 0 ? 0 : ri >= H ? H - 1 : ri;
+        for (int k = 0; k < 3; k++)
+            w->buf16[3 * i + k] = w->sp.full[3 * ((size_t)ri * W + ci) + k];
+    }
+    average16(p->count, w->buf16, w->refv);
+    for (int32_t i = 0; i < w->sp.s.n; i++)
+        deposit(p, w->d->size, w->d->view, w->sp.s.lobes[i].d, w->sp.s.lobes[i].e, w->refv);
+}
+
+/* The references (column 0): the residual (resampled) + the points, exact. */
+static envl_result references(work *w)
+{
+    const envl_envmap *rm = w->sp.rest;
+    const pixels *p = &w->p;
+    const double *v = w->d->view;
+    int32_t np = p->count;
+    envl_result rc = ENVL_OK;
+    for (int row = 0; row < PREVIEW_ROWS && !rc; row++) {
+        double t0 = envl__seconds();
+        if (row == 0 && w->o.diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT) {
+            rc = envl_irradiance_exact(rm, np, p->n, w->refv);
+            for (int32_t i = 0; i < np; i++) {
+                for (int k = 0; k < 3; k++)
+                    w->refv[3 * i + k] /= ENVL_PI;
+                add_points(&w->sp, 0, NULL, v, p->n + 3 * i, w->refv + 3 * i);
+            }
+        } else if (row == 0) {
+            for (int32_t i = 0; i < np; i++) {
+                brute_force(rm, w->dirs, v, p->n + 3 * i, NULL, w->refv + 3 * i);
+                add_points(&w->sp, 1, NULL, v, p->n + 3 * i, w->refv + 3 * i);
+            }
+        } else if (row < 3) {
+            /* P = (sum over the rest of L w dw + sum over the points of E w) / norm; the
+             * rest's own normaliser sum w dw (split pixels included) is norm to within its
+             * discretisation, as the lobe is several rest pixels wide */
+            if (w->o.specular == ENVL_PREVIEW_SPECULAR_GGX)
+                rc = envl_prefilter_reference(rm, w->o.roughness[row - 1], np, p->r, w->refv);
+            else
+                for (int32_t i = 0; i < np; i++)
+                    brute_force(rm, w->dirs, v, p->r + 3 * i, &w->lobes[row], w->refv + 3 * i);
+            for (int32_t i = 0; i < np; i++)
+                add_points(&w->sp, 2, &w->lobes[row], v, p->r + 3 * i, w->refv + 3 * i);
+        } else {
+            mirror_reference(w);
+        }
+        w->d->seconds[row][0] = envl__seconds() - t0;
+        store(w, row, 0, w->refv);
+    }
+    return rc;
+}
+
+/* How far the resampled copy's diffuse reference is from the full map's (docs/design.md). */
+static envl_result reference_distance(work *w)
+{
+    const double *full;
+    double e[3 * ENVL_ERROR_NORMALS], fib[3 * ENVL_ERROR_NORMALS];
+    for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
+        envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, fib + 3 * i);
+    envl_result rc = envl_envmap_reference_irradiance(w->map, &full);
+    if (!rc)
+        rc = envl_irradiance_exact(w->sp.rest, ENVL_ERROR_NORMALS, fib, e);
+    for (int32_t i = 0; i < ENVL_ERROR_NORMALS && !rc; i++) {
+        double x[3] = {0, 0, 0};
+        add_points(&w->sp, 0, NULL, w->d->view, fib + 3 * i, x);
+        for (int k = 0; k < 3; k++)
+            e[3 * i + k] += ENVL_PI * x[k];
+    }
+    if (!rc)
+        w->d->reference_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, e, full);
+    return rc;
+}
+
+/* Columns 1 and 2: median cut N, fit K + SH remainder; diffuse and glossy rows. */
+static envl_result lights_columns(work *w)
+{
+    preview_data *d = w->d;
+    int32_t np = w->p.count;
+    for (int col = 1; col <= 2; col++) {
+        envl_lights_options lo = {.method = col == 1 ? ENVL_METHOD_MEDIAN : ENVL_METHOD_FIT,
+                                  .count = col == 1 ? w->o.median_count : w->o.fit_count};
+        envl_lights **l = col == 1 ? &d->median : &d->fit;
+        envl_result rc = envl_lights_compute(w->map, &lo, l);
+        if (rc)
+            return rc;
+        envl_lights_summary s;
+        envl_lights_get_summary(*l, &s);
+        *(col == 1 ? &d->median_lights : &d->fit_lights) = envl_lights_count(*l);
+        for (int row = 0; row < PREVIEW_ROWS; row++) {
+            if (!d->served[row][col])
+                continue;
+            if (row == 0 && w->o.diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT) {
+                envl_lights_irradiance(*l, np, w->p.n, w->buf);
+                for (int32_t i = 0; i < 3 * np; i++)
+                    w->buf[i] /= ENVL_PI;
+            } else {
+                for (int32_t i = 0; i < np; i++)
+                    shade_lights(*l, row, &w->lobes[row], d->view, w->p.n + 3 * i,
+                                 w->p.r + 3 * i, w->buf + 3 * i);
+            }
+            store(w, row, col, w->buf);
+            d->seconds[row][col] = s.seconds;
+        }
+        d->diffuse_error[col] = s.diffuse_error;
+    }
+    return ENVL_OK;
+}
+
+/* Column 3: SH order 2, irradiance, so the diffuse row only (Lambert whatever the model). */
+static envl_result sh_column(work *w)
+{
+    envl_sh *sh = NULL;
+    envl_result rc = envl_sh_compute(w->map, &(envl_sh_options){.order = 2}, &sh);
+    if (rc)
+        return rc;
+    envl_sh_summary s;
+    envl_sh_get_summary(sh, &s);
+    envl_sh_eval_irradiance(sh, w->p.count, w->p.n, w->buf);
+    for (int32_t i = 0; i < 3 * w->p.count; i++)
+        w->buf[i] /= ENVL_PI;
+    store(w, 0, 3, w->buf);
+    w->d->seconds[0][3] = s.seconds;
+    w->d->diffuse_error[3] = s.diffuse_error;
+    envl_sh_free(sh);
+    return ENVL_OK;
+}
+
+/* Column 4: the prefiltered maps (irradiance map, the two glossy levels, the mirror level). */
+static envl_result prefiltered_column(work *w)
+{
+    preview_data *d = w->d;
+    const pixels *p = &w->p;
+    int32_t np = p->count;
+    envl_products *pre = NULL;
+    envl_request q = {.irradiance_map = 1, .mirror = 1, .n_roughness = 2,
+                      .roughness = w->o.roughness};
+    envl_result rc = envl_compute(w->map, &q, &pre);
+    if (rc)
+        return rc;
+    envl_irradiance_map im;
+    envl_products_irradiance(pre, &im);
+    for (int32_t i = 0; i < np; i++) {
+        envl_latlong_sample(im.rgb, im.width, im.height, p->n + 3 * i, w->buf + 3 * i);
+        for (int k = 0; k < 3; k++)
+            w->buf[3 * i + k] /= ENVL_PI;
+    }
+    store(w, 0, 4, w->buf);
+    d->seconds[0][4] = im.seconds;
+    rc = map_diffuse_error(w->map, im.rgb, im.width, im.height, &d->diffuse_error[4]);
+    for (int row = 1; row < PREVIEW_ROWS && !rc; row++) {
+        envl_level lv;
+        int32_t k = envl_products_find_level(pre, row < 3 ? w->o.roughness[row - 1] : 0);
+        if ((rc = envl_products_level(pre, k, &lv)))
+            break;
+        if (row < 3) {
+            for (int32_t i = 0; i < np; i++)
+                envl_latlong_sample(lv.rgb, lv.width, lv.height, p->r + 3 * i, w->buf + 3 * i);
+        } else {
+            for (int32_t i = 0; i < 16 * np; i++)
+                envl_latlong_sample(lv.rgb, lv.width, lv.height, p->r16 + 3 * i,
+                                    w->buf16 + 3 * i);
+            average16(np, w->buf16, w->buf);
+        }
+        store(w, row, 4, w->buf);
+        d->seconds[row][4] = lv.seconds;
+    }
+    envl_products_free(pre);
+    return rc;
+}
+
+/* The error under each served sphere: preview_picture_error against the row's reference
+ * (the formula is in preview.h). */
+static void picture_errors(work *w)
+{
+    preview_data *d = w->d;
+    int32_t np = w->p.count;
+    for (int row = 0; row < PREVIEW_ROWS; row++) {
+        for (int32_t q = 0; q < np; q++)
+            for (int k = 0; k < 3; k++)
+                w->refv[3 * q + k] = d->sphere[row][0][3 * w->p.index[q] + k];
+        for (int col = 1; col < PREVIEW_COLS; col++) {
+            if (!d->served[row][col])
+                continue;
+            for (int32_t q = 0; q < np; q++)
+                for (int k = 0; k < 3; k++)
+                    w->buf[3 * q + k] = d->sphere[row][col][3 * w->p.index[q] + k];
+            d->error[row][col] = preview_picture_error(w->o.tonemap, d->exposure_ev, np, w->buf,
+                                                       w->refv);
+        }
+    }
+}
+
+/* d's spheres, errors and seconds set to their start (every error -1: none yet). */
+static envl_result start_data(const envl_preview_options *o, envl_envmap *map, preview_data *d)
+{
     memset(d, 0, sizeof *d);
-    const int32_t S = o.sphere_size;
+    const int32_t S = o->sphere_size;
     d->size = S;
     d->view[0] = d->view[1] = sqrt(0.5);
-    d->exposure_ev = o.exposure_set ? o.exposure_ev : preview_auto_exposure(map);
+    d->exposure_ev = o->exposure_set ? o->exposure_ev : preview_auto_exposure(map);
     for (int c = 0; c < PREVIEW_COLS; c++)
         d->diffuse_error[c] = -1;
     for (int r = 0; r < PREVIEW_ROWS; r++)
@@ -554,203 +773,56 @@ envl_result preview_compute(envl_envmap *map, const envl_preview_options *opt, F
             if (!d->sphere[r][c])
                 return ENVL_ERR_MEMORY;
         }
-    pixels p;
-    split sp = {0};
-    envl_sh *sh = NULL;
-    envl_products *pre = NULL;
-    double *dirs = NULL, *buf = NULL, *refv = NULL, *buf16 = NULL;
-    envl_result rc = make_pixels(S, d->view, &p);
-    const int32_t np = p.count;
-    if (!rc && (!(buf = malloc(sizeof(double) * 3 * np)) ||
-                !(refv = malloc(sizeof(double) * 3 * np)) ||
-                !(buf16 = malloc(sizeof(double) * 48 * np))))
-        rc = ENVL_ERR_MEMORY;
-    lobe lobes[3];
-    lobes[1] = make_lobe(o.specular, o.roughness[0]);
-    lobes[2] = make_lobe(o.specular, o.roughness[1]);
-    lobes[0] = lobes[1]; /* the diffuse row has no lobe; keeps the table defined */
-#define STORE(row, col, src)                                                                   \
-    for (int32_t q = 0; q < np; q++)                                                           \
-        for (int ch = 0; ch < 3; ch++)                                                         \
-            d->sphere[row][col][3 * p.index[q] + ch] = (src)[3 * q + ch]
+    return ENVL_OK;
+}
 
-    /* References: the residual (resampled; mirror: at full size, the pixel that contains R,
-     * 16 per sphere pixel) + the points, exact. */
-    if (!rc)
-        rc = make_split(map, o.reference_width, &sp);
-    const envl_envmap *rm = sp.rest;
-    if (!rc && !(dirs = map_dirs(rm)))
+envl_result preview_compute(envl_envmap *map, const envl_preview_options *opt, FILE *notes,
+                            preview_data *d)
+{
+    work w = {.map = map, .o = *opt, .d = d};
+    preview_defaults(&w.o);
+    envl_result rc = start_data(&w.o, map, d);
+    if (rc)
+        return rc;
+    rc = make_pixels(d->size, d->view, &w.p);
+    int32_t np = w.p.count;
+    if (!rc && (!(w.buf = malloc(sizeof(double) * 3 * np)) ||
+                !(w.refv = malloc(sizeof(double) * 3 * np)) ||
+                !(w.buf16 = malloc(sizeof(double) * 48 * np))))
         rc = ENVL_ERR_MEMORY;
-    for (int row = 0; row < PREVIEW_ROWS && !rc; row++) {
-        double t0 = envl__seconds();
-        if (row == 0 && o.diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT) {
-            rc = envl_irradiance_exact(rm, np, p.n, refv);
-            for (int32_t i = 0; i < np; i++) {
-                for (int k = 0; k < 3; k++)
-                    refv[3 * i + k] /= ENVL_PI;
-                add_points(&sp, 0, NULL, d->view, p.n + 3 * i, refv + 3 * i);
-            }
-        } else if (row == 0) {
-            for (int32_t i = 0; i < np; i++) {
-                brute_force(rm, dirs, d->view, p.n + 3 * i, NULL, refv + 3 * i);
-                add_points(&sp, 1, NULL, d->view, p.n + 3 * i, refv + 3 * i);
-            }
-        } else if (row < 3) {
-            /* P = (sum over the rest of L w dw + sum over the points of E w) / norm; the
-             * rest's own normaliser sum w dw (split pixels included) is norm to within its
-             * discretisation, as the lobe is several rest pixels wide */
-            if (o.specular == ENVL_PREVIEW_SPECULAR_GGX)
-                rc = envl_prefilter_reference(rm, o.roughness[row - 1], np, p.r, refv);
-            else
-                for (int32_t i = 0; i < np; i++)
-                    brute_force(rm, dirs, d->view, p.r + 3 * i, &lobes[row], refv + 3 * i);
-            for (int32_t i = 0; i < np; i++)
-                add_points(&sp, 2, &lobes[row], d->view, p.r + 3 * i, refv + 3 * i);
-        } else {
-            int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
-            for (int32_t i = 0; i < 16 * np; i++) { /* the pixel that contains R */
-                double c, r;
-                envl_latlong_pixel(w, h, p.r16 + 3 * i, &c, &r);
-                int32_t ci = (int32_t)floor(c + 0.5) % w, ri = (int32_t)floor(r + 0.5);
-                ci = ci < 0 ? ci + w : ci;
-                ri = ri < 0 ? 0 : ri >= h ? h - 1 : ri;
-                for (int k = 0; k < 3; k++)
-                    buf16[3 * i + k] = sp.full[3 * ((size_t)ri * w + ci) + k];
-            }
-            average16(np, buf16, refv);
-            for (int32_t i = 0; i < sp.s.n; i++)
-                deposit(&p, S, d->view, sp.s.lobes[i].d, sp.s.lobes[i].e, refv);
-        }
-        d->seconds[row][0] = envl__seconds() - t0;
-        STORE(row, 0, refv);
-    }
-    /* How far the resampled copy's diffuse reference is from the full map's (docs/design.md). */
-    if (!rc) {
-        const double *full;
-        double e[3 * ENVL_ERROR_NORMALS], fib[3 * ENVL_ERROR_NORMALS];
-        for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
-            envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, fib + 3 * i);
-        rc = envl_envmap_reference_irradiance(map, &full);
-        if (!rc)
-            rc = envl_irradiance_exact(rm, ENVL_ERROR_NORMALS, fib, e);
-        for (int32_t i = 0; i < ENVL_ERROR_NORMALS && !rc; i++) {
-            double x[3] = {0, 0, 0};
-            add_points(&sp, 0, NULL, d->view, fib + 3 * i, x);
-            for (int k = 0; k < 3; k++)
-                e[3 * i + k] += ENVL_PI * x[k];
-        }
-        if (!rc)
-            d->reference_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, e, full);
-    }
-
-    /* Lights: median cut N, fit K + SH remainder; diffuse and glossy rows. */
-    for (int col = 1; col <= 2 && !rc; col++) {
-        envl_lights_options lo = {.method = col == 1 ? ENVL_METHOD_MEDIAN : ENVL_METHOD_FIT,
-                                  .count = col == 1 ? o.median_count : o.fit_count};
-        envl_lights **l = col == 1 ? &d->median : &d->fit;
-        rc = envl_lights_compute(map, &lo, l);
-        if (rc)
-            break;
-        envl_lights_summary s;
-        envl_lights_get_summary(*l, &s);
-        *(col == 1 ? &d->median_lights : &d->fit_lights) = envl_lights_count(*l);
-        for (int row = 0; row < PREVIEW_ROWS; row++) {
-            if (!d->served[row][col])
-                continue;
-            if (row == 0 && o.diffuse == ENVL_PREVIEW_DIFFUSE_LAMBERT) {
-                envl_lights_irradiance(*l, np, p.n, buf);
-                for (int32_t i = 0; i < 3 * np; i++)
-                    buf[i] /= ENVL_PI;
-            } else {
-                for (int32_t i = 0; i < np; i++)
-                    shade_lights(*l, row, &lobes[row], d->view, p.n + 3 * i, p.r + 3 * i,
-                                 buf + 3 * i);
-            }
-            STORE(row, col, buf);
-            d->seconds[row][col] = s.seconds;
-        }
-        d->diffuse_error[col] = s.diffuse_error;
-    }
-    /* SH order 2: irradiance, so the diffuse row only (Lambert whatever the diffuse model). */
+    w.lobes[1] = make_lobe(w.o.specular, w.o.roughness[0]);
+    w.lobes[2] = make_lobe(w.o.specular, w.o.roughness[1]);
+    w.lobes[0] = w.lobes[1]; /* the diffuse row has no lobe; keeps the table defined */
     if (!rc)
-        rc = envl_sh_compute(map, &(envl_sh_options){.order = 2}, &sh);
-    if (!rc) {
-        envl_sh_summary s;
-        envl_sh_get_summary(sh, &s);
-        envl_sh_eval_irradiance(sh, np, p.n, buf);
-        for (int32_t i = 0; i < 3 * np; i++)
-            buf[i] /= ENVL_PI;
-        STORE(0, 3, buf);
-        d->seconds[0][3] = s.seconds;
-        d->diffuse_error[3] = s.diffuse_error;
-    }
-    /* Prefiltered maps: irradiance map, the two glossy levels and the mirror level. */
-    if (!rc) {
-        envl_request q = {.irradiance_map = 1, .mirror = 1, .n_roughness = 2,
-                          .roughness = o.roughness};
-        rc = envl_compute(map, &q, &pre);
-    }
-    if (!rc) {
-        envl_irradiance_map im;
-        envl_products_irradiance(pre, &im);
-        for (int32_t i = 0; i < np; i++) {
-            envl_latlong_sample(im.rgb, im.width, im.height, p.n + 3 * i, buf + 3 * i);
-            for (int k = 0; k < 3; k++)
-                buf[3 * i + k] /= ENVL_PI;
-        }
-        STORE(0, 4, buf);
-        d->seconds[0][4] = im.seconds;
-        rc = map_diffuse_error(map, im.rgb, im.width, im.height, &d->diffuse_error[4]);
-        for (int row = 1; row < PREVIEW_ROWS && !rc; row++) {
-            envl_level lv;
-            int32_t k = envl_products_find_level(pre, row < 3 ? o.roughness[row - 1] : 0);
-            rc = envl_products_level(pre, k, &lv);
-            if (rc)
-                break;
-            if (row < 3)
-                for (int32_t i = 0; i < np; i++)
-                    envl_latlong_sample(lv.rgb, lv.width, lv.height, p.r + 3 * i, buf + 3 * i);
-            else {
-                for (int32_t i = 0; i < 16 * np; i++)
-                    envl_latlong_sample(lv.rgb, lv.width, lv.height, p.r16 + 3 * i,
-                                        buf16 + 3 * i);
-                average16(np, buf16, buf);
-            }
-            STORE(row, 4, buf);
-            d->seconds[row][4] = lv.seconds;
-        }
-    }
-    /* The error under each served sphere: preview_picture_error against the row's reference
-     * (the formula is in preview.h). */
-    for (int row = 0; row < PREVIEW_ROWS && !rc; row++) {
-        for (int32_t q = 0; q < np; q++)
-            for (int k = 0; k < 3; k++)
-                refv[3 * q + k] = d->sphere[row][0][3 * p.index[q] + k];
-        for (int col = 1; col < PREVIEW_COLS; col++) {
-            if (!d->served[row][col])
-                continue;
-            for (int32_t q = 0; q < np; q++)
-                for (int k = 0; k < 3; k++)
-                    buf[3 * q + k] = d->sphere[row][col][3 * p.index[q] + k];
-            d->error[row][col] = preview_picture_error(o.tonemap, d->exposure_ev, np, buf, refv);
-        }
-    }
-#undef STORE
+        rc = make_split(map, w.o.reference_width, &w.sp);
+    if (!rc && !(w.dirs = map_dirs(w.sp.rest)))
+        rc = ENVL_ERR_MEMORY;
+    if (!rc)
+        rc = references(&w);
+    if (!rc)
+        rc = reference_distance(&w);
+    if (!rc)
+        rc = lights_columns(&w);
+    if (!rc)
+        rc = sh_column(&w);
+    if (!rc)
+        rc = prefiltered_column(&w);
+    if (!rc)
+        picture_errors(&w);
     if (!rc && notes) {
-        print_notes(notes, &o, d);
-        fprintf(notes, "envlight preview: references on a %d-wide copy + %d points (diffuse %.4f %% from the "
-                "full map, docs/design.md's measure): %.3f, %.3f, %.3f s; mirror %.3f s\n",
-                envl_envmap_width(rm), (int)sp.s.n, 100 * d->reference_error, d->seconds[0][0],
-                d->seconds[1][0], d->seconds[2][0], d->seconds[3][0]);
+        print_notes(notes, &w.o, d);
+        fprintf(notes, "envlight preview: references on a %d-wide copy + %d points (diffuse %.4f "
+                "%% from the full map, docs/design.md's measure): %.3f, %.3f, %.3f s; mirror "
+                "%.3f s\n", envl_envmap_width(w.sp.rest), (int)w.sp.s.n,
+                100 * d->reference_error, d->seconds[0][0], d->seconds[1][0], d->seconds[2][0],
+                d->seconds[3][0]);
     }
-    free_pixels(&p);
-    free(dirs);
-    free(buf);
-    free(refv);
-    free(buf16);
-    free_split(&sp);
-    envl_sh_free(sh);
-    envl_products_free(pre);
+    free_pixels(&w.p);
+    free(w.dirs);
+    free(w.buf);
+    free(w.refv);
+    free(w.buf16);
+    free_split(&w.sp);
     return rc;
 }
 
