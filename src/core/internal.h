@@ -7,6 +7,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 /* Rec. 709 luminance (docs/design.md), inline for the per-pixel loops; envl_luminance is the same
  * formula for callers of the library. */
@@ -107,6 +108,9 @@ envl_result envl__atomic_end(const char *path, char *tmp_path, bool ok);
  * nothing fails. Used by tests/test_writers.c and fuzz/fuzz_writers.c. */
 extern _Thread_local int64_t envl__io_fail_at, envl__io_calls;
 bool envl__io_fault(void);
+/* Closes a file a writer wrote through stdio: err (an errno of an earlier write, 0 if none) or
+ * the close's own failure becomes ENVL_ERR_IO naming `path`; else ENVL_OK. */
+envl_result envl__close_written(FILE *f, const char *path, int err);
 
 /* ---- layouts (layout.c) ---- */
 /* Guesses the layout of an image from metadata and aspect ratio. */

@@ -114,3 +114,13 @@ envl_result envl_file_write_atomic(const char *path, const void *data, size_t si
     }
     return envl__atomic_end(path, tmp, true);
 }
+
+envl_result envl__close_written(FILE *f, const char *path, int err)
+{
+    errno = 0;
+    if ((fclose(f) != 0 || envl__io_fault()) && !err)
+        err = errno ? errno : EIO;
+    if (err)
+        return envl__fail(ENVL_ERR_IO, "%s: write failed: %s", path, strerror(err));
+    return ENVL_OK;
+}

@@ -163,10 +163,5 @@ envl_result envl__write_pfm(const char *path, const float *rgb, int32_t w, int32
             err = errno ? errno : EIO;
     }
     free(row);
-    errno = 0;
-    if ((fclose(f) != 0 || envl__io_fault()) && !err)
-        err = errno ? errno : EIO;
-    if (err)
-        return envl__fail(ENVL_ERR_IO, "%s: write failed: %s", path, strerror(err));
-    return ENVL_OK;
+    return envl__close_written(f, path, err);
 }
