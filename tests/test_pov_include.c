@@ -22,8 +22,8 @@ static double noise(uint32_t *s)
 static void test_ridge_from_sh(void)
 {
     uint32_t seed = 7;
-    for (int order = 0; order <= POV_MAX_ORDER; order++) {
-        double sh[(POV_MAX_ORDER + 1) * (POV_MAX_ORDER + 1) * 3];
+    for (int order = 0; order <= ENVL_POV_MAX_ORDER; order++) {
+        double sh[(ENVL_POV_MAX_ORDER + 1) * (ENVL_POV_MAX_ORDER + 1) * 3];
         int n = (order + 1) * (order + 1);
         for (int j = 0; j < 3 * n; j++)
             sh[j] = noise(&seed);
@@ -35,7 +35,7 @@ static void test_ridge_from_sh(void)
         for (int i = 0; i < 200; i++) {
             double d[3] = {noise(&seed), noise(&seed), noise(&seed)};
             double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-            double y[(POV_MAX_ORDER + 1) * (POV_MAX_ORDER + 1)], a[3] = {0, 0, 0}, b[3];
+            double y[(ENVL_POV_MAX_ORDER + 1) * (ENVL_POV_MAX_ORDER + 1)], a[3] = {0, 0, 0}, b[3];
             for (int k = 0; k < 3; k++)
                 d[k] /= len;
             envl_sh_basis(order, d, y);
@@ -50,7 +50,7 @@ static void test_ridge_from_sh(void)
     }
     double bad[3] = {0, 0, 0};
     pov_ridge r;
-    CHECK(pov_ridge_from_sh(POV_MAX_ORDER + 1, bad, &r) < 0);
+    CHECK(pov_ridge_from_sh(ENVL_POV_MAX_ORDER + 1, bad, &r) < 0);
 }
 
 /* The hemispheric ambient is envl_sh_summary's pair, one ridge term: E(+axis) = sky,
@@ -78,7 +78,18 @@ static void test_hemi_is_the_sh_pair(void)
     double up[3], down[3], minus[3] = {-axis[0], -axis[1], -axis[2]};
     pov_ridge_eval(&r, axis, up);
     pov_ridge_eval(&r, minus, down);
+    /* perpendicular to the axis (axis x e, e the world axis least along it): the mean */
+    int e = fabs(axis[0]) < fabs(axis[1]) ? (fabs(axis[0]) < fabs(axis[2]) ? 0 : 2)
+                                          : (fabs(axis[1]) < fabs(axis[2]) ? 1 : 2);
+    double side[3] = {e == 0 ? 0 : e == 1 ? -axis[2] : axis[1],
+                      e == 1 ? 0 : e == 0 ? axis[2] : -axis[0],
+                      e == 2 ? 0 : e == 0 ? -axis[1] : axis[0]}, mid[3];
+    double len = sqrt(side[0] * side[0] + side[1] * side[1] + side[2] * side[2]);
+    for (int k = 0; k < 3; k++)
+        side[k] /= len;
+    pov_ridge_eval(&r, side, mid);
     for (int ch = 0; ch < 3; ch++) {
+        CHECK_NEAR(mid[ch], 0.5 * (sky[ch] + ground[ch]), 1e-12 * fabs(sky[ch]) + 1e-15);
         CHECK_NEAR(up[ch], sky[ch], 1e-12 * fabs(sky[ch]) + 1e-15);
         CHECK_NEAR(down[ch], ground[ch], 1e-12 * fabs(sky[ch]) + 1e-15);
         CHECK(sky[ch] >= 0 && ground[ch] >= 0);

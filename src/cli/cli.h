@@ -12,7 +12,6 @@
 #define CLI_USAGE 2
 #define CLI_HELP (-1) /* cli_parse printed --help: the command exits with CLI_OK */
 
-
 /* Options every subcommand that reads an environment accepts. */
 typedef struct cli_common {
     envl_load_options load;
@@ -43,7 +42,7 @@ typedef enum cli_kind {
     CLI_INT64,   /* int64_t *, within [min, max] */
     CLI_REAL,    /* double *, within [min, max] */
     CLI_CHOICE,  /* int *: lookup(text) when given, else the index of the text in choices */
-    CLI_TEXT,    /* const char **: the text as given (non-empty unless empty_ok) */
+    CLI_TEXT,    /* const char **: the text as given (not empty) */
 } cli_kind;
 typedef struct cli_option {
     const char *names;        /* "--order", or "-n|--count" */
@@ -56,7 +55,6 @@ typedef struct cli_option {
     int32_t (*lookup)(const char *name); /* CLI_CHOICE: a library name lookup (-1: unknown) */
     const char *takes;        /* what a usage error says the option takes (default: its range
                                  or choices) */
-    int empty_ok;             /* CLI_TEXT: an empty text is a value */
     int bits;                 /* CLI_CHOICE: *value |= 1 << index (the option repeats) */
     int seen;                 /* set by cli_parse */
 } cli_option;

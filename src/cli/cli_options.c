@@ -2,7 +2,6 @@
  * what --help prints, so an option and its help cannot drift apart. */
 #include "cli.h"
 
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -147,7 +146,7 @@ static int store(cli_option *o, const char *v)
         *(int *)o->value = o->bits ? *(int *)o->value | 1 << n : (int)n;
         return 0;
     case CLI_TEXT:
-        if (!*v && !o->empty_ok)
+        if (!*v)
             return -1;
         *(const char **)o->value = v;
         return 0;

@@ -49,7 +49,7 @@ void pov_ridge_eval(const pov_ridge *r, const double n[3], double out[3])
 /* sum_j coef_j Y_j(n), j < (order + 1)^2. */
 static void sh_eval_rgb(int order, const double *coef, const double n[3], double out[3])
 {
-    double y[(POV_MAX_ORDER + 1) * (POV_MAX_ORDER + 1)];
+    double y[(ENVL_POV_MAX_ORDER + 1) * (ENVL_POV_MAX_ORDER + 1)];
     envl_sh_basis(order, n, y);
     out[0] = out[1] = out[2] = 0;
     for (int j = 0; j < (order + 1) * (order + 1); j++)
@@ -110,11 +110,11 @@ static void ridge_directions(int order, pov_ridge *r)
 
 /* Band l of every term: the least-norm C[.][l] = M^T (M M^T)^-1 b, b = (2l + 1) / (4 pi) c_lm,
  * M[m][k] = Y_lm(d_k) (the top of the file). -1 if the Gram matrix is singular. */
-static int ridge_band(int l, const double *sh, double y[][(POV_MAX_ORDER + 1) * (POV_MAX_ORDER + 1)],
+static int ridge_band(int l, const double *sh, double y[][(ENVL_POV_MAX_ORDER + 1) * (ENVL_POV_MAX_ORDER + 1)],
                       pov_ridge *r)
 {
     int m = 2 * l + 1, base = l * l, K = r->terms;
-    double g[(2 * POV_MAX_ORDER + 1) * (2 * POV_MAX_ORDER + 1)], rhs[2 * POV_MAX_ORDER + 1];
+    double g[(2 * ENVL_POV_MAX_ORDER + 1) * (2 * ENVL_POV_MAX_ORDER + 1)], rhs[2 * ENVL_POV_MAX_ORDER + 1];
     for (int ch = 0; ch < 3; ch++) {
         for (int i = 0; i < m; i++) {
             for (int j = 0; j < m; j++) {
@@ -140,10 +140,10 @@ static int ridge_band(int l, const double *sh, double y[][(POV_MAX_ORDER + 1) * 
 double pov_ridge_from_sh(int order, const double *sh, pov_ridge *r)
 {
     memset(r, 0, sizeof *r);
-    if (order < 0 || order > POV_MAX_ORDER)
+    if (order < 0 || order > ENVL_POV_MAX_ORDER)
         return -1;
     ridge_directions(order, r);
-    double y[POV_MAX_TERMS][(POV_MAX_ORDER + 1) * (POV_MAX_ORDER + 1)];
+    double y[POV_MAX_TERMS][(ENVL_POV_MAX_ORDER + 1) * (ENVL_POV_MAX_ORDER + 1)];
     for (int k = 0; k < r->terms; k++)
         envl_sh_basis(order, r->dir[k], y[k]);
     for (int l = 0; l <= order; l++)

@@ -6,18 +6,16 @@
 
 #include "envlight.h"
 
-/* The largest SH order of the ambient (--order 0..8). */
-#define POV_MAX_ORDER ENVL_POV_MAX_ORDER
-#define POV_MAX_TERMS (2 * POV_MAX_ORDER + 5)
+#define POV_MAX_TERMS (2 * ENVL_POV_MAX_ORDER + 5)
 
 /* E_a(n) = sum_k sum_l coef[k][l] P_l(dir[k] . n), P_l Legendre. */
 typedef struct pov_ridge {
     int terms, order;                                  /* K directions, Legendre degree L */
     double dir[POV_MAX_TERMS][3];                      /* canonical frame */
-    double coef[POV_MAX_TERMS][POV_MAX_ORDER + 1][3];  /* irradiance */
+    double coef[POV_MAX_TERMS][ENVL_POV_MAX_ORDER + 1][3];  /* irradiance */
 } pov_ridge;
 
-/* Irradiance SH of order 0..POV_MAX_ORDER (canonical frame) -> ridge functions. Returns the
+/* Irradiance SH of order 0..ENVL_POV_MAX_ORDER (canonical frame) -> ridge functions. Returns the
  * largest deviation at the 1024 error normals relative to the largest |E|, or -1. */
 double pov_ridge_from_sh(int order, const double *sh, pov_ridge *r);
 

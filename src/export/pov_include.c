@@ -58,9 +58,9 @@ static envl_result plan_options(const envl_pov_options *o, const envl_info *info
     if (o->ambient < 0 || o->ambient > ENVL_POV_AMBIENT_NONE)
         return envl__fail(ENVL_ERR_ARGUMENT, "pov: ambient %d out of range", (int)o->ambient);
     int32_t order = envl__order(o->order, ENVL_DEFAULT_ORDER);
-    if (order < -1 || order > POV_MAX_ORDER)
+    if (order < -1 || order > ENVL_POV_MAX_ORDER)
         return envl__fail(ENVL_ERR_ARGUMENT, "pov: order %d: 0..%d, ENVL_ORDER_0 or "
-                          "ENVL_REMAINDER_NONE", (int)o->order, POV_MAX_ORDER);
+                          "ENVL_REMAINDER_NONE", (int)o->order, ENVL_POV_MAX_ORDER);
     if (o->ground_plane && !(o->ground_albedo >= 0 && o->ground_albedo <= 1))
         return envl__fail(ENVL_ERR_ARGUMENT, "pov: ground albedo %g: within [0, 1]",
                           o->ground_albedo);
@@ -168,10 +168,10 @@ static envl_result plan_recipe(const envl_pov_options *o, pov_plan *p)
         p->ground = -1;
         p->ground_from = NULL;
     }
-    /* the fit solves one NNLS of at most 128 unknowns: 32 lights + 81 coefficients */
-    if (p->lo.method == ENVL_METHOD_FIT && p->lo.count > 32)
-        return envl__fail(ENVL_ERR_ARGUMENT, "pov: fit takes 1..32 lights, not %d (median and "
-                          "variance take more)", (int)p->lo.count);
+    /* the library's limit (envlight.h), refused here before any map is computed */
+    if (p->lo.method == ENVL_METHOD_FIT && p->lo.count > ENVL_FIT_MAX_LIGHTS)
+        return envl__fail(ENVL_ERR_ARGUMENT, "pov: fit takes 1..%d lights, not %d (median and "
+                          "variance take more)", ENVL_FIT_MAX_LIGHTS, (int)p->lo.count);
     if (p->lo.method == ENVL_METHOD_FIT)
         p->lo.remainder_order = (p->ambient == ENVL_POV_AMBIENT_NONE && !p->order_set) ||
                                         p->order < 0
