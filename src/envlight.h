@@ -30,7 +30,7 @@ extern "C" {
 #endif
 
 /* Bumped whenever a struct layout or a function signature changes (the ctypes shim checks it). */
-#define ENVL_ABI_VERSION 2
+#define ENVL_ABI_VERSION 3
 
 /* pi, the one definition every part of envlight uses. */
 #define ENVL_PI 3.14159265358979323846
@@ -211,7 +211,9 @@ ENVL_API void envl_fibonacci_direction(int32_t i, int32_t n, double direction[3]
 ENVL_API double envl_relative_rms_luminance(int32_t count, const double *approx_rgb,
                                             const double *exact_rgb);
 /* Exact irradiance at the 1024 Fibonacci normals, computed once per map and cached. Maps wider
- * than ENVL_REFERENCE_WIDTH are resampled (exactly, by area) to that width first. */
+ * than ENVL_REFERENCE_WIDTH are resampled (exactly, by area) to that width first. Summed
+ * through a tree of block sums: each value is within 2e-4 x the mean irradiance of
+ * envl_irradiance_exact's (docs/design.md, "Error measures"). */
 #define ENVL_REFERENCE_WIDTH 1024
 ENVL_API envl_result envl_envmap_reference_irradiance(envl_envmap *map, const double **rgb_out);
 
@@ -258,6 +260,8 @@ typedef struct envl_lights_options {
                                  _CUT_LIGHTS (median, variance), _SUN_LIGHTS (sun: at most) */
     int32_t remainder_order;  /* fit: SH order of the remainder, 0..8 (ENVL_ORDER_0 for 0);
                                  default 2; ENVL_REMAINDER_NONE for lights only */
+    int32_t measure;          /* nonzero: also measure diffuse_error (default 0: -1, not
+                                 measured; the fit's own target is computed either way) */
 } envl_lights_options;
 
 typedef struct envl_light {
@@ -276,7 +280,8 @@ typedef struct envl_lights_summary {
     double residual_power[3]; /* what the lights did not take; lights + residual = power */
     int32_t remainder_order;  /* fit with remainder: its order, else -1 */
     double diffuse_error;     /* docs/design.md's measure against the exact integrator (sun: of
-                                 the lights + the residual's exact irradiance) */
+                                 the lights + the residual's exact irradiance); -1 when
+                                 options.measure was 0 */
     double seconds;           /* time to compute the lights (the error measure excluded) */
     int32_t no_light;         /* 1: the map is black; there are no lights */
 } envl_lights_summary;
@@ -320,6 +325,7 @@ typedef struct envl_sh_options {
     int32_t window;           /* ENVL_WINDOW_*; default none: the plain truncated expansion,
                                  which can go negative (min_irradiance says); auto cannot
                                  (the CLI's default) */
+    int32_t measure;          /* nonzero: also measure diffuse_error (default 0: -1) */
 } envl_sh_options;
 
 typedef struct envl_sh_summary {
@@ -327,7 +333,8 @@ typedef struct envl_sh_summary {
     double window_width;      /* Hann-type width used (auto), or order + 1; 0 for none */
     double min_irradiance;    /* least luminance irradiance of the (windowed) reconstruction over
                                  4096 directions */
-    double diffuse_error;     /* docs/design.md's measure of the irradiance reconstruction */
+    double diffuse_error;     /* docs/design.md's measure of the irradiance reconstruction; -1
+                                 when options.measure was 0 */
     double seconds;           /* projection + windowing */
     /* Artist forms (irradiance units, canonical frame): E(n) ~ ambient + deltas . n, and the
      * hemispheric pair: E = sky at n = axis, ground at n = -axis, linear between (the least

@@ -74,4 +74,21 @@ usage "$ENVLIGHT" lights -n 0
 usage "$ENVLIGHT" lights --order 9
 usage "$ENVLIGHT" lights a.hdr b.hdr
 
+# --no-error, alike on lights, sh and prefilter: nothing measured, and every output says so
+run "$ENVLIGHT" lights - --sky-width 256 --no-error
+has out.txt "diffuse error not measured"
+run "$ENVLIGHT" lights - --sky-width 256 --json
+has out.txt '"measured": true'
+run "$ENVLIGHT" lights - --sky-width 256 --no-error --json
+has out.txt '"measured": false'
+has out.txt '"diffuse": null'
+run "$ENVLIGHT" sh - --sky-width 256 --no-error
+has out.txt "diffuse error not measured"
+run "$ENVLIGHT" sh - --sky-width 256 --no-error --json
+has out.txt '"measured": false'
+run "$ENVLIGHT" sh - --sky-width 256
+has out.txt "diffuse error [0-9.]* %"
+run "$ENVLIGHT" prefilter - --sky-width 256 --no-error -o pf_noerr
+has out.txt "glossy error not measured"
+has pf_noerr/prefilter.json '"errors_measured": false'
 finish

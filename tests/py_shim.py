@@ -47,7 +47,7 @@ def spot_image(w=64, h=32, col=40, row=9, value=1000.0, base=0.05):
 # ---- loading and the ABI -----------------------------------------------------------------
 
 def test_library_loaded_with_matching_abi():
-    assert envlight.lib.envl_abi_version() == envlight.ABI_VERSION == 2
+    assert envlight.lib.envl_abi_version() == envlight.ABI_VERSION == 3
     assert envlight.version()
     want = os.environ.get("ENVLIGHT_LIBRARY")
     if want:
@@ -56,7 +56,7 @@ def test_library_loaded_with_matching_abi():
 
 def test_abi_mismatch_is_refused(monkeypatch):
     monkeypatch.setattr(_lib, "ABI_VERSION", 999)
-    with pytest.raises(ImportError, match="ABI version 2.*written for 999"):
+    with pytest.raises(ImportError, match="ABI version %d.*written for 999" % envlight.ABI_VERSION):
         _lib.load_library(envlight.library_path)
 
 
@@ -287,6 +287,21 @@ def test_lights_error_from_the_library():
         with pytest.raises(envlight.Error) as e:
             env.lights(4, method="fit", order=40)   # remainder order 40 > 8
         assert e.value.name == "ENVL_ERR_ARGUMENT" and e.value.message
+
+
+def test_error_measure_is_asked_for():
+    """measure=True (the default) states the diffuse error; False skips it and says so (None),
+    and the product is the same either way."""
+    with envlight.sky(width=256) as env:
+        with env.sh(2) as a, env.sh(2, measure=False) as b:
+            assert 0 < a.summary["diffuse_error"] < 1 and b.summary["diffuse_error"] is None
+            assert (a.radiance == b.radiance).all() if envlight.has_numpy else \
+                a.radiance == b.radiance
+        with env.lights(4) as a, env.lights(4, measure=False) as b:
+            assert 0 < a.summary["diffuse_error"] < 1 and b.summary["diffuse_error"] is None
+            assert a.lights == b.lights
+        with pytest.raises(TypeError, match="measure must be True or False"):
+            env.sh(2, measure="yes")
 
 
 # ---- lights: energy, directions, residual --------------------------------------------------

@@ -65,7 +65,7 @@ static void test_constant(void)
     envl_envmap *m = map_of(px, 128, 64, 0);
     for (int method = 0; method < ENVL_METHOD_COUNT; method++) {
         envl_lights *ls;
-        envl_lights_options o = {.method = method, .count = 8};
+        envl_lights_options o = {.method = method, .count = 8, .measure = 1};
         CHECK_OK(envl_lights_compute(m, &o, &ls));
         envl_lights_summary s;
         envl_lights_get_summary(ls, &s);
@@ -98,7 +98,7 @@ static void test_one_bright_pixel(void)
     double pixel_angle = PI / h; /* angular height of a pixel, >= its width here */
     for (int method = 0; method < ENVL_METHOD_COUNT; method++) {
         envl_lights *ls;
-        envl_lights_options o = {.method = method, .count = method == ENVL_METHOD_FIT ? 4 : 64};
+        envl_lights_options o = {.method = method, .count = method == ENVL_METHOD_FIT ? 4 : 64, .measure = 1};
         CHECK_OK(envl_lights_compute(m, &o, &ls));
         envl_lights_summary s;
         envl_lights_get_summary(ls, &s);
@@ -152,7 +152,7 @@ static double seam_error(double elevation, double azimuth, int method)
     envl_envmap *m;
     CHECK_OK(envl_envmap_sky(&so, &m));
     envl_lights *ls;
-    envl_lights_options o = {.method = method, .count = 16};
+    envl_lights_options o = {.method = method, .count = 16, .measure = 1};
     CHECK_OK(envl_lights_compute(m, &o, &ls));
     envl_lights_summary s;
     envl_lights_get_summary(ls, &s);
@@ -173,7 +173,7 @@ static void test_seam_and_pole(double elevation, double azimuth)
     for (int c = 0; c < 2; c++) {
         int method = cuts[c];
         envl_lights *ls;
-        envl_lights_options o = {.method = method, .count = 16};
+        envl_lights_options o = {.method = method, .count = 16, .measure = 1};
         CHECK_OK(envl_lights_compute(m, &o, &ls));
         double near = 0, reach = 0.265 * PI / 180 + PI / 256;
         for (int i = 0; i < envl_lights_count(ls); i++) {
@@ -201,7 +201,7 @@ static void test_black(void)
     envl_envmap *m = map_of(px, 64, 32, 0);
     for (int method = 0; method < ENVL_METHOD_COUNT; method++) {
         envl_lights *ls;
-        envl_lights_options o = {.method = method};
+        envl_lights_options o = {.method = method, .measure = 1};
         CHECK_OK(envl_lights_compute(m, &o, &ls));
         envl_lights_summary s;
         envl_lights_get_summary(ls, &s);
@@ -226,7 +226,7 @@ static void test_tiny(void)
         for (int method = 0; method < ENVL_METHOD_COUNT; method++) {
             envl_lights *ls;
             int n = method == ENVL_METHOD_FIT ? 32 : 20000;
-            envl_lights_options o = {.method = method, .count = n};
+            envl_lights_options o = {.method = method, .count = n, .measure = 1};
             CHECK_OK(envl_lights_compute(m, &o, &ls));
             int count = envl_lights_count(ls);
             if (method != ENVL_METHOD_FIT && method != ENVL_METHOD_SUN)
@@ -249,7 +249,7 @@ static void test_deterministic(void)
     envl_envmap *b = map_of(envl_envmap_pixels(sky), 256, 128, 4);
     for (int method = 0; method < ENVL_METHOD_COUNT; method++) {
         envl_lights *la, *lb;
-        envl_lights_options o = {.method = method, .count = 8};
+        envl_lights_options o = {.method = method, .count = 8, .measure = 1};
         CHECK_OK(envl_lights_compute(a, &o, &la));
         CHECK_OK(envl_lights_compute(b, &o, &lb));
         CHECK(envl_lights_count(la) == envl_lights_count(lb));
@@ -284,7 +284,7 @@ static void test_sat_precision(void)
     envl_envmap *m = map_of(px, w, h, 0);
     free(px);
     envl_lights *ls;
-    envl_lights_options o = {.method = ENVL_METHOD_MEDIAN, .count = 1 << 14};
+    envl_lights_options o = {.method = ENVL_METHOD_MEDIAN, .count = 1 << 14, .measure = 1};
     CHECK_OK(envl_lights_compute(m, &o, &ls));
     double d0[3];
     envl_envmap_direction(m, c0, r0, d0);
@@ -358,7 +358,7 @@ static void test_fit_light_size(void)
     envl_envmap_free(m0);
     envl_envmap *m = map_of(px, w, h, 0);
     envl_lights *ls;
-    envl_lights_options o = {.method = ENVL_METHOD_FIT, .count = 1};
+    envl_lights_options o = {.method = ENVL_METHOD_FIT, .count = 1, .measure = 1};
     CHECK_OK(envl_lights_compute(m, &o, &ls));
     envl_light l;
     CHECK_OK(envl_lights_get(ls, 0, &l));
@@ -383,7 +383,7 @@ static void test_fit_lights_alone(void)
     float *px = filled(w, h, 2.0f);
     envl_envmap *m = map_of(px, w, h, 0);
     envl_lights *ls;
-    envl_lights_options o = {.method = ENVL_METHOD_FIT, .count = 4, .remainder_order = ENVL_REMAINDER_NONE};
+    envl_lights_options o = {.method = ENVL_METHOD_FIT, .count = 4, .remainder_order = ENVL_REMAINDER_NONE, .measure = 1};
     CHECK_OK(envl_lights_compute(m, &o, &ls));
     envl_lights_summary s;
     envl_lights_get_summary(ls, &s);
@@ -556,7 +556,7 @@ static void test_sun_sky(void)
     double el = el_deg * PI / 180, az = az_deg * PI / 180;
     double sun[3] = {cos(el) * cos(az), cos(el) * sin(az), sin(el)};
     envl_lights *ls;
-    envl_lights_options o = {.method = ENVL_METHOD_SUN};
+    envl_lights_options o = {.method = ENVL_METHOD_SUN, .measure = 1};
     CHECK_OK(envl_lights_compute(m, &o, &ls));
     envl_lights_summary s;
     CHECK_OK(envl_lights_get_summary(ls, &s));
@@ -603,7 +603,7 @@ static void test_sun_none(void)
         envl_envmap *m = map_of(px, w, h, 0);
         CHECK(t == 0 || max_luminance(px, (size_t)w * h) > split_threshold(m));
         envl_lights *ls;
-        envl_lights_options o = {.method = ENVL_METHOD_SUN};
+        envl_lights_options o = {.method = ENVL_METHOD_SUN, .measure = 1};
         CHECK_OK(envl_lights_compute(m, &o, &ls));
         envl_lights_summary s;
         CHECK_OK(envl_lights_get_summary(ls, &s));
@@ -658,7 +658,7 @@ static void test_sun_count(void)
     double T = split_threshold(m);
     size_t n = (size_t)w * h;
     envl_lights *ls;
-    envl_lights_options o = {.method = ENVL_METHOD_SUN};
+    envl_lights_options o = {.method = ENVL_METHOD_SUN, .measure = 1};
     CHECK_OK(envl_lights_compute(m, &o, &ls));
     CHECK(envl_lights_count(ls) == 2);
     if (envl_lights_count(ls) == 2) {
@@ -760,7 +760,7 @@ static void test_defaults(void)
         {0, 2}, {ENVL_ORDER_0, 0}, {ENVL_REMAINDER_NONE, -1}, {8, 8}};
     for (int i = 0; i < 5; i++) {
         envl_lights *ls;
-        envl_lights_options o = {.remainder_order = i < 4 ? cases[i].field : 0};
+        envl_lights_options o = {.remainder_order = i < 4 ? cases[i].field : 0, .measure = 1};
         CHECK_OK(envl_lights_compute(m, i < 4 ? &o : NULL, &ls));
         envl_lights_summary s;
         envl_lights_get_summary(ls, &s);
@@ -770,7 +770,7 @@ static void test_defaults(void)
         envl_lights_free(ls);
     }
     envl_lights *ls;
-    CHECK_RC(envl_lights_compute(m, &(envl_lights_options){.remainder_order = 9}, &ls),
+    CHECK_RC(envl_lights_compute(m, &(envl_lights_options){.remainder_order = 9, .measure = 1}, &ls),
              ENVL_ERR_ARGUMENT);
     CHECK(!strcmp(envl_method_name(0), "fit"));
     envl_envmap_free(m);

@@ -79,7 +79,7 @@ static void check_furnace(envl_envmap *m, double value)
     double sub = fmin(256, fmax(4, ceil(hdeg / 0.25)));
     double hs = hdeg / sub * PI / 180;
     envl_sh *sh;
-    CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = 8}, &sh));
+    CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = 8, .measure = 1}, &sh));
     const double *c = envl_sh_radiance(sh);
     for (int ch = 0; ch < 3; ch++) {
         CHECK_REL(c[ch], 2 * sqrt(PI) * value, 1e-12);
@@ -134,7 +134,7 @@ static void test_linear_z(void)
     envl_envmap *m;
     CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &(envl_load_options){.layout = 1}, &m));
     envl_sh *sh;
-    CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = 2}, &sh));
+    CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = 2, .measure = 1}, &sh));
     const double *c = envl_sh_radiance(sh), hh = PI / h, tol = 2 * hh * hh * (a + b);
     CHECK_NEAR(c[0], 2 * sqrt(PI) * a, tol);
     CHECK_NEAR(c[3 * 2], b * sqrt(4 * PI / 3), tol);
@@ -172,10 +172,10 @@ static void test_bright_pixel_windows(void)
     CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &(envl_load_options){.layout = 1}, &m));
     for (int order = 1; order <= 8; order++) {
         envl_sh *none, *autow, *hannw, *lanc;
-        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = order, .window = ENVL_WINDOW_NONE}, &none));
-        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = order, .window = ENVL_WINDOW_AUTO}, &autow));
-        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = order, .window = ENVL_WINDOW_HANN}, &hannw));
-        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = order, .window = ENVL_WINDOW_LANCZOS}, &lanc));
+        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = order, .window = ENVL_WINDOW_NONE, .measure = 1}, &none));
+        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = order, .window = ENVL_WINDOW_AUTO, .measure = 1}, &autow));
+        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = order, .window = ENVL_WINDOW_HANN, .measure = 1}, &hannw));
+        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = order, .window = ENVL_WINDOW_LANCZOS, .measure = 1}, &lanc));
         envl_sh_summary sn, sa;
         envl_sh_get_summary(none, &sn);
         envl_sh_get_summary(autow, &sa);
@@ -239,8 +239,8 @@ static void test_huge_values(void)
     CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &lo, &m));
     CHECK_OK(envl_envmap_from_pixels(small, w, h, 3, &lo, &ms));
     envl_sh *a = NULL, *b = NULL;
-    CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = 4}, &a));
-    CHECK_OK(envl_sh_compute(ms, &(envl_sh_options){.order = 4}, &b));
+    CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = 4, .measure = 1}, &a));
+    CHECK_OK(envl_sh_compute(ms, &(envl_sh_options){.order = 4, .measure = 1}, &b));
     if (a && b) {
         const double *ra = envl_sh_radiance(a), *rb = envl_sh_radiance(b);
         for (int i = 0; i < 25 * 3; i++) {
@@ -258,7 +258,7 @@ static void test_huge_values(void)
     for (int i = 0; i < w * h * 3; i++)
         px[i] = 3e38f;
     CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &lo, &m));
-    CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = 2}, &a));
+    CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = 2, .measure = 1}, &a));
     if (a) {
         /* a float lane adds 8 equal terms: 7 roundings, relative 7 u = 7 x 2^-24 = 4.2e-7
          * (blocks and rows add in double); the diffuse error, at most that much again from
@@ -293,7 +293,7 @@ static void test_never_negative(void)
     for (int win = 0; win < 2; win++) {
         envl_sh *sh;
         int32_t window = win ? ENVL_WINDOW_AUTO : ENVL_WINDOW_NONE;
-        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = 2, .window = window}, &sh));
+        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = 2, .window = window, .measure = 1}, &sh));
         envl_sh_summary s;
         envl_sh_get_summary(sh, &s);
         double least = INFINITY, d[3], e[3];
@@ -343,8 +343,8 @@ static void test_threads(void)
     CHECK_OK(envl_envmap_from_pixels(p, 256, 128, 3, &(envl_load_options){1, .threads = 1}, &a));
     CHECK_OK(envl_envmap_from_pixels(p, 256, 128, 3, &(envl_load_options){1, .threads = 4}, &b));
     envl_sh *sa, *sb;
-    CHECK_OK(envl_sh_compute(a, &(envl_sh_options){.order = 8}, &sa));
-    CHECK_OK(envl_sh_compute(b, &(envl_sh_options){.order = 8}, &sb));
+    CHECK_OK(envl_sh_compute(a, &(envl_sh_options){.order = 8, .measure = 1}, &sa));
+    CHECK_OK(envl_sh_compute(b, &(envl_sh_options){.order = 8, .measure = 1}, &sb));
     CHECK(memcmp(envl_sh_radiance(sa), envl_sh_radiance(sb), sizeof(double) * 81 * 3) == 0);
     envl_sh_free(sa);
     envl_sh_free(sb);
@@ -364,7 +364,7 @@ static void test_orders(void)
         {0, 2}, {ENVL_ORDER_0, 0}, {1, 1}, {5, 5}, {32, 32}};
     for (int i = 0; i < 5; i++) {
         envl_sh *sh;
-        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = cases[i].field}, &sh));
+        CHECK_OK(envl_sh_compute(m, &(envl_sh_options){.order = cases[i].field, .measure = 1}, &sh));
         envl_sh_summary s;
         envl_sh_get_summary(sh, &s);
         CHECK(s.order == cases[i].order);
@@ -377,8 +377,8 @@ static void test_orders(void)
     envl_sh_get_summary(sh, &s);
     CHECK(s.order == ENVL_DEFAULT_ORDER);
     envl_sh_free(sh);
-    CHECK_RC(envl_sh_compute(m, &(envl_sh_options){.order = 33}, &sh), ENVL_ERR_ARGUMENT);
-    CHECK_RC(envl_sh_compute(m, &(envl_sh_options){.order = -1}, &sh), ENVL_ERR_ARGUMENT);
+    CHECK_RC(envl_sh_compute(m, &(envl_sh_options){.order = 33, .measure = 1}, &sh), ENVL_ERR_ARGUMENT);
+    CHECK_RC(envl_sh_compute(m, &(envl_sh_options){.order = -1, .measure = 1}, &sh), ENVL_ERR_ARGUMENT);
     envl_products *p;
     CHECK_OK(envl_compute(m, &(envl_request){.diffuse = 1, .sh_order = ENVL_ORDER_0}, &p));
     envl_sh_get_summary(envl_products_sh(p), &s);

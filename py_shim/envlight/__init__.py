@@ -495,36 +495,40 @@ class Envmap(_Handle):
         finally:
             lib.envl_free(p)
 
-    def lights(self, n=None, method=None, order=2):
+    def lights(self, n=None, method=None, order=2, measure=True):
         """Directional lights standing in for the map.
 
         n: number of lights, 1..32 for fit, else 1..2^24 (None = the library's default: fit 4,
         median and variance 16; sun: at most n, 4); method: 'fit' (None: the library's default,
         fit, as everywhere), 'median', 'variance' or 'sun' (the suns split off
         exactly; the residual is the map less their excess); order: fit's SH remainder order
-        (0..8), None for lights only (ignored by the cuts and sun). Returns a LightsResult (a
+        (0..8), None for lights only (ignored by the cuts and sun); measure: also measure the
+        diffuse error (summary["diffuse_error"]; None when False). Returns a LightsResult (a
         context manager)."""
         o = _lib.LightsOptions()
         o.method = _method(method, "Envmap.lights: method")
         o.count = _count(n, o.method, "Envmap.lights: n")
         o.remainder_order = _order(order, "Envmap.lights: order", A.REMAINDER_MAX_ORDER,
                                    none=_lib.ENVL_REMAINDER_NONE)
+        o.measure = 1 if A.flag(measure, "Envmap.lights: measure") else 0
         h = c_void_p()
         m = self._handle()
         _check(lib.envl_lights_compute(m, byref(o), byref(h)))
         # the residual has the map's size (the lights object does not export it)
         return LightsResult(h, lib.envl_envmap_width(m), lib.envl_envmap_height(m))
 
-    def sh(self, order=2, window="auto"):
+    def sh(self, order=2, window="auto", measure=True):
         """Real SH projection of the map (order 0..32; window 'auto', the default as in
         `envlight sh`: the least windowing that keeps the irradiance non-negative in every
-        channel; 'none' (can go negative: summary["min_irradiance"] says), 'hann', 'lanczos').
+        channel; 'none' (can go negative: summary["min_irradiance"] says), 'hann', 'lanczos');
+        measure: also measure the diffuse error (summary["diffuse_error"]; None when False).
         Returns an SHResult (a context manager)."""
         o = _lib.SHOptions()
         o.order = _order(A.integer(order, "Envmap.sh: order", 0, A.SH_MAX_ORDER),
                          "Envmap.sh: order", A.SH_MAX_ORDER)
         o.window = A.enum(window, "Envmap.sh: window", lib.envl_window_from_name,
                           lib.envl_window_name)
+        o.measure = 1 if A.flag(measure, "Envmap.sh: measure") else 0
         h = c_void_p()
         _check(lib.envl_sh_compute(self._handle(), byref(o), byref(h)))
         return SHResult(h)
@@ -833,7 +837,8 @@ class LightsResult(_Handle):
             "power": _t(s.power), "lights_power": _t(s.lights_power),
             "residual_power": _t(s.residual_power),
             "remainder_order": s.remainder_order if s.remainder_order >= 0 else None,
-            "diffuse_error": s.diffuse_error, "seconds": s.seconds, "no_light": bool(s.no_light),
+            "diffuse_error": s.diffuse_error if s.diffuse_error >= 0 else None,
+            "seconds": s.seconds, "no_light": bool(s.no_light),
         }
         lights = []
         one = _lib.Light()
@@ -913,7 +918,8 @@ class SHResult(_Handle):
         self.summary = {
             "order": s.order, "window": _str(lib.envl_window_name(s.window)),
             "window_width": s.window_width, "min_irradiance": s.min_irradiance,
-            "diffuse_error": s.diffuse_error, "seconds": s.seconds,
+            "diffuse_error": s.diffuse_error if s.diffuse_error >= 0 else None,
+            "seconds": s.seconds,
             "ambient": _t(s.ambient),
             "deltas": {"x": _t(s.deltas[0]), "y": _t(s.deltas[1]), "z": _t(s.deltas[2])},
             "hemispheric": {"axis": _t(s.hemi_axis), "sky": _t(s.hemi_sky),

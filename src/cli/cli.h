@@ -76,6 +76,13 @@ const cli_option *cli_seen(const cli_option *t, int n, const char *names);
 /* A table entry: CLI_OPTION("--order", "L", CLI_INT, .min = 0, .max = 32, .value = &order,
  * .help = "..."). */
 #define CLI_OPTION(names_, arg_, kind_, ...) {.names = names_, .arg = arg_, .kind = kind_, __VA_ARGS__}
+/* --no-error, spelled and explained alike on every command that measures an error. */
+#define CLI_NO_ERROR_OPTION(flag)                                                             \
+    CLI_OPTION("--no-error", NULL, CLI_FLAG, .value = (flag),                                 \
+               .help = "skip the error measure (docs/design.md); the output then says it\n"    \
+                       "was not measured")
+/* "<what> error 0.123 %", or "<what> error not measured" for a negative error. */
+const char *cli_error_text(char *buf, size_t size, const char *what, double error);
 
 /* Loads FILE, or the built-in sky for NULL or "-"; warns (unless quiet) about replaced pixels
  * and says which layout auto-detection picked when that was a real guess (not evident from

@@ -57,7 +57,8 @@ static void write_json(FILE *f, const envl_info *info, const envl_lights *ls)
     }
     json_bool(&j, "no_light", s.no_light);
     json_object(&j, "error");
-    json_number(&j, "diffuse", s.diffuse_error);
+    json_bool(&j, "measured", s.diffuse_error >= 0);
+    json_number(&j, "diffuse", s.diffuse_error >= 0 ? s.diffuse_error : NAN);
     json_object_end(&j);
     json_number(&j, "seconds", s.seconds);
     json_int(&j, "envmap_width", info->width);
@@ -80,12 +81,14 @@ static void write_table(FILE *f, const envl_info *info, const envl_lights *ls)
 {
     envl_lights_summary s;
     envl_lights_get_summary(ls, &s);
-    fprintf(f, "%s: %d lights by %s %s%s, diffuse error %.3f %%, %.3f s\n", info->file,
+    char e[64];
+    fprintf(f, "%s: %d lights by %s %s%s, %s, %.3f s\n", info->file,
             (int)s.count, envl_method_name(s.method),
             s.method == ENVL_METHOD_SUN   ? "split (+ the residual map)"
             : s.method == ENVL_METHOD_FIT ? "least squares"
                                           : "cut",
-            s.remainder_order >= 0 ? " + SH remainder" : "", 100 * s.diffuse_error, s.seconds);
+            s.remainder_order >= 0 ? " + SH remainder" : "",
+            cli_error_text(e, sizeof e, "diffuse", s.diffuse_error), s.seconds);
     if (s.no_light)
         fprintf(f, "no light: the environment is black\n");
     fprintf(f, "%4s  %8s %8s %8s  %11s %11s %11s  %9s %8s\n", "#", "x", "y", "z", "r", "g", "b",
@@ -106,7 +109,7 @@ int cli_lights(int argc, char **argv)
 {
     cli_common c = {0};
     const char *file = NULL, *out = NULL, *residual = NULL;
-    int method = ENVL_METHOD_FIT, count = 0, order = ENVL_DEFAULT_ORDER, npos;
+    int method = ENVL_METHOD_FIT, count = 0, order = ENVL_DEFAULT_ORDER, no_error = 0, npos;
     int format = 0; /* 0 table, 1 json, 2 csv */
     cli_option t[] = {
         CLI_OPTION("-n|--count", "N", CLI_INT, .min = 1, .max = 1 << 24, .value = &count,
@@ -121,6 +124,7 @@ int cli_lights(int argc, char **argv)
         CLI_OPTION("--order", "L", CLI_INT, .min = -1, .max = ENVL_MAX_REMAINDER_ORDER,
                    .value = &order,
                    .help = "fit: SH order of the low-frequency remainder (default 2; -1: none)"),
+        CLI_NO_ERROR_OPTION(&no_error),
         CLI_OPTION("--json", NULL, CLI_FLAG, .max = 1, .value = &format, .help = "JSON output"),
         CLI_OPTION("--csv", NULL, CLI_FLAG, .max = 2, .value = &format,
                    .help = "CSV output (default: a table)"),
@@ -135,7 +139,8 @@ int cli_lights(int argc, char **argv)
     envl_lights_options lo = {.method = method, .count = count,
                               .remainder_order = order < 0    ? ENVL_REMAINDER_NONE
                                                  : order == 0 ? ENVL_ORDER_0
-                                                              : order};
+                                                              : order,
+                              .measure = !no_error};
     if (!cli_light_count_ok("lights", &lo)) /* once every option is read: any order */
         return CLI_USAGE;
     envl_envmap *map;

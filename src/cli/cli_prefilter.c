@@ -132,9 +132,7 @@ int cli_prefilter(int argc, char **argv)
                            "with rgbm-png also writes brdf_lut.png, sRGB)"),
         CLI_OPTION("--brdf", NULL, CLI_FLAG, .value = &brdf,
                    .help = "also write the BRDF table (brdf_lut.EXT)"),
-        CLI_OPTION("--no-error", NULL, CLI_FLAG, .value = &no_error,
-                   .help = "skip the error measures (the glossy one sums every pixel per\n"
-                           "direction and can take seconds)"),
+        CLI_NO_ERROR_OPTION(&no_error),
         CLI_OPTION("--json", NULL, CLI_FLAG, .value = &json,
                    .help = "print the sidecar to stdout instead of the summary"),
         CLI_OPTION("-o", "DIR", CLI_TEXT, .value = &dir, .takes = "a directory",
@@ -222,9 +220,9 @@ int cli_prefilter(int argc, char **argv)
     if (envl_products_irradiance(p, &irr) == ENVL_OK) {
         printf("irradiance   %-9s %5d x %-5d", envl_irradiance_method_name(irr.method),
                (int)irr.width, (int)irr.height);
-        if (irr.diffuse_error >= 0)
-            printf("  diffuse error %.3f %%", 100 * irr.diffuse_error);
-        printf("  %.3f s\n", irr.seconds);
+        char e[64];
+        printf("  %s  %.3f s\n", cli_error_text(e, sizeof e, "diffuse", irr.diffuse_error),
+               irr.seconds);
     }
     for (int32_t i = 0; i < envl_products_level_count(p); i++) {
         envl_level l;
@@ -232,9 +230,9 @@ int cli_prefilter(int argc, char **argv)
         printf("specular_%02d  r %.3f alpha %.4f %5d x %-5d samples %4d%s", (int)i, l.roughness,
                l.alpha, (int)l.width, (int)l.height, (int)l.samples,
                l.samples ? (l.filtered ? " filtered" : " plain") : " (resampled)");
-        if (l.glossy_error >= 0)
-            printf("  glossy error %.3f %%", 100 * l.glossy_error);
-        printf("  %.3f s\n", l.seconds);
+        char e[64];
+        printf("  %s  %.3f s\n", cli_error_text(e, sizeof e, "glossy", l.glossy_error),
+               l.seconds);
     }
     int32_t nsun;
     const envl_light *sun = envl_products_sun_lights(p, &nsun);

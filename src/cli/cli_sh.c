@@ -75,7 +75,7 @@ int cli_sh(int argc, char **argv)
 {
     cli_common c = {0};
     const char *file = NULL, *out = NULL;
-    int order = ENVL_DEFAULT_ORDER, window = ENVL_WINDOW_AUTO, json = 0, npos;
+    int order = ENVL_DEFAULT_ORDER, window = ENVL_WINDOW_AUTO, json = 0, no_error = 0, npos;
     cli_option t[] = {
         CLI_OPTION("--order", "L", CLI_INT, .min = 0, .max = 32, .value = &order,
                    .help = "0..32 (default 2)"),
@@ -85,6 +85,7 @@ int cli_sh(int argc, char **argv)
                            "non-negative in every channel; the width found is reported; none\n"
                            "when nothing rings), none (the plain truncated expansion: can go\n"
                            "negative, said on stderr), hann, lanczos"),
+        CLI_NO_ERROR_OPTION(&no_error),
         CLI_OPTION("--json", NULL, CLI_FLAG, .value = &json,
                    .help = "JSON on stdout (default: a table)"),
         CLI_OPTION("-o", "OUT", CLI_TEXT, .value = &out, .takes = "a file name",
@@ -93,7 +94,8 @@ int cli_sh(int argc, char **argv)
     int parsed = cli_parse(&sh_command, t, CLI_COUNT(t), &c, argc, argv, &file, 1, &npos);
     if (parsed)
         return parsed == CLI_HELP ? CLI_OK : parsed;
-    envl_sh_options so = {.order = order ? order : ENVL_ORDER_0, .window = window};
+    envl_sh_options so = {.order = order ? order : ENVL_ORDER_0, .window = window,
+                          .measure = !no_error};
     envl_envmap *map;
     if (cli_load(file, &c, &map))
         return CLI_FAIL;
@@ -145,7 +147,8 @@ int cli_sh(int argc, char **argv)
                                                                  : "none");
             json_object_end(&j);
             json_object(&j, "error");
-            json_number(&j, "diffuse", s.diffuse_error);
+            json_bool(&j, "measured", s.diffuse_error >= 0);
+            json_number(&j, "diffuse", s.diffuse_error >= 0 ? s.diffuse_error : NAN);
             json_object_end(&j);
             json_number(&j, "seconds", s.seconds);
             json_end(&j);
@@ -154,7 +157,9 @@ int cli_sh(int argc, char **argv)
                     envl_window_name(s.window));
             if (s.window == ENVL_WINDOW_AUTO && s.window_width > 0)
                 fprintf(o.f, " (Hann width %.4g)", s.window_width);
-            fprintf(o.f, ", diffuse error %.3f %%, %.4f s\n", 100 * s.diffuse_error, s.seconds);
+            char e[64];
+            fprintf(o.f, ", %s, %.4f s\n", cli_error_text(e, sizeof e, "diffuse", s.diffuse_error),
+                    s.seconds);
             const double *rad = envl_sh_radiance(sh), *irr = envl_sh_irradiance(sh);
             for (int l = 0, i = 0; l <= s.order; l++)
                 for (int m = -l; m <= l; m++, i++)

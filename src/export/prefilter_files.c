@@ -331,6 +331,8 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
     json_string(j, "format", fmt);
     json_string(j, "layout", envl_export_layout_name(o->layout));
     json_string(j, "units", "radiance as in the source (irradiance map: irradiance)");
+    /* false: every error below is null (--no-error) */
+    json_bool(j, "errors_measured", p->measured);
     if (o->layout == ENVL_EXPORT_CUBE || o->layout == ENVL_EXPORT_CROSS)
         json_string(j, "cube_faces", "seen from inside; px = +X (front): right -Y, up +Z; nx = "
                     "-X: right +Y, up +Z; py = +Y: right +X, up +Z; ny = -Y: right -X, up +Z; "

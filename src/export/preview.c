@@ -643,7 +643,8 @@ static envl_result lights_columns(work *w)
     int32_t np = w->p.count;
     for (int col = 1; col <= 2; col++) {
         envl_lights_options lo = {.method = col == 1 ? ENVL_METHOD_MEDIAN : ENVL_METHOD_FIT,
-                                  .count = col == 1 ? w->o.median_count : w->o.fit_count};
+                                  .count = col == 1 ? w->o.median_count : w->o.fit_count,
+                                  .measure = 1};
         envl_lights **l = col == 1 ? &d->median : &d->fit;
         envl_result rc = envl_lights_compute(w->map, &lo, l);
         if (rc)
@@ -675,7 +676,7 @@ static envl_result lights_columns(work *w)
 static envl_result sh_column(work *w)
 {
     envl_sh *sh = NULL;
-    envl_result rc = envl_sh_compute(w->map, &(envl_sh_options){.order = 2}, &sh);
+    envl_result rc = envl_sh_compute(w->map, &(envl_sh_options){.order = 2, .measure = 1}, &sh);
     if (rc)
         return rc;
     envl_sh_summary s;

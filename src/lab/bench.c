@@ -113,7 +113,7 @@ static int bench_lights_one(envl_envmap *m, int method, int n, const bench_opts 
     for (int r = 0; r < o->runs; r++) {
         envl_envmap_drop_caches(m, ENVL_CACHE_SAT);
         envl_lights *ls;
-        envl_lights_options lo = {.method = method, .count = n};
+        envl_lights_options lo = {.method = method, .count = n, .measure = 1};
         if (envl_lights_compute(m, &lo, &ls))
             return cli_fail();
         envl_lights_summary s;
@@ -180,7 +180,8 @@ static int bench_sh_table(const char *name, envl_envmap *m, const bench_opts *o)
             double t[16], err = 0;
             for (int r = 0; r < o->runs; r++) {
                 envl_sh *sh;
-                if (envl_sh_compute(m, &(envl_sh_options){.order = l, .window = w}, &sh))
+                envl_sh_options so = {.order = l, .window = w, .measure = 1};
+                if (envl_sh_compute(m, &so, &sh))
                     return cli_fail();
                 envl_sh_summary s;
                 envl_sh_get_summary(sh, &s);

@@ -78,15 +78,6 @@ envl_result envl_prefilter_reference(const envl_envmap *m, double roughness, int
                     : ENVL_OK;
 }
 
-double *envl__fibonacci_dirs(void)
-{
-    double *d = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
-    if (d)
-        for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
-            envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, d + 3 * i);
-    return d;
-}
-
 /* The error of a lat-long product read bilinearly, plus n_sun sun lights as they add to P(R)
  * at `roughness` (or to E(n) for roughness < 0). */
 envl_result envl__sampled_error(const double *dirs, const double *ref, const float *rgb,

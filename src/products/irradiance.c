@@ -1,6 +1,8 @@
 /* The exact irradiance integrator (the reference for every approximation) and the error
  * measure of docs/design.md. */
 #include "envmap_impl.h"
+#include "error_measure.h"
+#include "kernel_tree.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -211,6 +213,179 @@ envl_result envl_irradiance_exact(const envl_envmap *m, int32_t count, const dou
                       : ENVL_OK;
 }
 
+/* ---- the same sum through the kernel tree (kernel_tree.h) ----
+ *
+ * For a block of the tree, with S = sum of L dw and M = sum of L D (D the exact integral of d
+ * over each pixel) and n.d within [lo, hi] over it:
+ *   lo > 0 (lit throughout): its irradiance is n.M exactly; hi <= 0 (unlit): 0;
+ *   straddling the horizon: max(0, t) = (t + |t|) / 2 gives (n.M + integral of L |t|) / 2,
+ *     and integral L |t| lies in [S |t0|, S U] (Jensen; U = max(-lo, hi), t0 = n.M / S):
+ *     its middle is taken and the bound is S (U - |t0|) / 4.
+ * A straddling block is accepted when that bound is within tol rho / pi (tol: the allowance of
+ * one normal, per channel): the blocks along the horizon, about 2 rho of its 2 pi each, then
+ * add up to about tol. Every other block opens, down to the pixels, which are summed exactly
+ * as envl_irradiance_exact sums them. */
+typedef struct irradiance_kernel {
+    const envl_envmap *m;
+    const irradiance_tables *t;
+    const ktree *tree;
+    double tol[3];
+} irradiance_kernel;
+
+/* The mean of |t| over a distribution on [-a, b] (a, b > 0) with mean t0 lies between |t0|
+ * (Jensen) and (2ab + t0 (b - a)) / (a + b) (all of it at -a and b): *mid is the middle of
+ * that range, *half its half-width. */
+static void abs_mean_range(double t0, double a, double b, double *mid, double *half)
+{
+    t0 = t0 < -a ? -a : t0 > b ? b : t0;
+    double lo = fabs(t0), hi = (2 * a * b + t0 * (b - a)) / (a + b);
+    hi = hi > lo ? hi : lo;
+    *mid = 0.5 * (lo + hi);
+    *half = 0.5 * (hi - lo);
+}
+
+static int irradiance_block(const void *ctx, const double n[3], const double *s,
+                            int32_t channels, double lo, double hi, double omega, double rho,
+                            double *est, double *bound)
+{
+    (void)channels, (void)omega;
+    const irradiance_kernel *k = ctx;
+    const double *M = s + 3;
+    if (hi <= 0)
+        return 1;
+    if (lo > 0) {
+        for (int c = 0; c < 3; c++)
+            est[c] += n[0] * M[3 * c] + n[1] * M[3 * c + 1] + n[2] * M[3 * c + 2];
+        return 1;
+    }
+    double e[3], b[3];
+    for (int c = 0; c < 3; c++) {
+        double nm = n[0] * M[3 * c] + n[1] * M[3 * c + 1] + n[2] * M[3 * c + 2];
+        double t0 = s[c] > 0 ? nm / s[c] : 0, mid, half;
+        abs_mean_range(t0, -lo, hi, &mid, &half);
+        e[c] = 0.5 * (nm + s[c] * mid);
+        b[c] = 0.5 * s[c] * half;
+        if (b[c] > k->tol[c] * rho / ENVL_PI)
+            return 0;
+    }
+    for (int c = 0; c < 3; c++)
+        est[c] += e[c], bound[c] += b[c];
+    return 1;
+}
+
+/* A straddling pixel as a straddling block (its n.d within centre +- rho; M = L D): the middle
+ * estimate when its bound is within the allowance, for every channel. f: per unit radiance,
+ * the pixel's L being one constant (the estimate's t0 = n.D / dw is the same for all channels). */
+static int straddling_estimate(const irradiance_kernel *k, const double n[3], int32_t c,
+                               int32_t r, double centre, double *f, double *bound)
+{
+    const irradiance_tables *t = k->t;
+    const float *p = k->m->px + 3 * ((size_t)r * k->m->width + c);
+    double om = k->m->row_omega[r], rho = t->rho[r];
+    double nd = t->ri[r] * (n[0] * t->sx[c] + n[1] * t->sy[c]) + n[2] * t->rz[r];
+    double lo, hi, mid, half;
+    envl__ktree_pixel_range(k->tree, n, c, r, &lo, &hi);
+    (void)centre;
+    if (hi <= 0 || lo >= 0) /* wholly on one side: the closed form (0 or n.D) */
+        mid = fabs(nd) / om, half = 0;
+    else
+        abs_mean_range(nd / om, -lo, hi, &mid, &half);
+    double b = 0.5 * om * half;
+    for (int ch = 0; ch < 3; ch++)
+        if (b * p[ch] > k->tol[ch] * rho / ENVL_PI)
+            return 0;
+    *f = 0.5 * (nd + om * mid);
+    *bound = b;
+    return 1;
+}
+
+static void irradiance_pixels(const void *ctx, const double n[3], int32_t c0, int32_t c1,
+                              int32_t r0, int32_t r1, double *est, double *bound)
+{
+    const irradiance_kernel *k = ctx;
+    const envl_envmap *m = k->m;
+    const irradiance_tables *t = k->t;
+    for (int32_t r = r0; r < r1; r++) {
+        double I = t->ri[r], b = n[2] * t->rz[r];
+        double ct = m->row_cos[r], st = n[2] * m->row_sin[r], rho = t->rho[r];
+        const float *p = m->px + (size_t)r * m->width * 3;
+        for (int32_t c = c0; c < c1; c++) {
+            double centre = ct * (n[0] * t->ccos[c] + n[1] * t->csin[c]) + st;
+            double f, fb = 0;
+            if (centre > rho)
+                f = I * (n[0] * t->sx[c] + n[1] * t->sy[c]) + b;
+            else if (centre < -rho)
+                continue;
+            else if (!straddling_estimate(k, n, c, r, centre, &f, &fb))
+                f = straddling_pixel(t, n, c, r);
+            for (int ch = 0; ch < 3; ch++)
+                bound[ch] += fb * p[3 * c + ch];
+            est[0] += f * p[3 * c], est[1] += f * p[3 * c + 1], est[2] += f * p[3 * c + 2];
+        }
+    }
+}
+
+typedef struct fast_job {
+    const ktree *tree;
+    irradiance_kernel kernel;  /* its tol: the allowance of the first try */
+    double limit[3];           /* the promised bound: tolerance x the mean of E */
+    const double *normals;
+    double *out, *bound;
+} fast_job;
+
+/* Each normal is summed with the allowance tol, and again with half of it while its bound
+ * exceeds the promise (twice tol: the blocks along a horizon hold about 2 rho of it each, but
+ * clipped ones count more). Tiny allowances open every straddling block: it ends. */
+static void fast_range(void *arg, int64_t begin, int64_t end)
+{
+    fast_job *j = arg;
+    for (int64_t i = begin; i < end; i++) {
+        irradiance_kernel k = j->kernel;
+        ktree_kernel kn = {irradiance_block, irradiance_pixels, &k};
+        double e[KTREE_MAX_CHANNELS], b[KTREE_MAX_CHANNELS];
+        for (int tries = 0;; tries++) {
+            envl__ktree_sum(j->tree, &kn, j->normals + 3 * i, e, b);
+            if ((b[0] <= j->limit[0] && b[1] <= j->limit[1] && b[2] <= j->limit[2]) ||
+                tries == 60)
+                break;
+            for (int c = 0; c < 3; c++)
+                k.tol[c] *= 0.5;
+        }
+        for (int c = 0; c < 3; c++) {
+            j->out[3 * i + c] = e[c];
+            if (j->bound)
+                j->bound[3 * i + c] = b[c];
+        }
+    }
+}
+
+envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const double *normals,
+                                  double tolerance, double *rgb_out, double *bound_out)
+{
+    irradiance_tables tables;
+    envl_result rc = make_tables(m, &tables);
+    if (rc)
+        return rc;
+    /* pixel (c, r): weight dw, moment D = (I_r sx_c, I_r sy_c, rz_r) */
+    ktree *tree = NULL;
+    ktree_moments mo = {m->row_omega, tables.ri, tables.rz, tables.sx, tables.sy, 0};
+    rc = envl__ktree_build(m->px, m->width, m->height, &mo, m->threads, &tree);
+    if (!rc) {
+        double total[KTREE_MAX_CHANNELS];
+        envl__ktree_total(tree, total);
+        fast_job j = {tree, {m, &tables, tree, {0}}, {0}, normals, rgb_out, bound_out};
+        /* the mean of E(n) over the sphere is S / 4 (the mean of max(0, n.d) is 1/4) */
+        for (int c = 0; c < 3; c++) {
+            j.limit[c] = tolerance * total[c] / 4;
+            j.kernel.tol[c] = 0.5 * j.limit[c];
+        }
+        envl__parallel_for(count, m->threads, fast_range, &j);
+    }
+    envl__ktree_free(tree);
+    free_tables(&tables);
+    return rc;
+}
+
 /* Fibonacci sphere: z_i = 1 - (2i + 1)/n, phi_i = 2 pi i / golden ratio. */
 void envl_fibonacci_direction(int32_t i, int32_t n, double d[3])
 {
@@ -225,6 +400,15 @@ void envl_fibonacci_direction(int32_t i, int32_t n, double d[3])
     d[0] = r * cos(phi);
     d[1] = r * sin(phi);
     d[2] = z;
+}
+
+double *envl__fibonacci_dirs(void)
+{
+    double *d = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
+    if (d)
+        for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
+            envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, d + 3 * i);
+    return d;
 }
 
 double envl_relative_rms_luminance(int32_t count, const double *approx, const double *exact)
@@ -243,6 +427,18 @@ double envl_relative_rms_luminance(int32_t count, const double *approx, const do
     if (mean == 0.0)
         return rms == 0.0 ? 0.0 : INFINITY;
     return rms / mean;
+}
+
+/* Up to 256 x 128 the reference is the brute force itself (exact to rounding; a few
+ * hundredths of a second at most). */
+#define REFERENCE_EXACT_PIXELS (256 * 128)
+
+envl_result envl__irradiance_reference(const envl_envmap *m, int32_t count,
+                                       const double *normals, double *rgb_out)
+{
+    if ((int64_t)m->width * m->height <= REFERENCE_EXACT_PIXELS)
+        return envl_irradiance_exact(m, count, normals, rgb_out);
+    return envl__irradiance_fast(m, count, normals, ENVL_REFERENCE_TOLERANCE, rgb_out, NULL);
 }
 
 envl_result envl_envmap_reference_irradiance(envl_envmap *m, const double **rgb_out)
@@ -276,7 +472,7 @@ envl_result envl_envmap_reference_irradiance(envl_envmap *m, const double **rgb_
             }
         }
         if (rc == ENVL_OK)
-            rc = envl_irradiance_exact(small ? small : m, ENVL_ERROR_NORMALS, normals, ref);
+            rc = envl__irradiance_reference(small ? small : m, ENVL_ERROR_NORMALS, normals, ref);
         envl_envmap_free(small);
         free(normals);
         if (rc) {

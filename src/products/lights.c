@@ -2,6 +2,7 @@
  * (lights_cut.c, lights_fit.c, lights_sun.c), measures the diffuse error of what it made, and
  * hands the lights, the SH remainder and the residual map out. */
 #include "lights_impl.h"
+#include "error_measure.h"
 #include "options.h"
 #include "nnls.h"
 #include "sh_basis.h"
@@ -82,6 +83,29 @@ static int lights_finite(const envl_lights *ls)
     return ok;
 }
 
+/* The diffuse error of the lights (+ remainder; sun: + the residual's exact irradiance). */
+envl_result envl__lights_measure(envl_envmap *m, envl_lights *ls)
+{
+    int32_t method = ls->summary.method;
+    const double *ref;
+    envl_result rc = envl_envmap_reference_irradiance(m, &ref);
+    if (rc)
+        return rc;
+    double *normals = envl__fibonacci_dirs();
+    double *approx = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
+    if (!normals || !approx)
+        rc = envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+    if (!rc)
+        envl_lights_irradiance(ls, ENVL_ERROR_NORMALS, normals, approx);
+    if (!rc && method == ENVL_METHOD_SUN)
+        rc = envl__add_residual_irradiance(m, ls, ref, approx);
+    if (!rc)
+        ls->summary.diffuse_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, approx, ref);
+    free(normals);
+    free(approx);
+    return rc;
+}
+
 envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *options,
                                 envl_lights **out)
 {
@@ -151,27 +175,9 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
     for (int k = 0; k < 3; k++)
         s->residual_power[k] = s->power[k] - s->lights_power[k];
 
-    const double *ref;
-    rc = envl_envmap_reference_irradiance(m, &ref);
-    if (rc)
-        goto fail;
-    double *normals = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
-    double *approx = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
-    if (!normals || !approx) {
-        free(normals);
-        free(approx);
-        rc = envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
-        goto fail;
-    }
-    for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
-        envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, normals + 3 * i);
-    envl_lights_irradiance(ls, ENVL_ERROR_NORMALS, normals, approx);
-    if (o->method == ENVL_METHOD_SUN)
-        rc = envl__add_residual_irradiance(m, ls, ref, approx);
-    if (rc == ENVL_OK)
-        s->diffuse_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, approx, ref);
-    free(normals);
-    free(approx);
+    s->diffuse_error = -1;
+    if (options && options->measure)
+        rc = envl__lights_measure(m, ls);
     if (rc == ENVL_OK && !lights_finite(ls))
         rc = envl__fail(ENVL_ERR_NONFINITE, "%s: the lights overflow (a value is not finite; "
                         "the largest pixel value is %g)", m->info.file,

@@ -1,6 +1,7 @@
 /* Fitted lights: K non-negative lights + an SH irradiance remainder, least squares against the
  * exact irradiance, and the fit's residual map (each light takes its light from a cone). */
 #include "lights_impl.h"
+#include "error_measure.h"
 #include "nnls.h"
 #include "sh_basis.h"
 
@@ -206,7 +207,7 @@ static envl_result fit_candidates(envl_envmap *m, const envl_envmap *fm, double 
 envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lights *ls)
 {
     envl_result rc;
-    /* The fit's reference: exact irradiance of the map resampled (exactly, by area) to at most
+    /* The fit's target: exact irradiance of the map resampled (exactly, by area) to at most
      * FIT_MAP_WIDTH, at FIT_NORMALS normals. */
     envl_envmap *fm = m, *owned = NULL;
     if (m->width > FIT_MAP_WIDTH) {
@@ -237,7 +238,8 @@ envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_ligh
     }
     for (int32_t i = 0; i < p.m; i++)
         envl_fibonacci_direction(i, p.m, p.normals + 3 * i);
-    rc = envl_irradiance_exact(fm, p.m, p.normals, p.target);
+    /* as the error measure's reference is (error_measure.h) */
+    rc = envl__irradiance_reference(fm, p.m, p.normals, p.target);
     if (rc)
         goto done;
     double ysh[ENVL_NNLS_MAX];

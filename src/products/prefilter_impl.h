@@ -14,6 +14,7 @@
 #include "options.h"
 #include "envmap_impl.h"
 #include "sun_split.h"
+#include "error_measure.h"
 
 /* ---- the mip pyramid (mips.c) ---- */
 /* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */
@@ -48,15 +49,6 @@ void envl__sun_lights_add(const envl_light *l, int32_t n, double roughness, int3
 envl_result envl__specular_level(envl_envmap *m, const resolved *o, double roughness,
                                  int32_t width, const split *sp, float **out, envl_level *st);
 
-/* ---- the reference and the error (glossy_reference.c) ---- */
-/* The ENVL_ERROR_NORMALS Fibonacci directions (malloc'd; NULL when out of memory). */
-double *envl__fibonacci_dirs(void);
-/* The error of a lat-long product read bilinearly, plus n_sun sun lights as they add to P(R) at
- * `roughness` (or to E(n) for roughness < 0), against ref at dirs. */
-envl_result envl__sampled_error(const double *dirs, const double *ref, const float *rgb,
-                                int32_t w, int32_t h, const envl_light *sun, int32_t n_sun,
-                                double roughness, double *error);
-
 /* ---- irradiance maps (irradiance_map.c) ---- */
 /* `sh` may be given (an SH object of the right order, shared with the diffuse product);
  * *projected is set when an SH projection was made here. */
@@ -73,6 +65,7 @@ struct envl_products {
     envl_level *levels;
     float **level_px;
     int32_t has_irradiance;
+    int32_t measured;         /* request.measure: the errors were measured */
     envl_irradiance_map irr;
     float *irr_px;
     envl_sh *sh;

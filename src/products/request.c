@@ -204,6 +204,10 @@ static envl_result measure(envl_envmap *m, envl_products *p)
                                      l->roughness > 0 ? p->n_sun : 0, l->roughness,
                                      &l->glossy_error);
     }
+    if (!rc && p->sh)
+        rc = envl__sh_measure(m, p->sh);
+    if (!rc && p->lights)
+        rc = envl__lights_measure(m, p->lights);
     if (!rc && p->has_irradiance) {
         const double *eref;
         rc = envl_envmap_reference_irradiance(m, &eref);
@@ -251,6 +255,7 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
     p->summary.seconds = envl__seconds() - t0;
     if (!rc && q->measure)
         rc = measure(m, p);
+    p->measured = q->measure != 0;
     if (rc) {
         envl_products_free(p);
         return rc;

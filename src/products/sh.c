@@ -9,6 +9,7 @@
  * zero elsewhere, up to rounding, at any resolution. */
 #include "envmap_impl.h"
 #include "clock.h"
+#include "error_measure.h"
 #include "options.h"
 #include "sh_basis.h"
 #include "sh_forms.h"
@@ -397,6 +398,28 @@ static int all_finite(const double *v, size_t n)
     return 1;
 }
 
+envl_result envl__sh_measure(envl_envmap *m, envl_sh *sh)
+{
+    const double *ref;
+    envl_result rc = envl_envmap_reference_irradiance(m, &ref);
+    if (rc)
+        return rc;
+    int32_t n = envl_sh_count(sh->summary.order);
+    double *normals = envl__fibonacci_dirs();
+    double *approx = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
+    double *y = malloc(sizeof(double) * n);
+    if (normals && approx && y) {
+        eval(sh, sh->irradiance, ENVL_ERROR_NORMALS, normals, approx, y);
+        sh->summary.diffuse_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, approx, ref);
+    } else {
+        rc = envl__fail(ENVL_ERR_MEMORY, "sh: out of memory");
+    }
+    free(normals);
+    free(approx);
+    free(y);
+    return rc;
+}
+
 envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl_sh **out)
 {
     if (!m || !out)
@@ -472,21 +495,9 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
     envl__sh_artist_forms(L, sh->irradiance, s->ambient, s->deltas, s->hemi_axis, s->hemi_sky,
                           s->hemi_ground);
 
-    /* Error of the irradiance reconstruction against the exact integrator. */
-    const double *ref;
-    rc = envl_envmap_reference_irradiance(m, &ref);
-    if (rc)
+    s->diffuse_error = -1;
+    if (options && options->measure && (rc = envl__sh_measure(m, sh)))
         goto fail;
-    double *normals = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
-    if (!normals) {
-        rc = envl__fail(ENVL_ERR_MEMORY, "sh: out of memory");
-        goto fail;
-    }
-    for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
-        envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, normals + 3 * i);
-    eval(sh, sh->irradiance, ENVL_ERROR_NORMALS, normals, buf, y);
-    s->diffuse_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, buf, ref);
-    free(normals);
     double figures[] = {s->min_irradiance, s->diffuse_error, s->ambient[0], s->ambient[1],
                         s->ambient[2], s->hemi_sky[0], s->hemi_sky[1], s->hemi_sky[2],
                         s->hemi_ground[0], s->hemi_ground[1], s->hemi_ground[2]};
