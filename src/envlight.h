@@ -375,12 +375,16 @@ ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l; 0 for l < 0 (no such ban
  * of any other roughness r gets the size of chain level floor(r (K - 1)) (never coarser). */
 #define ENVL_DEFAULT_LEVELS 6
 
-#define ENVL_IRRADIANCE_RESAMPLED 0 /* exact sum over an area-resampled copy of the map, 256 wide
-                                       (default: fast and within ~1e-3 of exact) */
+#define ENVL_IRRADIANCE_SPLIT 0     /* default: the bright pixels (the sun split's, more than 50x
+                                       the mean luminance) exactly, the rest by SH of order 16 of
+                                       a 256-wide copy: one pass and the output's size */
 #define ENVL_IRRADIANCE_SH 1        /* from the SH irradiance of order irradiance_order (fast) */
 #define ENVL_IRRADIANCE_EXACT 2     /* envl_irradiance_exact per texel (reference; slow) */
-#define ENVL_IRRADIANCE_COUNT 3
-ENVL_API const char *envl_irradiance_method_name(int32_t method); /* "resampled", "sh", "exact" */
+#define ENVL_IRRADIANCE_RESAMPLED 3 /* envl_irradiance_exact per texel over an area-resampled copy
+                                       of the map, 256 wide (the default before ABI 3) */
+#define ENVL_IRRADIANCE_COUNT 4
+/* "split", "sh", "exact", "resampled" */
+ENVL_API const char *envl_irradiance_method_name(int32_t method);
 ENVL_API int32_t envl_irradiance_method_from_name(const char *name); /* -1 if unknown */
 
 typedef struct envl_prefilter_options {
@@ -391,7 +395,7 @@ typedef struct envl_prefilter_options {
                                  wide: samples (width / w)^2, at most 8 x; unfiltered: samples) */
     int32_t unfiltered;       /* nonzero: plain GGX importance sampling of the full-resolution
                                  map (no mip filtering): the benchmark's baseline */
-    int32_t irradiance_method;/* ENVL_IRRADIANCE_*; default RESAMPLED */
+    int32_t irradiance_method;/* ENVL_IRRADIANCE_*; default SPLIT */
     int32_t irradiance_width; /* lat-long width of the irradiance map; default 64 */
     int32_t irradiance_order; /* ENVL_IRRADIANCE_SH: SH order 0..32 (ENVL_ORDER_0 for 0);
                                  default 2 */

@@ -113,11 +113,12 @@ int cli_prefilter(int argc, char **argv)
                            "sidecar, left out of the irradiance map and the glossy levels, for\n"
                            "the renderer to add analytically; errors are measured with them"),
         CLI_OPTION("--irradiance-method", "M", CLI_CHOICE,
-                   .value = &q.prefilter.irradiance_method, .choices = "resampled|sh|exact",
-                   .lookup = envl_irradiance_method_from_name,
-                   .help = "resampled (default: exact sum over the map area-averaged to\n"
-                           "256 x 128), sh (SH of --irradiance-order with the auto window:\n"
-                           "never negative), exact (every pixel, slow)"),
+                   .value = &q.prefilter.irradiance_method,
+                   .choices = "split|sh|exact|resampled", .lookup = envl_irradiance_method_from_name,
+                   .help = "split (default: the bright pixels exactly + SH order 16 of the\n"
+                           "rest; one pass and the output), sh (SH of --irradiance-order with\n"
+                           "the auto window: never negative), exact (every pixel per texel,\n"
+                           "slow), resampled (exact over the map area-averaged to 256 x 128)"),
         CLI_OPTION("--irradiance-order", "L", CLI_INT, .min = 0, .max = 32, .value = &order,
                    .help = "SH order for --irradiance-method sh (default 2)"),
         CLI_OPTION("--irradiance-size", "S", CLI_INT, .min = 2, .max = 16384, .value = &irr_size,
