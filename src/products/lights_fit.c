@@ -491,7 +491,7 @@ typedef struct cone_job {
     const envl_envmap *m;
     float *res;
     int32_t k, rows;        /* lights; rows per chunk */
-    const double (*dirs)[3];/* in take order */
+    const double (*dirs)[3]; /* in take order */
     cone_chunk *chunks;
     double *rings;          /* K x CONE_RINGS x 3: each light's histogram of the residual */
     /* the pass about light `light`: chunks from `chunk0`, its rows and columns */
@@ -508,31 +508,42 @@ static void chunk_rows(const cone_job *j, int64_t chunk, int32_t *r0, int32_t *r
     *r1 = b < j->g.r1 ? b : j->g.r1;
 }
 
+/* One row into light i's rings: runs of pixels in the same ring summed, then added (one
+ * dependent add per run, not per pixel). */
+static void row_rings(const cone_job *j, int32_t r, int32_t i, double *h)
+{
+    const envl_envmap *m = j->m;
+    const float *p = j->res + (size_t)r * m->width * 3;
+    double om = m->row_omega[r], rc = m->row_cos[r], rs = m->row_sin[r], run[3] = {0, 0, 0};
+    int32_t ring = 0;
+    for (int32_t c = 0; c < m->width; c++, p += 3) {
+        int32_t b = cone_bin(rc, rs, m->col_cos[c], m->col_sin[c], j->dirs[i]) / RING_BINS;
+        if (b != ring) {
+            for (int k = 0; k < 3; k++) {
+                h[3 * ring + k] += run[k];
+                run[k] = 0;
+            }
+            ring = b;
+        }
+        for (int k = 0; k < 3; k++)
+            run[k] += p[k] * om;
+    }
+    for (int k = 0; k < 3; k++)
+        h[3 * ring + k] += run[k];
+}
+
 /* The one pass over the map: every light's histogram of L dw in rings. */
 static void rings_range(void *ctx, int64_t begin, int64_t end)
 {
     const cone_job *j = ctx;
-    const envl_envmap *m = j->m;
-    int32_t W = m->width;
     for (int64_t ch = begin; ch < end; ch++) {
         double *h = j->chunks[ch].rings;
         memset(h, 0, sizeof(double) * 3 * CONE_RINGS * j->k);
         int32_t r0, r1;
         chunk_rows(j, ch, &r0, &r1);
-        for (int32_t r = r0; r <= r1; r++) {
-            double om = m->row_omega[r], rc = m->row_cos[r], rs = m->row_sin[r];
-            const float *p = j->res + (size_t)r * W * 3;
-            for (int32_t c = 0; c < W; c++, p += 3) {
-                double e[3] = {p[0] * om, p[1] * om, p[2] * om};
-                for (int32_t i = 0; i < j->k; i++) {
-                    int32_t b = cone_bin(rc, rs, m->col_cos[c], m->col_sin[c], j->dirs[i]);
-                    double *hb = h + 3 * ((size_t)i * CONE_RINGS + b / RING_BINS);
-                    hb[0] += e[0];
-                    hb[1] += e[1];
-                    hb[2] += e[2];
-                }
-            }
-        }
+        for (int32_t r = r0; r <= r1; r++)
+            for (int32_t i = 0; i < j->k; i++)
+                row_rings(j, r, i, h + (size_t)3 * CONE_RINGS * i);
     }
 }
 
@@ -681,7 +692,7 @@ static void take_order(const envl_lights *ls, int32_t *order)
         }
 }
 
-/* Light oi of the job takes its cone; its direction, size and rect from what it took. */
+/* The job's light `light` takes its cone; its direction, size and rect from what it took. */
 static void take_cone(cone_job *j, envl_light *l)
 {
     int32_t W = j->m->width, H = j->m->height;
