@@ -1,7 +1,7 @@
 /* Lights: energy bookkeeping, analytic hard cases (constant, one bright pixel, seam, pole,
  * black, tiny maps), determinism across thread counts, a huge map for SAT precision, and the
  * sun method (the built-in sky's sun, no sun, two suns and the count). */
-#include "envmap_impl.h"
+#include "lights_impl.h"
 #include "check.h"
 
 static const double PI = 3.14159265358979323846;
@@ -749,6 +749,210 @@ static void test_sun_count(void)
     free(px);
 }
 
+/* ---- the fit's residual (envl__take_cones) against the plain algorithm ---- */
+
+#define REF_BINS 16384
+
+/* floor(sin(angle / 2) BINS) of pixel (c, r) about dir, sin(angle / 2) = sqrt((1 - cos) / 2) */
+static int32_t ref_bin(const envl_envmap *m, int c, int r, const double dir[3])
+{
+    double d[3];
+    envl_envmap_direction(m, c, r, d);
+    double t = sqrt(fmax(0.0, 0.5 * (1.0 - (d[0] * dir[0] + d[1] * dir[1] + d[2] * dir[2]))));
+    int32_t b = (int32_t)(t * REF_BINS);
+    return b < REF_BINS ? b : REF_BINS - 1;
+}
+
+typedef struct ref_cone {
+    double taken, len, own; /* sum e, |sum e d|, sum e dw / 4 pi of what the light took */
+} ref_cone;
+
+/* The plain algorithm: lights brightest first (luminance; ties in index order), each with two
+ * passes over the whole map: the histogram of L dw over the bins about it, then the take of
+ * the same fraction 1 - keep of every pixel of the smallest cone that holds its rgb. */
+static void ref_take_cones(const envl_envmap *m, envl_light *ls, int n, float *res,
+                           ref_cone *out)
+{
+    int w = envl_envmap_width(m), h = envl_envmap_height(m), order[16];
+    double (*hist)[3] = malloc(sizeof(double[3]) * REF_BINS);
+    for (int i = 0; i < n; i++) {
+        int j = i;
+        double y = envl__lum(ls[i].rgb[0], ls[i].rgb[1], ls[i].rgb[2]);
+        for (; j > 0; j--) {
+            const double *b = ls[order[j - 1]].rgb;
+            if (y <= envl__lum(b[0], b[1], b[2]))
+                break;
+            order[j] = order[j - 1];
+        }
+        order[j] = i;
+    }
+    for (int oi = 0; oi < n; oi++) {
+        envl_light *l = &ls[order[oi]];
+        memset(hist, 0, sizeof(double[3]) * REF_BINS);
+        for (int r = 0; r < h; r++)
+            for (int c = 0; c < w; c++)
+                for (int k = 0; k < 3; k++)
+                    hist[ref_bin(m, c, r, l->direction)][k] +=
+                        res[3 * ((size_t)r * w + c) + k] * envl_envmap_solid_angle(m, r);
+        double cum[3] = {0, 0, 0}, keep[3];
+        int last = REF_BINS - 1;
+        for (int b = 0; b < REF_BINS; b++) {
+            for (int k = 0; k < 3; k++)
+                cum[k] += hist[b][k];
+            if (cum[0] >= l->rgb[0] && cum[1] >= l->rgb[1] && cum[2] >= l->rgb[2]) {
+                last = b;
+                break;
+            }
+        }
+        for (int k = 0; k < 3; k++) {
+            l->rgb[k] = fmin(l->rgb[k], cum[k]);
+            keep[k] = cum[k] > 0 ? 1.0 - l->rgb[k] / cum[k] : 1.0;
+        }
+        double taken = 0, own = 0, v[3] = {0, 0, 0};
+        int x0 = w, x1 = -1, y0 = h, y1 = -1;
+        for (int r = 0; r < h; r++)
+            for (int c = 0; c < w; c++) {
+                if (ref_bin(m, c, r, l->direction) > last)
+                    continue;
+                float *p = res + 3 * ((size_t)r * w + c);
+                double om = envl_envmap_solid_angle(m, r), d[3];
+                double e = om * envl__lum(p[0] * (1 - keep[0]), p[1] * (1 - keep[1]),
+                                          p[2] * (1 - keep[2]));
+                envl_envmap_direction(m, c, r, d);
+                taken += e;
+                own += e * om / (4.0 * PI);
+                for (int k = 0; k < 3; k++) {
+                    v[k] += e * d[k];
+                    p[k] = (float)(p[k] * keep[k]);
+                }
+                x0 = c < x0 ? c : x0;
+                x1 = c + 1 > x1 ? c + 1 : x1;
+                y0 = r < y0 ? r : y0;
+                y1 = r + 1 > y1 ? r + 1 : y1;
+            }
+        double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        out[order[oi]] = (ref_cone){taken, len, own};
+        for (int k = 0; k < 3 && len > 0; k++)
+            l->direction[k] = v[k] / len;
+        l->solid_angle = taken > 0 ? fmin(4.0 * PI, 4.0 * PI * fmax(taken - len + own, 0.0) / taken)
+                                   : 0.0;
+        envl__light_set_angle(l);
+        l->rect[0] = x0 < w ? x0 : 0;
+        l->rect[1] = y0 < h ? y0 : 0;
+        l->rect[2] = x1 > 0 ? x1 : 0;
+        l->rect[3] = y1 > 0 ? y1 : 0;
+    }
+    free(hist);
+}
+
+/* envl__take_cones against ref_take_cones on a 300 x 150 map (a sky, noise, three discs), five
+ * lights: two whose cones overlap (the second's histogram is of what the first left), one on
+ * the seam, one at the pole, and one asking for more blue than the sphere holds (it takes the
+ * whole sphere, its blue cut to all there is). With 1 and 3 threads: bit-identical.
+ * Against the reference: the same rects (the same cones), the rest within what reordered sums
+ * allow. Every sum (histogram bins, the cumulated rgb, taken, its moment) has at most
+ * n = (K + 1) N terms (a pixel, and its change at each earlier take), together at most
+ * (K + 1) P (P the map's largest channel power); in any order a double sum is within
+ * n 2^-53 of that of the exact value, so the two codes differ by at most
+ * s = 2 (K + 1)^2 N 2^-53 P. keep = 1 - rgb / avail then moves by at most s / rgb, and each take
+ * rounds a pixel to float (2^-24 either side): after K takes a residual pixel is within
+ * K (2^-23 + s / rgb_min) of its original value, and what a light takes, each e relatively, within
+ * eta = K (2^-23 + s / rgb_min) + s / rgb_min, plus s for the sums. So: rgb equal or (cut) within s;
+ * direction V / |V| within 2 sqrt3 (eta taken + s) / |V|; solid angle = 4 pi (taken - |V| +
+ * own) / taken within 16 pi (eta + s / taken). */
+static void test_take_cones(void)
+{
+    enum { W = 300, H = 150, K = 5 };
+    float *px = filled(W, H, 0.0f);
+    uint32_t seed = 12345;
+    for (int r = 0; r < H; r++)
+        for (int c = 0; c < W; c++)
+            for (int k = 0; k < 3; k++) {
+                seed = seed * 1664525u + 1013904223u;
+                px[3 * (r * W + c) + k] = (float)(0.2 + 0.1 * k + 0.5 * (H - r) / H +
+                                                  0.3 * (seed >> 8) / 16777216.0);
+            }
+    envl_envmap *m0 = map_of(px, W, H, 1);
+    double sun[3], seam[3], pole[3];
+    dir_of(20, 30, sun);
+    dir_of(5, 179, seam);
+    dir_of(86, -40, pole);
+    paint_disc(px, m0, sun, 4 * PI / 180, 300.0f);
+    paint_disc(px, m0, seam, 6 * PI / 180, 40.0f);
+    paint_disc(px, m0, pole, 5 * PI / 180, 20.0f);
+    envl_envmap_free(m0);
+    envl_envmap *m1 = map_of(px, W, H, 1), *m3 = map_of(px, W, H, 3);
+    envl_info info;
+    CHECK_OK(envl_envmap_info(m1, &info));
+    double P = fmax(info.power[0], fmax(info.power[1], info.power[2]));
+    const double at[K][2] = {{20, 30}, {24, 40}, {5, 179}, {86, -40}, {-30, -100}};
+    const double rgb[K][3] = {{3, 3, 3}, {2, 1.6, 1.2}, {1.5, 1.5, 1.5}, {1.6, 1.7, 1.8},
+                              {0.05, 0.05, 1.05 * info.power[2]}};
+    envl_light in[K], ref[K], got1[K], got3[K];
+    memset(in, 0, sizeof in);
+    double rgb_min = INFINITY;
+    for (int i = 0; i < K; i++) {
+        dir_of(at[i][0], at[i][1], in[i].direction);
+        memcpy(in[i].rgb, rgb[i], sizeof in[i].rgb);
+        rgb_min = fmin(rgb_min, fmin(rgb[i][0], fmin(rgb[i][1], rgb[i][2])));
+    }
+    size_t nf = (size_t)W * H * 3;
+    float *res_ref = malloc(sizeof(float) * nf), *res1 = malloc(sizeof(float) * nf),
+          *res3 = malloc(sizeof(float) * nf);
+    memcpy(res_ref, px, sizeof(float) * nf);
+    memcpy(ref, in, sizeof in);
+    ref_cone rc[K];
+    ref_take_cones(m1, ref, K, res_ref, rc);
+    envl_envmap *maps[2] = {m1, m3};
+    float *res[2] = {res1, res3};
+    envl_light *got[2] = {got1, got3};
+    for (int t = 0; t < 2; t++) {
+        memcpy(res[t], px, sizeof(float) * nf);
+        memcpy(got[t], in, sizeof in);
+        envl_lights ls = {.lights = got[t], .residual = res[t], .width = W, .height = H};
+        ls.summary.count = K;
+        CHECK_OK(envl__take_cones(maps[t], &ls));
+    }
+    CHECK(memcmp(got1, got3, sizeof got1) == 0);
+    CHECK(memcmp(res1, res3, sizeof(float) * nf) == 0);
+
+    const double u = ldexp(1.0, -53), f = ldexp(1.0, -23);
+    double s = 2.0 * (K + 1) * (K + 1) * W * H * u * P, eta = K * (f + s / rgb_min) + s / rgb_min;
+    printf("take_cones: s = %.3g (of P = %.4g), eta = %.3g\n", s, P, eta);
+    for (int i = 0; i < K; i++) {
+        CHECK(memcmp(got1[i].rect, ref[i].rect, sizeof ref[i].rect) == 0);
+        for (int k = 0; k < 3; k++) {
+            CHECK_NEAR(got1[i].rgb[k], ref[i].rgb[k], s);
+            CHECK_NEAR(got1[i].direction[k], ref[i].direction[k],
+                       2 * sqrt(3.0) * (eta * rc[i].taken + s) / rc[i].len);
+        }
+        CHECK_NEAR(got1[i].solid_angle, ref[i].solid_angle, 16 * PI * (eta + s / rc[i].taken));
+        printf("  light %d: rect %d..%d x %d..%d, rgb %.4g %.4g %.4g, solid angle %.4g\n", i,
+               (int)ref[i].rect[0], (int)ref[i].rect[2], (int)ref[i].rect[1], (int)ref[i].rect[3],
+               ref[i].rgb[0], ref[i].rgb[1], ref[i].rgb[2], ref[i].solid_angle);
+    }
+    /* the whole sphere for the last light, its blue all there was; the first two overlap */
+    CHECK(ref[4].rect[0] == 0 && ref[4].rect[1] == 0 && ref[4].rect[2] == W && ref[4].rect[3] == H);
+    CHECK(ref[4].rgb[2] < rgb[4][2]);
+    CHECK(ref[1].rect[0] < ref[0].rect[2] && ref[0].rect[0] < ref[1].rect[2]);
+    double worst = 0;
+    for (size_t i = 0; i < nf; i++) {
+        double d = fabs((double)res1[i] - res_ref[i]), tol = K * (f + s / rgb_min) * px[i];
+        worst = fmax(worst, d / (K * (f + s / rgb_min) * px[i]));
+        if (!(d <= tol)) {
+            CHECK_NEAR(res1[i], res_ref[i], tol);
+            break;
+        }
+    }
+    printf("  residual: worst |difference| %.3g of its bound\n", worst);
+    free(res_ref);
+    free(res1);
+    free(res3);
+    envl_envmap_free(m1);
+    envl_envmap_free(m3);
+    free(px);
+}
+
 /* One default lights method (docs/design.md): zero-initialised options (and NULL) fit at most
  * ENVL_DEFAULT_FIT_LIGHTS lights with an order-2 remainder; ENVL_ORDER_0 asks for a remainder
  * of order 0, ENVL_REMAINDER_NONE for none; a remainder order above 8 is refused. */
@@ -793,5 +997,6 @@ int main(void)
     test_sun_sky();
     test_sun_none();
     test_sun_count();
+    test_take_cones();
     return check_report("test_lights");
 }

@@ -396,29 +396,291 @@ done:
 }
 
 /* ---- residual of the fit: each light takes its rgb from the smallest cone around it that
- * holds that much light, the same fraction from every pixel of the cone ---- */
+ * holds that much light, the same fraction from every pixel of the cone ----
+ *
+ * Lights go brightest first, each taking from what the ones before it left: light i's cone
+ * is the first angular bin b about it where the sum of the residual's L dw over bins <= b
+ * reaches its rgb (every channel). One parallel pass over the map sums every light's
+ * histogram in CONE_RINGS coarse rings of RING_BINS bins; then, light by light, only the
+ * pixels of its cone are visited: the ring where its rgb is reached is resolved to bins (the
+ * pixels within that ring's outer edge), the cone taken, and what it took is subtracted from
+ * the later lights' rings. Partial sums belong to fixed chunks of rows and are combined in
+ * chunk order: the same result at any thread count. */
 
 #define CONE_BINS 16384
+#define CONE_RINGS 128
+#define RING_BINS (CONE_BINS / CONE_RINGS)
+#define CONE_CHUNKS 64      /* row chunks of a pass (fewer on maps under 64 rows) */
 
-/* Angular bin of pixel (c, r) around `dir`: floor(sin(angle / 2) BINS), with sin(angle/2) =
- * sqrt((1 - cos) / 2): monotonic in the angle, no trigonometry per pixel. */
-static int32_t cone_bin(const envl_envmap *m, int32_t c, int32_t r, const double dir[3])
+/* Angular bin of the pixel at (cos, sin) theta = (rc, rs), (cos, sin) phi = (cc, cs) about
+ * dir: floor(sin(angle / 2) BINS), sin(angle / 2) = sqrt((1 - d.dir) / 2): monotonic in the
+ * angle, no trigonometry per pixel. d = (rc cc, rc cs, rs), the products of
+ * envl_envmap_direction, summed in the same order. */
+static inline int32_t cone_bin(double rc, double rs, double cc, double cs, const double dir[3])
 {
-    double d[3];
-    envl_envmap_direction(m, c, r, d);
-    double t = sqrt(fmax(0.0, 0.5 * (1.0 - dot_n(d, dir, 3))));
-    int32_t b = (int32_t)(t * CONE_BINS);
+    double v = 0.5 * (1.0 - (rc * cc * dir[0] + rc * cs * dir[1] + rs * dir[2]));
+    int32_t b = (int32_t)(sqrt(v > 0.0 ? v : 0.0) * CONE_BINS);
     return b < CONE_BINS ? b : CONE_BINS - 1;
 }
 
-envl_result envl__take_cones(const envl_envmap *m, envl_lights *ls)
+/* The pixels a pass about dir visits: rows r0..r1, in each a run of columns around the axis,
+ * together every pixel whose bin is <= max_bin. Bin <= B means sin(angle / 2) < s =
+ * (B + 1) / BINS, angle < a = 2 asin s; visited: all within a + one pixel (rounding in the
+ * bin's arithmetic moves its edge by far less). */
+typedef struct cone_geom {
+    int full;               /* the whole map */
+    double cos_r, z, xy;    /* cos of the visited radius; the axis' z and |(x, y)| */
+    double col;             /* the axis' column, c = (1 - phi / pi) W / 2 - 1/2 */
+    int32_t r0, r1;
+} cone_geom;
+
+static cone_geom cone_geometry(const envl_envmap *m, const double dir[3], int32_t max_bin)
 {
     int32_t W = m->width, H = m->height;
-    double (*hist)[3] = malloc(sizeof(double[3]) * CONE_BINS);
-    if (!hist)
-        return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
-    /* brightest first */
-    int32_t order[ENVL_NNLS_MAX];
+    cone_geom g = {.full = 1, .r0 = 0, .r1 = H - 1};
+    double rad = 2.0 * asin(fmin(1.0, (max_bin + 1.0) / CONE_BINS)) +
+                 fmax(2.0 * ENVL_PI / W, ENVL_PI / H);
+    if (max_bin >= CONE_BINS - 1 || rad >= ENVL_PI)
+        return g;
+    g.full = 0;
+    g.cos_r = cos(rad);
+    g.z = dir[2];
+    g.xy = hypot(dir[0], dir[1]);
+    g.col = (1.0 - atan2(dir[1], dir[0]) / ENVL_PI) * W / 2 - 0.5;
+    /* rows whose elevation is within rad of the axis': r = H (1/2 - theta / pi) - 1/2 */
+    double el = atan2(dir[2], g.xy);
+    double top = floor(H * (0.5 - (el + rad) / ENVL_PI) - 0.5);
+    double bottom = ceil(H * (0.5 - (el - rad) / ENVL_PI) - 0.5);
+    g.r0 = top < 0 ? 0 : (int32_t)top;
+    g.r1 = bottom > H - 1 ? H - 1 : (int32_t)bottom;
+    return g;
+}
+
+/* Columns lo..hi (wrapping: c mod W) of row r within the visited radius; 0 if none. In the
+ * row, d.dir = rc xy cos(phi - phi_axis) + rs z >= cos_r where cos(phi - phi_axis) >= q. */
+static int cone_span(const envl_envmap *m, const cone_geom *g, int32_t r, int32_t *lo,
+                     int32_t *hi)
+{
+    int32_t W = m->width;
+    *lo = 0;
+    *hi = W - 1;
+    if (g->full)
+        return 1;
+    double den = m->row_cos[r] * g->xy, base = m->row_sin[r] * g->z;
+    if (base + den < g->cos_r)
+        return 0;
+    if (base - den >= g->cos_r)
+        return 1;
+    double q = (g->cos_r - base) / den;
+    double half = acos(q < -1 ? -1 : q > 1 ? 1 : q) * W / (2.0 * ENVL_PI);
+    double a = floor(g->col - half) - 1, b = ceil(g->col + half) + 1;
+    if (b - a + 1 >= W)
+        return 1;
+    *lo = (int32_t)a;
+    *hi = (int32_t)b;
+    return 1;
+}
+
+/* A chunk's partial sums in one pass. */
+typedef struct cone_chunk {
+    double *rings;          /* K x CONE_RINGS x 3: the histograms, or changes to them */
+    double fine[RING_BINS][3];
+    double taken, own, moment[3];
+    int32_t x0, x1, y0, y1;
+} cone_chunk;
+
+typedef struct cone_job {
+    const envl_envmap *m;
+    float *res;
+    int32_t k, rows;        /* lights; rows per chunk */
+    const double (*dirs)[3]; /* in take order */
+    cone_chunk *chunks;
+    double *rings;          /* K x CONE_RINGS x 3: each light's histogram of the residual */
+    /* the pass about light `light`: chunks from `chunk0`, its rows and columns */
+    int32_t light, ring, last, chunk0;
+    cone_geom g;
+    double keep[3];
+} cone_job;
+
+/* Rows of chunk j within the pass's rows. */
+static void chunk_rows(const cone_job *j, int64_t chunk, int32_t *r0, int32_t *r1)
+{
+    int32_t a = (int32_t)chunk * j->rows, b = a + j->rows - 1;
+    *r0 = a > j->g.r0 ? a : j->g.r0;
+    *r1 = b < j->g.r1 ? b : j->g.r1;
+}
+
+/* One row into light i's rings: runs of pixels in the same ring summed, then added (one
+ * dependent add per run, not per pixel). */
+static void row_rings(const cone_job *j, int32_t r, int32_t i, double *h)
+{
+    const envl_envmap *m = j->m;
+    const float *p = j->res + (size_t)r * m->width * 3;
+    double om = m->row_omega[r], rc = m->row_cos[r], rs = m->row_sin[r], run[3] = {0, 0, 0};
+    int32_t ring = 0;
+    for (int32_t c = 0; c < m->width; c++, p += 3) {
+        int32_t b = cone_bin(rc, rs, m->col_cos[c], m->col_sin[c], j->dirs[i]) / RING_BINS;
+        if (b != ring) {
+            for (int k = 0; k < 3; k++) {
+                h[3 * ring + k] += run[k];
+                run[k] = 0;
+            }
+            ring = b;
+        }
+        for (int k = 0; k < 3; k++)
+            run[k] += p[k] * om;
+    }
+    for (int k = 0; k < 3; k++)
+        h[3 * ring + k] += run[k];
+}
+
+/* The one pass over the map: every light's histogram of L dw in rings. */
+static void rings_range(void *ctx, int64_t begin, int64_t end)
+{
+    const cone_job *j = ctx;
+    for (int64_t ch = begin; ch < end; ch++) {
+        double *h = j->chunks[ch].rings;
+        memset(h, 0, sizeof(double) * 3 * CONE_RINGS * j->k);
+        int32_t r0, r1;
+        chunk_rows(j, ch, &r0, &r1);
+        for (int32_t r = r0; r <= r1; r++)
+            for (int32_t i = 0; i < j->k; i++)
+                row_rings(j, r, i, h + (size_t)3 * CONE_RINGS * i);
+    }
+}
+
+/* Light `light`'s bins in ring `ring`: its pixels' L dw. */
+static void ring_range(void *ctx, int64_t begin, int64_t end)
+{
+    const cone_job *j = ctx;
+    const envl_envmap *m = j->m;
+    int32_t W = m->width;
+    for (int64_t it = begin; it < end; it++) {
+        cone_chunk *ch = &j->chunks[j->chunk0 + it];
+        memset(ch->fine, 0, sizeof ch->fine);
+        int32_t r0, r1;
+        chunk_rows(j, j->chunk0 + it, &r0, &r1);
+        for (int32_t r = r0; r <= r1; r++) {
+            double om = m->row_omega[r], rc = m->row_cos[r], rs = m->row_sin[r];
+            int32_t lo, hi;
+            if (!cone_span(m, &j->g, r, &lo, &hi))
+                continue;
+            for (int32_t cw = lo; cw <= hi; cw++) {
+                int32_t c = (cw % W + W) % W;
+                int32_t b = cone_bin(rc, rs, m->col_cos[c], m->col_sin[c], j->dirs[j->light]);
+                if (b / RING_BINS != j->ring)
+                    continue;
+                const float *p = j->res + 3 * ((size_t)r * W + c);
+                for (int k = 0; k < 3; k++)
+                    ch->fine[b % RING_BINS][k] += p[k] * om;
+            }
+        }
+    }
+}
+
+/* One pixel of the cone of light `light` taken: its e = L (1 - keep) dw (luminance) into the
+ * chunk's sums, the pixel scaled by keep, and its change taken off the later lights' rings. */
+static void take_pixel(const cone_job *j, cone_chunk *ch, int32_t c, int32_t r)
+{
+    const envl_envmap *m = j->m;
+    double om = m->row_omega[r], rc = m->row_cos[r], rs = m->row_sin[r];
+    float *p = j->res + 3 * ((size_t)r * m->width + c);
+    const double *keep = j->keep;
+    double e = om * envl__lum(p[0] * (1 - keep[0]), p[1] * (1 - keep[1]), p[2] * (1 - keep[2])),
+           d[3] = {rc * m->col_cos[c], rc * m->col_sin[c], rs}, change[3];
+    ch->taken += e;
+    ch->own += e * om / (4.0 * ENVL_PI);
+    for (int k = 0; k < 3; k++) {
+        ch->moment[k] += e * d[k];
+        float now = (float)(p[k] * keep[k]);
+        change[k] = ((double)now - p[k]) * om;
+        p[k] = now;
+    }
+    for (int32_t i = j->light + 1; i < j->k; i++) {
+        int32_t b = cone_bin(rc, rs, m->col_cos[c], m->col_sin[c], j->dirs[i]);
+        double *hb = ch->rings + 3 * ((size_t)i * CONE_RINGS + b / RING_BINS);
+        for (int k = 0; k < 3; k++)
+            hb[k] += change[k];
+    }
+    ch->x0 = c < ch->x0 ? c : ch->x0;
+    ch->x1 = c + 1 > ch->x1 ? c + 1 : ch->x1;
+    ch->y0 = r < ch->y0 ? r : ch->y0;
+    ch->y1 = r + 1 > ch->y1 ? r + 1 : ch->y1;
+}
+
+/* Light `light` takes the pixels of bins <= last. */
+static void take_range(void *ctx, int64_t begin, int64_t end)
+{
+    const cone_job *j = ctx;
+    const envl_envmap *m = j->m;
+    int32_t W = m->width;
+    for (int64_t it = begin; it < end; it++) {
+        cone_chunk *ch = &j->chunks[j->chunk0 + it];
+        memset(ch->rings, 0, sizeof(double) * 3 * CONE_RINGS * j->k);
+        ch->taken = ch->own = ch->moment[0] = ch->moment[1] = ch->moment[2] = 0;
+        ch->x0 = W;
+        ch->y0 = m->height;
+        ch->x1 = ch->y1 = -1;
+        int32_t r0, r1;
+        chunk_rows(j, j->chunk0 + it, &r0, &r1);
+        for (int32_t r = r0; r <= r1; r++) {
+            double rc = m->row_cos[r], rs = m->row_sin[r];
+            int32_t lo, hi;
+            if (!cone_span(m, &j->g, r, &lo, &hi))
+                continue;
+            for (int32_t cw = lo; cw <= hi; cw++) {
+                int32_t c = (cw % W + W) % W;
+                if (cone_bin(rc, rs, m->col_cos[c], m->col_sin[c], j->dirs[j->light]) <= j->last)
+                    take_pixel(j, ch, c, r);
+            }
+        }
+    }
+}
+
+/* Runs fn over the chunks that hold rows of j->g (set for light `light`, bins <= max_bin);
+ * returns how many, from j->chunk0. */
+static int32_t cone_pass(cone_job *j, int32_t max_bin, envl_range_fn fn)
+{
+    j->g = cone_geometry(j->m, j->dirs[j->light], max_bin);
+    j->chunk0 = j->g.r0 / j->rows;
+    int32_t n = j->g.r1 / j->rows - j->chunk0 + 1;
+    envl__parallel_for(n, j->m->threads, fn, j);
+    return n;
+}
+
+/* The first bin where the light's histogram, summed from bin 0, reaches rgb in every channel
+ * (CONE_BINS - 1 if none); avail = that sum. The rings find the ring, its bins the bin. */
+static int32_t cone_last(cone_job *j, const double rgb[3], double avail[3])
+{
+    const double *h = j->rings + (size_t)3 * CONE_RINGS * j->light;
+    double cum[3] = {0, 0, 0};
+    for (int32_t ring = 0; ring < CONE_RINGS; ring++) {
+        const double *hr = h + 3 * ring;
+        if (!(cum[0] + hr[0] >= rgb[0] && cum[1] + hr[1] >= rgb[1] && cum[2] + hr[2] >= rgb[2])) {
+            for (int k = 0; k < 3; k++)
+                cum[k] += hr[k];
+            continue;
+        }
+        j->ring = ring;
+        int32_t n = cone_pass(j, (ring + 1) * RING_BINS - 1, ring_range);
+        for (int32_t b = 0; b < RING_BINS; b++) {
+            for (int32_t it = 0; it < n; it++)
+                for (int k = 0; k < 3; k++)
+                    cum[k] += j->chunks[j->chunk0 + it].fine[b][k];
+            if (cum[0] >= rgb[0] && cum[1] >= rgb[1] && cum[2] >= rgb[2]) {
+                memcpy(avail, cum, sizeof cum);
+                return ring * RING_BINS + b;
+            }
+        }
+        /* the bins' sum fell short of the ring's by rounding: on to the next ring */
+    }
+    memcpy(avail, cum, sizeof cum);
+    return CONE_BINS - 1;
+}
+
+/* Lights' indices brightest (luminance) first, ties in index order. */
+static void take_order(const envl_lights *ls, int32_t *order)
+{
     for (int32_t i = 0; i < ls->summary.count; i++)
         order[i] = i;
     for (int32_t i = 1; i < ls->summary.count; i++)
@@ -430,89 +692,94 @@ envl_result envl__take_cones(const envl_envmap *m, envl_lights *ls)
             order[j] = order[j - 1];
             order[j - 1] = t;
         }
-    for (int32_t oi = 0; oi < ls->summary.count; oi++) {
-        envl_light *l = &ls->lights[order[oi]];
-        memset(hist, 0, sizeof(double[3]) * CONE_BINS);
-        for (int32_t r = 0; r < H; r++) {
-            double om = m->row_omega[r];
-            for (int32_t c = 0; c < W; c++) {
-                int32_t b = cone_bin(m, c, r, l->direction);
-                const float *p = ls->residual + 3 * ((size_t)r * W + c);
-                for (int k = 0; k < 3; k++)
-                    hist[b][k] += p[k] * om;
-            }
-        }
-        double cum[3] = {0, 0, 0};
-        int32_t last = CONE_BINS - 1;
-        for (int32_t b = 0; b < CONE_BINS; b++) {
-            for (int k = 0; k < 3; k++)
-                cum[k] += hist[b][k];
-            if (cum[0] >= l->rgb[0] && cum[1] >= l->rgb[1] && cum[2] >= l->rgb[2]) {
-                last = b;
-                break;
-            }
-        }
-        double avail[3] = {0, 0, 0};
-        for (int32_t b = 0; b <= last; b++)
-            for (int k = 0; k < 3; k++)
-                avail[k] += hist[b][k];
-        double keep[3];
-        for (int k = 0; k < 3; k++) {
-            if (l->rgb[k] > avail[k])
-                l->rgb[k] = avail[k]; /* the whole sphere holds less: take all there is */
-            keep[k] = avail[k] > 0 ? 1.0 - l->rgb[k] / avail[k] : 1.0;
-        }
-        /* what it takes, sum e, and its first moment, sum e d */
-        double taken = 0, moment[3] = {0, 0, 0}, own = 0;
-        int32_t x0 = W, x1 = -1, y0 = H, y1 = -1;
-        for (int32_t r = 0; r < H; r++) {
-            double om = m->row_omega[r];
-            for (int32_t c = 0; c < W; c++) {
-                int32_t b = cone_bin(m, c, r, l->direction);
-                if (b > last)
-                    continue;
-                float *p = ls->residual + 3 * ((size_t)r * W + c);
-                double e = om * envl__lum(p[0] * (1 - keep[0]), p[1] * (1 - keep[1]),
-                                          p[2] * (1 - keep[2])), d[3];
-                envl_envmap_direction(m, c, r, d);
-                taken += e;
-                own += e * om / (4.0 * ENVL_PI);
-                for (int k = 0; k < 3; k++)
-                    moment[k] += e * d[k];
-                for (int k = 0; k < 3; k++)
-                    p[k] = (float)(p[k] * keep[k]);
-                x0 = c < x0 ? c : x0;
-                x1 = c + 1 > x1 ? c + 1 : x1;
-                y0 = r < y0 ? r : y0;
-                y1 = r + 1 > y1 ? r + 1 : y1;
-            }
-        }
-        /* Its size: the uniform disc with the same spread. A disc of solid angle w has
-         * mean (1 - cos t) = w / 4 pi (uniform in cos t), so w = 4 pi sum e (1 - cos t) / sum e.
-         * The cone that holds the light's rgb is far wider than a sun in it (15 degrees
-         * around a 0.5-degree sun with its glow): as a disc it would soften the terminator of
-         * a lit sphere the sun leaves sharp. */
-        /* The light points along the first moment V = sum e d of what it took: a surface
-         * that sees all of it receives E(n) = n . V. Its spread about that direction is
-         * sum e (1 - cos t) = taken - |V|, plus each pixel's own extent (a pixel of solid
-         * angle om as its own disc: om / 4 pi, as sun_split.c counts it), so the disc of the
-         * same spread (solid angle w) has |V| = rgb (1 - w / 4 pi) up to the pixels' own
-         * extent (a few 1e-6 of rgb on a 1K map): a disc light of that irradiance at normal
-         * incidence (a Blender sun: energy) reproduces E(n). (Pointed along the fit's lobe
-         * centre, a wide light near the horizon gave a ground plane 3 % too much light on
-         * kiara_1_dawn: scripts/scene_bench.py --host blender.) */
-        double len = sqrt(dot_n(moment, moment, 3)), spread = taken - len + own;
-        if (len > 0)
-            for (int k = 0; k < 3; k++)
-                l->direction[k] = moment[k] / len;
-        l->solid_angle = taken > 0 ? fmin(4.0 * ENVL_PI, 4.0 * ENVL_PI * fmax(spread, 0.0) / taken)
-                                   : 0.0;
-        envl__light_set_angle(l);
-        l->rect[0] = x0 < W ? x0 : 0;
-        l->rect[1] = y0 < H ? y0 : 0;
-        l->rect[2] = x1 > 0 ? x1 : 0;
-        l->rect[3] = y1 > 0 ? y1 : 0;
+}
+
+/* The job's light `light` takes its cone; its direction, size and rect from what it took. */
+static void take_cone(cone_job *j, envl_light *l)
+{
+    int32_t W = j->m->width, H = j->m->height;
+    double avail[3];
+    j->last = cone_last(j, l->rgb, avail);
+    for (int k = 0; k < 3; k++) {
+        if (l->rgb[k] > avail[k])
+            l->rgb[k] = avail[k]; /* the whole sphere holds less: take all there is */
+        j->keep[k] = avail[k] > 0 ? 1.0 - l->rgb[k] / avail[k] : 1.0;
     }
-    free(hist);
+    int32_t n = cone_pass(j, j->last, take_range);
+    /* what it takes, sum e, and its first moment, sum e d; the later lights' rings less it */
+    double taken = 0, moment[3] = {0, 0, 0}, own = 0;
+    int32_t x0 = W, x1 = -1, y0 = H, y1 = -1;
+    for (int32_t it = 0; it < n; it++) {
+        const cone_chunk *ch = &j->chunks[j->chunk0 + it];
+        taken += ch->taken;
+        own += ch->own;
+        for (int k = 0; k < 3; k++)
+            moment[k] += ch->moment[k];
+        x0 = ch->x0 < x0 ? ch->x0 : x0;
+        x1 = ch->x1 > x1 ? ch->x1 : x1;
+        y0 = ch->y0 < y0 ? ch->y0 : y0;
+        y1 = ch->y1 > y1 ? ch->y1 : y1;
+        for (size_t i = (size_t)3 * CONE_RINGS * (j->light + 1); i < (size_t)3 * CONE_RINGS * j->k;
+             i++)
+            j->rings[i] += ch->rings[i];
+    }
+    /* Its size: the uniform disc with the same spread. A disc of solid angle w has
+     * mean (1 - cos t) = w / 4 pi (uniform in cos t), so w = 4 pi sum e (1 - cos t) / sum e.
+     * The cone that holds the light's rgb is far wider than a sun in it (15 degrees
+     * around a 0.5-degree sun with its glow): as a disc it would soften the terminator of
+     * a lit sphere the sun leaves sharp. */
+    /* The light points along the first moment V = sum e d of what it took: a surface
+     * that sees all of it receives E(n) = n . V. Its spread about that direction is
+     * sum e (1 - cos t) = taken - |V|, plus each pixel's own extent (a pixel of solid
+     * angle om as its own disc: om / 4 pi, as sun_split.c counts it), so the disc of the
+     * same spread (solid angle w) has |V| = rgb (1 - w / 4 pi) up to the pixels' own
+     * extent (a few 1e-6 of rgb on a 1K map): a disc light of that irradiance at normal
+     * incidence (a Blender sun: energy) reproduces E(n). (Pointed along the fit's lobe
+     * centre, a wide light near the horizon gave a ground plane 3 % too much light on
+     * kiara_1_dawn: scripts/scene_bench.py --host blender.) */
+    double len = sqrt(dot_n(moment, moment, 3)), spread = taken - len + own;
+    if (len > 0)
+        for (int k = 0; k < 3; k++)
+            l->direction[k] = moment[k] / len;
+    l->solid_angle = taken > 0 ? fmin(4.0 * ENVL_PI, 4.0 * ENVL_PI * fmax(spread, 0.0) / taken)
+                               : 0.0;
+    envl__light_set_angle(l);
+    l->rect[0] = x0 < W ? x0 : 0;
+    l->rect[1] = y0 < H ? y0 : 0;
+    l->rect[2] = x1 > 0 ? x1 : 0;
+    l->rect[3] = y1 > 0 ? y1 : 0;
+}
+
+envl_result envl__take_cones(const envl_envmap *m, envl_lights *ls)
+{
+    int32_t K = ls->summary.count, H = m->height, order[ENVL_NNLS_MAX];
+    if (K <= 0)
+        return ENVL_OK;
+    double dirs[ENVL_NNLS_MAX][3];
+    take_order(ls, order);
+    for (int32_t i = 0; i < K; i++)
+        memcpy(dirs[i], ls->lights[order[i]].direction, sizeof dirs[i]);
+    int32_t rows = (H + CONE_CHUNKS - 1) / CONE_CHUNKS, nch = (H + rows - 1) / rows;
+    size_t per = (size_t)3 * CONE_RINGS * K;
+    cone_job j = {.m = m, .res = ls->residual, .k = K, .rows = rows, .dirs = (const double(*)[3])dirs};
+    j.chunks = malloc(sizeof(cone_chunk) * nch);
+    j.rings = calloc(per * (nch + 1), sizeof(double));
+    if (!j.chunks || !j.rings) {
+        free(j.chunks);
+        free(j.rings);
+        return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+    }
+    for (int32_t c = 0; c < nch; c++)
+        j.chunks[c].rings = j.rings + per * (c + 1);
+    /* the one pass over the map, then its chunks' rings summed in chunk order */
+    j.g = (cone_geom){.full = 1, .r0 = 0, .r1 = H - 1};
+    envl__parallel_for(nch, m->threads, rings_range, &j);
+    for (int32_t c = 0; c < nch; c++)
+        for (size_t i = 0; i < per; i++)
+            j.rings[i] += j.chunks[c].rings[i];
+    for (j.light = 0; j.light < K; j.light++)
+        take_cone(&j, &ls->lights[order[j.light]]);
+    free(j.chunks);
+    free(j.rings);
     return ENVL_OK;
 }
