@@ -285,6 +285,7 @@ void envl_envmap_free(envl_envmap *m)
     free(m->col_cos);
     free(m->col_sin);
     free(m->reference);
+    envl_envmap_free(m->reference_copy);
     free(m->region_table);
     free(m->mip_px);
     free(m);
@@ -301,6 +302,8 @@ void envl_envmap_drop_caches(envl_envmap *m, int32_t which)
     if (which & ENVL_CACHE_REFERENCE) {
         free(m->reference);
         m->reference = NULL;
+        envl_envmap_free(m->reference_copy);
+        m->reference_copy = NULL;
     }
 }
 

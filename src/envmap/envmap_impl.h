@@ -18,6 +18,8 @@ struct envl_envmap {
                                not name the file as its sky) */
     int32_t threads;
     double *reference;    /* cached exact irradiance at the ENVL_ERROR_NORMALS Fibonacci normals */
+    struct envl_envmap *reference_copy; /* cached: the map area-resampled to
+                                           ENVL_REFERENCE_WIDTH when wider (irradiance.c) */
     double *region_table; /* cached region table of the lights (region_table.c) */
     /* prefilter.c: the cached area-averaged mip pyramid. Level 0 is px itself; levels 1 ..
      * mip_levels - 1 live in mip_px at mip_offset[level] (floats). mip_levels 0: not built. */

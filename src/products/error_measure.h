@@ -24,6 +24,8 @@ envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const dou
 envl_result envl__sh_measure(envl_envmap *m, envl_sh *sh);
 envl_result envl__lights_measure(envl_envmap *m, envl_lights *ls);
 
+/* The map, or its copy area-resampled to ENVL_REFERENCE_WIDTH when wider (cached in it). */
+envl_result envl__reference_copy(envl_envmap *m, const envl_envmap **out);
 /* The references' irradiance: envl__irradiance_fast at ENVL_REFERENCE_TOLERANCE, or on maps
  * of at most 256 x 128 pixels envl_irradiance_exact itself. */
 envl_result envl__irradiance_reference(const envl_envmap *m, int32_t count,

@@ -429,6 +429,32 @@ double envl_relative_rms_luminance(int32_t count, const double *approx, const do
     return rms / mean;
 }
 
+/* Maps wider than ENVL_REFERENCE_WIDTH are resampled (exactly, by area) to that width: the
+ * clamped cosine is smooth, so this changes E by at most ~4 pi h^2 relative (h = pi / 512:
+ * 1.5e-4), and keeps the reference fast for huge maps. The copy is cached in the map (the
+ * fit's target sums over it too). */
+envl_result envl__reference_copy(envl_envmap *m, const envl_envmap **out)
+{
+    *out = m;
+    if (m->width <= ENVL_REFERENCE_WIDTH)
+        return ENVL_OK;
+    if (!m->reference_copy) {
+        float *px;
+        int32_t w = ENVL_REFERENCE_WIDTH;
+        int32_t h = (int32_t)fmax(1, llround((double)w * m->height / m->width));
+        envl_result rc = envl__latlong_resample(m->px, m->width, m->height, w, h, 0.0, &px);
+        if (rc)
+            return rc;
+        envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads};
+        rc = envl_envmap_from_pixels(px, w, h, 3, &lo, &m->reference_copy);
+        free(px);
+        if (rc)
+            return rc;
+    }
+    *out = m->reference_copy;
+    return ENVL_OK;
+}
+
 /* Up to 256 x 128 the reference is the brute force itself (exact to rounding; a few
  * hundredths of a second at most). */
 #define REFERENCE_EXACT_PIXELS (256 * 128)
@@ -455,25 +481,10 @@ envl_result envl_envmap_reference_irradiance(envl_envmap *m, const double **rgb_
         }
         for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
             envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, normals + 3 * i);
-        /* Maps wider than ENVL_REFERENCE_WIDTH are first resampled (exactly, by area) to that
-         * width: the clamped cosine is smooth, so this changes E by at most ~4 pi h^2
-         * relative (h = pi / 512: 1.5e-4), and keeps the reference fast for huge maps. */
-        envl_envmap *small = NULL;
-        envl_result rc = ENVL_OK;
-        if (m->width > ENVL_REFERENCE_WIDTH) {
-            float *px;
-            int32_t w = ENVL_REFERENCE_WIDTH;
-            int32_t h = (int32_t)fmax(1, llround((double)w * m->height / m->width));
-            rc = envl__latlong_resample(m->px, m->width, m->height, w, h, 0.0, &px);
-            if (rc == ENVL_OK) {
-                envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads};
-                rc = envl_envmap_from_pixels(px, w, h, 3, &lo, &small);
-                free(px);
-            }
-        }
+        const envl_envmap *r;
+        envl_result rc = envl__reference_copy(m, &r);
         if (rc == ENVL_OK)
-            rc = envl__irradiance_reference(small ? small : m, ENVL_ERROR_NORMALS, normals, ref);
-        envl_envmap_free(small);
+            rc = envl__irradiance_reference(r, ENVL_ERROR_NORMALS, normals, ref);
         free(normals);
         if (rc) {
             free(ref);

@@ -137,15 +137,14 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
         return ENVL_OK;
     }
     if (o->method == ENVL_METHOD_FIT) {
-        ls->residual = malloc(sizeof(float) * npx);
-        if (!ls->residual) {
-            rc = envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the residual map");
-            goto fail;
-        }
-        memcpy(ls->residual, m->px, sizeof(float) * npx);
+        /* the residual after the fit, whose own tables are freed by then (peak memory) */
         rc = envl__fit_lights(m, n, order, ls);
-        if (rc == ENVL_OK)
+        if (rc == ENVL_OK && !(ls->residual = malloc(sizeof(float) * npx)))
+            rc = envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the residual map");
+        if (rc == ENVL_OK) {
+            memcpy(ls->residual, m->px, sizeof(float) * npx);
             rc = envl__take_cones(m, ls);
+        }
     } else if (o->method == ENVL_METHOD_SUN) {
         rc = envl__sun_lights(m, n, ls);
     } else {

@@ -12,9 +12,6 @@
 /* ---- fit: K lights (non-negative) + an SH irradiance remainder ---- */
 
 #define FIT_NORMALS 1031    /* a Fibonacci set other than the error measure's 1024 */
-/* The fit's target irradiance comes from the map resampled to the error reference's width (a
- * 512-wide map left 0.2 % where 1024 leaves 0.15 % on the built-in sky: the sun's lobe). */
-#define FIT_MAP_WIDTH ENVL_REFERENCE_WIDTH
 #define FIT_CANDIDATES 64   /* from the median cut, and as many bright pixels */
 /* A light must find its light nearby: its luminance irradiance may not exceed the luminance
  * power within FIT_CONE_DEGREES of it (no light "opposite the sun" that only fits numbers). */
@@ -207,23 +204,12 @@ static envl_result fit_candidates(envl_envmap *m, const envl_envmap *fm, double 
 envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lights *ls)
 {
     envl_result rc;
-    /* The fit's target: exact irradiance of the map resampled (exactly, by area) to at most
-     * FIT_MAP_WIDTH, at FIT_NORMALS normals. */
-    envl_envmap *fm = m, *owned = NULL;
-    if (m->width > FIT_MAP_WIDTH) {
-        float *px;
-        int32_t fw = FIT_MAP_WIDTH;
-        int32_t fh = (int32_t)fmax(1, llround((double)fw * m->height / m->width));
-        rc = envl__latlong_resample(m->px, m->width, m->height, fw, fh, 0.0, &px);
-        if (rc)
-            return rc;
-        envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads};
-        rc = envl_envmap_from_pixels(px, fw, fh, 3, &lo, &owned);
-        free(px);
-        if (rc)
-            return rc;
-        fm = owned;
-    }
+    /* The fit's target: exact irradiance at FIT_NORMALS normals of the error reference's copy,
+     * the map resampled (by area) to at most ENVL_REFERENCE_WIDTH (a 512-wide copy left 0.2 %
+     * where 1024 leaves 0.15 % on the built-in sky: the sun's lobe). */
+    const envl_envmap *fm;
+    if ((rc = envl__reference_copy(m, &fm)))
+        return rc;
     fit_problem p = {.m = FIT_NORMALS, .nsh = order >= 0 ? envl_sh_count(order) : 0};
     double *cand = malloc(sizeof(double) * 3 * (2 * FIT_CANDIDATES + 1));
     p.normals = malloc(sizeof(double) * 3 * p.m);
@@ -391,7 +377,6 @@ done:
     free(p.sh);
     free(colmem);
     free(p.scratch);
-    envl_envmap_free(owned);
     return rc;
 }
 
