@@ -1,6 +1,7 @@
 /* Irradiance maps: the bright pixels exactly + the SH of the rest (the default), the exact sum,
  * the exact sum over the map area-averaged to 256 x 128, or the SH reconstruction. */
 #include "prefilter_impl.h"
+#include "sh_basis.h"
 
 #include <float.h>
 #include <math.h>
@@ -67,11 +68,149 @@ static envl_result resampled_copy(const float *px, int32_t w, int32_t h, int32_t
     return rc;
 }
 
+/* The split-off pixels of one 16 x 16 block of the map: their sum of e d per channel and the
+ * cap (centre, radius) that holds their directions. Where n lights the whole cap, the group
+ * adds n.M exactly (max(0, n.d) is linear there); where it lights none, nothing; else each of
+ * its pixels is added. */
+#define LOBE_BLOCK 16
+typedef struct lobe_group {
+    double M[3][3], centre[3], sin_radius;
+    int32_t first, count;      /* its lobes in `order` */
+} lobe_group;
+
+typedef struct lobe_key {
+    int64_t block;
+    int32_t k;
+} lobe_key;
+
+static int by_block(const void *a, const void *b)
+{
+    const lobe_key *x = a, *y = b;
+    return x->block != y->block ? (x->block < y->block ? -1 : 1) : (x->k > y->k) - (x->k < y->k);
+}
+
+/* Adds sum over the lobes of e max(0, n.d) to e_out at the n directions. */
+static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t n, const double *dirs,
+                             double *e_out)
+{
+    lobe_key *key = malloc(sizeof(lobe_key) * sp->n);
+    lobe_group *g = calloc((size_t)sp->n, sizeof *g);
+    if (!key || !g) {
+        free(key);
+        free(g);
+        return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    }
+    int64_t across = (w + LOBE_BLOCK - 1) / LOBE_BLOCK;
+    for (int32_t k = 0; k < sp->n; k++)
+        key[k] = (lobe_key){sp->lobes[k].r / LOBE_BLOCK * across + sp->lobes[k].c / LOBE_BLOCK, k};
+    qsort(key, (size_t)sp->n, sizeof *key, by_block);
+    int32_t ng = 0;
+    for (int32_t k = 0; k < sp->n; k++) {
+        if (k == 0 || key[k].block != key[k - 1].block)
+            g[ng++].first = k;
+        lobe_group *q = &g[ng - 1];
+        const envl_sun_lobe *b = &sp->lobes[key[k].k];
+        q->count++;
+        for (int ch = 0; ch < 3; ch++)
+            for (int a = 0; a < 3; a++)
+                q->M[ch][a] += b->e[ch] * b->d[a];
+        for (int a = 0; a < 3; a++)
+            q->centre[a] += b->d[a];
+    }
+    for (int32_t j = 0; j < ng; j++) {
+        lobe_group *q = &g[j];
+        double len = sqrt(q->centre[0] * q->centre[0] + q->centre[1] * q->centre[1] +
+                          q->centre[2] * q->centre[2]);
+        double radius = 0;
+        for (int32_t k = q->first; k < q->first + q->count; k++) {
+            const double *d = sp->lobes[key[k].k].d;
+            double c = (q->centre[0] * d[0] + q->centre[1] * d[1] + q->centre[2] * d[2]) / len;
+            radius = fmax(radius, acos(fmin(1.0, c)) * (1 + 1e-9) + 1e-12);
+        }
+        for (int a = 0; a < 3; a++)
+            q->centre[a] /= len;
+        q->sin_radius = radius < 0.5 * ENVL_PI ? sin(radius) : 2.0; /* 2: never wholly lit */
+    }
+    for (int32_t i = 0; i < n; i++) {
+        const double *d = dirs + 3 * i;
+        double *e = e_out + 3 * i;
+        for (int32_t j = 0; j < ng; j++) {
+            const lobe_group *q = &g[j];
+            double c = d[0] * q->centre[0] + d[1] * q->centre[1] + d[2] * q->centre[2];
+            if (c > q->sin_radius) {
+                for (int ch = 0; ch < 3; ch++)
+                    e[ch] += d[0] * q->M[ch][0] + d[1] * q->M[ch][1] + d[2] * q->M[ch][2];
+            } else if (c >= -q->sin_radius) {
+                for (int32_t k = q->first; k < q->first + q->count; k++) {
+                    const envl_sun_lobe *b = &sp->lobes[key[k].k];
+                    double t = d[0] * b->d[0] + d[1] * b->d[1] + d[2] * b->d[2];
+                    if (t > 0)
+                        for (int ch = 0; ch < 3; ch++)
+                            e[ch] += b->e[ch] * t;
+                }
+            }
+        }
+    }
+    free(key);
+    free(g);
+    return ENVL_OK;
+}
+
+/* The SH irradiance of `sh` over a w x h lat-long grid, separably: with x + i y = cos t e^(i phi),
+ * Y_l^{+-m} = [sqrt2 K_l^m Pbar_l^m(z) cos^m t] x {cos m phi, sin m phi} (sh_basis.c), so each
+ * row needs the basis once (at phi = 0, where the bracket is Y_l^m itself) and each texel
+ * sum over m of cos m phi C_m(row) + sin m phi S_m(row): O(L^2) a row, O(L) a texel. */
+static envl_result sh_latlong(const envl_sh *sh, int32_t w, int32_t h, double *e)
+{
+    envl_sh_summary s;
+    envl_sh_get_summary(sh, &s);
+    const double *c = envl_sh_irradiance(sh);
+    int32_t L = s.order, n = envl_sh_count(L);
+    double *y = malloc(sizeof(double) * n), *cs = malloc(sizeof(double) * 2 * (L + 1) * 3);
+    double *trig = malloc(sizeof(double) * 2 * (L + 1) * (size_t)w);
+    if (!y || !cs || !trig) {
+        free(y), free(cs), free(trig);
+        return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    }
+    for (int32_t col = 0; col < w; col++) {
+        double phi = ENVL_PI * (1.0 - 2.0 * (col + 0.5) / w);
+        for (int32_t m = 0; m <= L; m++) {
+            trig[2 * ((size_t)col * (L + 1) + m)] = cos(m * phi);
+            trig[2 * ((size_t)col * (L + 1) + m) + 1] = sin(m * phi);
+        }
+    }
+    for (int32_t row = 0; row < h; row++) {
+        double t = ENVL_PI * (0.5 - (row + 0.5) / h), d[3] = {cos(t), 0.0, sin(t)};
+        envl_sh_eval(L, d, y);
+        for (int32_t i = 0; i < 2 * (L + 1) * 3; i++)
+            cs[i] = 0;
+        for (int32_t l = 0; l <= L; l++)
+            for (int32_t m = 0; m <= l; m++) {
+                double a = y[l * (l + 1) + m]; /* the bracket at phi = 0 */
+                for (int k = 0; k < 3; k++) {
+                    cs[(2 * m) * 3 + k] += a * c[3 * (l * (l + 1) + m) + k];
+                    if (m > 0)
+                        cs[(2 * m + 1) * 3 + k] += a * c[3 * (l * (l + 1) - m) + k];
+                }
+            }
+        for (int32_t col = 0; col < w; col++) {
+            const double *tr = trig + 2 * (size_t)col * (L + 1);
+            double *o = e + 3 * ((size_t)row * w + col);
+            o[0] = o[1] = o[2] = 0;
+            for (int32_t m = 0; m <= L; m++)
+                for (int k = 0; k < 3; k++)
+                    o[k] += tr[2 * m] * cs[(2 * m) * 3 + k] + tr[2 * m + 1] * cs[(2 * m + 1) * 3 + k];
+        }
+    }
+    free(y), free(cs), free(trig);
+    return ENVL_OK;
+}
+
 /* The split method: E(n) = sum over the split-off pixels of e max(0, n.d) (e: their excess
  * over the threshold, L dw less T's share, at their centre: a pixel as a point, off by
- * O(pixel^2) of its own part) + the SH order-8 irradiance of the rest (every split pixel at
+ * O(pixel^2) of its own part) + the SH order-16 irradiance of the rest (every split pixel at
  * the threshold), projected from its 256-wide copy. */
-static envl_result split_irradiance(envl_envmap *m, int32_t threads, int32_t n,
+static envl_result split_irradiance(envl_envmap *m, int32_t threads, int32_t w, int32_t h,
                                     const double *dirs, double *e)
 {
     envl_sun_split sp;
@@ -90,17 +229,9 @@ static envl_result split_irradiance(envl_envmap *m, int32_t threads, int32_t n,
         rc = envl_sh_compute(small ? small : r, &so, &sh);
     }
     if (!rc)
-        rc = envl_sh_eval_irradiance(sh, n, dirs, e);
-    for (int32_t k = 0; !rc && k < sp.n; k++) {
-        const envl_sun_lobe *b = &sp.lobes[k];
-        for (int32_t i = 0; i < n; i++) {
-            const double *d = dirs + 3 * i;
-            double c = d[0] * b->d[0] + d[1] * b->d[1] + d[2] * b->d[2];
-            if (c > 0)
-                for (int ch = 0; ch < 3; ch++)
-                    e[3 * i + ch] += b->e[ch] * c;
-        }
-    }
+        rc = sh_latlong(sh, w, h, e);
+    if (!rc && sp.n)
+        rc = add_lobes(&sp, m->width, w * h, dirs, e);
     envl_sh_free(sh);
     envl_envmap_free(small);
     envl_envmap_free(rest);
@@ -141,7 +272,7 @@ envl_result envl__irradiance_map(envl_envmap *m, const resolved *o, const envl_s
         for (size_t i = 0; !rc && i < 3 * n; i++)
             e[i] = e[i] < 0 ? 0 : e[i];
     } else if (o->irr_method == ENVL_IRRADIANCE_SPLIT) {
-        rc = split_irradiance(m, o->threads, (int32_t)n, dirs, e);
+        rc = split_irradiance(m, o->threads, w, h, dirs, e);
         /* the SH of the rest may dip a little below 0 between its lobes: 0 */
         for (size_t i = 0; !rc && i < 3 * n; i++)
             e[i] = e[i] < 0 ? 0 : e[i];
