@@ -289,26 +289,29 @@ static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_o
         }
         printf("\n");
     }
-    /* irradiance maps, 64 x 32: SH of orders 1, 2, 4, 8, the resampled sum, the exact sum */
+    /* irradiance maps, 64 x 32: SH of orders 1, 2, 4, 8, the split (default), the resampled
+     * sum, the exact sum */
     static const int orders[] = {1, 2, 4, 8};
+    static const int32_t other[] = {ENVL_IRRADIANCE_SPLIT, ENVL_IRRADIANCE_RESAMPLED,
+                                    ENVL_IRRADIANCE_EXACT};
     printf("\n#### Irradiance map (64 x 32): %s\n\ndiffuse error %% (seconds)\n\n"
-           "| SH 1 | SH 2 | SH 4 | SH 8 | resampled | exact |\n|---|---|---|---|---|---|\n|",
+           "| SH 1 | SH 2 | SH 4 | SH 8 | split | resampled | exact |\n"
+           "|---|---|---|---|---|---|---|\n|",
            name);
-    for (int i = 0; i < 6; i++) {
+    for (int i = 0; i < 7; i++) {
         envl_request q = {.irradiance_map = 1};
-        q.prefilter.irradiance_method = i < 4 ? ENVL_IRRADIANCE_SH
-                                        : i == 4 ? ENVL_IRRADIANCE_RESAMPLED
-                                                 : ENVL_IRRADIANCE_EXACT;
+        q.prefilter.irradiance_method = i < 4 ? ENVL_IRRADIANCE_SH : other[i - 4];
         q.prefilter.irradiance_order = i < 4 ? orders[i] : 0;
-        double sec;
+        double sec = 0;
         envl_irradiance_map irr;
         if (bench_products(m, &q, o, &sec, NULL, &irr))
             return CLI_FAIL;
         printf(" %.3f (%.4f s) |", 100 * irr.diffuse_error, sec);
         fflush(stdout);
-        record(name, "diffuse", i < 4 ? "irradiance-sh" : i == 4 ? "irradiance-resampled"
-                                                                 : "irradiance-exact",
-               i < 4 ? orders[i] : 0, 64, irr.diffuse_error, sec);
+        char series[32];
+        snprintf(series, sizeof series, "irradiance-%s",
+                 envl_irradiance_method_name(q.prefilter.irradiance_method));
+        record(name, "diffuse", series, i < 4 ? orders[i] : 0, 64, irr.diffuse_error, sec);
     }
     printf("\n");
     return CLI_OK;
