@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The irradiance map's methods on every map (docs/accuracy.md, "Irradiance map"): for each map,
 # the default `split` and the former default `resampled` at 64 x 32 (diffuse error of
-# docs/design.md and seconds, the error measure excluded), and both at 512 x 256 (the lat-long
-# a 128-face cube is computed from) with --no-error: seconds. Prints a markdown table; with
+# docs/design.md and seconds, the error measure excluded), and at 512 x 256 (the lat-long a
+# 128-face cube is computed from) with --no-error: seconds of split on every map, of resampled
+# on the first (about a minute each). Prints a markdown table; with
 # --docs DIR also writes it to DIR/irradiance_bench.md after a header (the command, date,
 # load average, machine).
 # Usage: scripts/irradiance_bench.sh [--docs DIR] ENVLIGHT [MAP...]   (MAP '-' = the built-in
@@ -33,12 +34,15 @@ print("%s %.3f" % ("-" if e is None else "%.3f" % (100 * e), i["seconds"]))' "$t
 table() {
   echo "| map | split 64: error % | s | resampled 64: error % | s | split 512: s | resampled 512: s |"
   echo "|---|---|---|---|---|---|---|"
+  local first=1
   for f in "$@"; do
     if [ "$f" = - ]; then n="built-in sky"; else n=$(basename "$f" .hdr); fi
     read -r e1 s1 <<<"$(irr "$f" split 64)"
     read -r e2 s2 <<<"$(irr "$f" resampled 64)"
     read -r _ s3 <<<"$(irr "$f" split 512 --no-error)"
-    read -r _ s4 <<<"$(irr "$f" resampled 512 --no-error)"
+    s4=-
+    [ $first = 0 ] || read -r _ s4 <<<"$(irr "$f" resampled 512 --no-error)"
+    first=0
     echo "| $n | $e1 | $s1 | $e2 | $s2 | $s3 | $s4 |"
   done
 }
