@@ -31,6 +31,12 @@ envl_result envl__reference_copy(envl_envmap *m, const envl_envmap **out);
 envl_result envl__irradiance_reference(const envl_envmap *m, int32_t count,
                                        const double *normals, double *rgb_out);
 
+/* The glossy reference of the error measure: envl_prefilter_reference over the map
+ * area-resampled to envl__glossy_reference_width (the map itself up to 1024 wide). */
+int32_t envl__glossy_reference_width(int32_t map_width, double roughness);
+envl_result envl__glossy_reference(const envl_envmap *m, double roughness, int32_t count,
+                                   const double *dirs, double *out);
+
 /* The error of a lat-long product read bilinearly, plus n_sun sun lights as they add to P(R) at
  * `roughness` (or to E(n) for roughness < 0), against ref at dirs. */
 envl_result envl__sampled_error(const double *dirs, const double *ref, const float *rgb,

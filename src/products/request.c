@@ -198,7 +198,7 @@ static envl_result measure(envl_envmap *m, envl_products *p)
                                  : envl__fail(ENVL_ERR_MEMORY, "error measure: out of memory");
     for (int32_t i = 0; !rc && i < p->n_levels; i++) {
         envl_level *l = &p->levels[i];
-        rc = envl_prefilter_reference(m, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
+        rc = envl__glossy_reference(m, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
         if (!rc)
             rc = envl__sampled_error(dirs, ref, l->rgb, l->width, l->height, p->sun,
                                      l->roughness > 0 ? p->n_sun : 0, l->roughness,
