@@ -254,6 +254,28 @@ peer_line() {  # NAME BINARY COMMIT
   echo "- inputs: the map as it is, and \`envlight convert MAP OUT.hdr --width W\` (area-weighted"
   echo "  upsampling: the same picture, more pixels)"
   echo
+  echo "How to read it:"
+  echo
+  echo "- A CPU ratio below 1: envlight used less CPU than the peer. Wall above CPU is waiting on"
+  echo "  a loaded machine (see the load); envlight and cmft's radiance filter use both cores."
+  echo "- envlight's \"default\" rows include its error measures against exact references: the"
+  echo "  irradiance at 1024 normals, and for the GGX chain a brute-force sum over every pixel for"
+  echo "  1024 directions per level, which grows with the map (most of the 8K default row). The"
+  echo "  \`--no-error\` rows are the products alone; \`sh\` and \`lights\` have no \`--no-error\`"
+  echo "  in this build, so their rows include the measure."
+  echo "- Not the same filters. Irradiance: envlight's default is the exact integral of the map"
+  echo "  area-averaged to 256 x 128, a cost per output texel; cmft's is an SH expansion of order 4"
+  echo "  (E / pi, no window). The \`--irradiance-method sh --irradiance-order 4\` rows are the"
+  echo "  like-for-like ones. Radiance: envlight's GGX chain, filtered importance sampling of the"
+  echo "  full-resolution map, against cmft's Phong-BRDF cone filter of the map first resampled to"
+  echo "  256 faces: kernels, levels and input resolution differ, so the rows give what each tool's"
+  echo "  own chain costs, not which is more accurate."
+  echo "- SH agreement: envlight's coefficients are compared in its own basis and frame; cmft's in"
+  echo "  its basis and frame (scripts/peer_bench.py says how they were read from cmft's source;"
+  echo "  the fit residual checks the mapping), and the band energies need no frame at all. cmft"
+  echo "  point-samples the lat-long map onto a cube of face H / 2, so its error falls as the map"
+  echo "  grows; it decodes RGBE without envlight's + 0.5, hence two reference rows."
+  echo
   cat "$tmp/shown.md"
 } >"$tmp/report.md"
 out=$docs/peer_bench.md
