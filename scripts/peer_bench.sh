@@ -243,10 +243,9 @@ peer_line() {  # NAME BINARY COMMIT
   echo "- cmft: \`--filter shcoeffs\` (always order 4, 25 coefficients, on a cube of face H/2"
   echo "  point-sampled from the lat-long map); \`--filter irradiance --dstFaceSize N\` (SH-based);"
   echo "  \`${CMFT_RAD[*]}\`"
-  echo "  (Phong lobes of specular power 2^(10 g + 1), + 1 for phongbrdf, g = 1 at mip 0 falling to"
-  echo "  0 at mip 8; no GGX;"
-  echo "  the input is first resampled to 256 faces); outputs DDS rgba32f; cmft starts N - 1"
-  echo "  worker threads for N = $((threads + 1)), i.e. $threads"
+  echo "  (Phong lobes of specular power 2^(10 g + 1), + 1 for phongbrdf, g = 1 at mip 0 falling"
+  echo "  to 0 at mip 8; no GGX; the input first resampled to 256 faces); outputs DDS rgba32f;"
+  echo "  cmft starts N - 1 worker threads for N = $((threads + 1)), i.e. $threads"
   [ -z "$PROBULATOR" ] || {
   echo "- Probulator: \`ProbulatorCLI MAP SHL2\`: resizes the map to 256 x 128, projects order 2"
   echo "  there, renders 256 x 128 radiance and irradiance pictures and writes PNGs and an HTML"
