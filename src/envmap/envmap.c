@@ -287,6 +287,7 @@ void envl_envmap_free(envl_envmap *m)
     free(m->reference);
     free(m->region_table);
     free(m->mip_px);
+    free(m->cells);
     free(m);
 }
 

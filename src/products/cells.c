@@ -1,0 +1,401 @@
+/* The filtered specular levels: P(R) summed over a pyramid of cells, each as coarse as its
+ * distance from R allows (docs/methods.md, "What is computed").
+ *
+ * A cell of level k is a block of 2^k x 2^k map pixels; near the poles, where such a block is
+ * narrower than it is tall, g of them merge (g a power of 2: at most as wide as tall, never
+ * wider than the parent's cells, so cells nest), so a cell is about p_k = pi 2^k / H across
+ * everywhere. Each cell keeps its power (sum of L dw, RGB), its solid angle, and the mean and
+ * covariance of its pixels' centre directions weighted by luminance and by solid angle.
+ *
+ * P(R) = sum over cells c of E_c <w>_c / sum over the same cells of omega_c <w>g_c, with
+ * w(u) = u / q^2 the GGX kernel of design.md and <w> its mean over the cell's directions to
+ * second order (w_cell): the reference's sum over every pixel, each cell standing for its
+ * pixels. The cells are a Barnes-Hut cut of the tree, made per texel: from the top level down,
+ * a cell is summed whole when its luminance centroid is at least rho p_k from R (rho: options.c,
+ * 2-5.7) or its level is fine enough for the lobe (at most HWHM / CORE_K across, HWHM the
+ * kernel's half width at half maximum), else its children are visited. Each pixel is counted
+ * exactly once and a bright spot inside a coarse cell sits where it is (the first moment is
+ * exact, the second is the correction); what is left is third order in p / distance. The
+ * denominator is the same cut over the solid angles, so a constant map gives P = L. Cells
+ * wholly behind R are skipped. Deterministic: a texel's value depends on no other texel. */
+#include "prefilter_impl.h"
+#include "ggx.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Cells per kernel half width at the finest level a texel's cut need reach. */
+#define CORE_K 4.0
+/* How finely the cut resolves R's horizon (envl__cells_level). */
+#define HORIZON_EPS 4e-3
+
+typedef struct cell {
+    float e[3];               /* sum of L dw */
+    float m[3];               /* luminance-weighted mean direction (|m| <= 1; the area's when
+                                 black) */
+    float c[6];               /* and the covariance of the directions about it: xx yy zz xy xz
+                                 yz */
+    float mg[3], cg[6];       /* the same weighted by solid angle */
+    float om;                 /* solid angle */
+} cell;
+
+typedef struct cell_row {
+    double lat, hh, sl, cl;   /* centre latitude, half height, sin and cos of lat */
+    int32_t n, cw;            /* cells, map columns per cell (the last may have fewer) */
+    size_t off;               /* first cell */
+} cell_row;
+
+struct envl_cells {
+    int32_t w, h, nlev;
+    int32_t rows[40];         /* row groups of each level (2^k map rows each, the last fewer) */
+    cell_row *row[40];
+    cell *buf;                /* rows and cells live in the same block as this header: one free */
+};
+
+void envl__cells_free(envl_cells *c)
+{
+    free(c);
+}
+
+/* Sums of a block: L dw (3), Y dw (1), Y d dw (3), Y d d^T dw (6), d dw (3), d d^T dw (6),
+ * dw (1). */
+#define NS 23
+
+/* A pixel's moments over its area (the map piecewise constant): with dw = cos(lat) dlat dphi
+ * they factor into integrals over the row's latitudes (lat[6]: sin, cos^2, sin cos, cos^3,
+ * sin^2 cos, cos^2 sin) and the column's azimuths (az[6]: 1, cos, sin, cos^2, sin^2, cos sin). */
+static inline void add_pixel(const float *p, const double *lat, const double *az, double *s)
+{
+    double om = lat[0] * az[0];
+    double m1[3] = {lat[1] * az[1], lat[1] * az[2], lat[2] * az[0]};
+    double m2[6] = {lat[3] * az[3], lat[3] * az[4], lat[4] * az[0],
+                    lat[3] * az[5], lat[5] * az[1], lat[5] * az[2]};
+    double y = envl__lum(p[0], p[1], p[2]);
+    for (int k = 0; k < 3; k++) {
+        s[k] += p[k] * om;
+        s[4 + k] += y * m1[k];
+        s[13 + k] += m1[k];
+    }
+    s[3] += y * om;
+    for (int k = 0; k < 6; k++) {
+        s[7 + k] += y * m2[k];
+        s[16 + k] += m2[k];
+    }
+    s[22] += om;
+}
+
+/* Mean and covariance from the weight, first and second moment sums; 0 when wsum is not > 0. */
+static int moments(double wsum, const double *m1, const double *m2, float m[3], float c[6])
+{
+    if (!(wsum > 0))
+        return 0;
+    double mu[3] = {m1[0] / wsum, m1[1] / wsum, m1[2] / wsum};
+    const int a[6] = {0, 1, 2, 0, 0, 1}, b[6] = {0, 1, 2, 1, 2, 2};
+    for (int k = 0; k < 3; k++)
+        m[k] = (float)mu[k];
+    for (int k = 0; k < 6; k++)
+        c[k] = (float)(m2[k] / wsum - mu[a[k]] * mu[b[k]]);
+    return 1;
+}
+
+static void make_cell(const double *s, cell *c)
+{
+    for (int k = 0; k < 3; k++)
+        c->e[k] = (float)s[k];
+    if (!moments(s[22], s + 13, s + 16, c->mg, c->cg)) {
+        memset(c, 0, sizeof *c);
+        return;
+    }
+    if (!moments(s[3], s + 4, s + 7, c->m, c->c)) {
+        memcpy(c->m, c->mg, sizeof c->m);
+        memcpy(c->c, c->cg, sizeof c->c);
+    }
+    c->om = (float)s[22];
+}
+
+static int32_t level_count(int32_t h)
+{
+    int32_t n = 1;
+    while (n < 31 && ((int64_t)1 << n) <= h / 2)
+        n++;
+    return n;
+}
+
+/* Map columns per cell of row group i of level k: blocks of 2^k columns, g of them merged
+ * (g a power of 2) while the merged cell is at most as wide, at its widest, as it is tall; and
+ * never wider than its parent's cells (row group i / 2 of level k + 1), so that cells nest. */
+static int32_t cell_cols(int32_t w, int32_t h, int32_t nlev, int32_t k, int32_t i)
+{
+    int64_t b = (int64_t)1 << k;
+    int64_t r0 = i * b, r1 = (i + 1) * b > h ? h : (i + 1) * b;
+    double top = ENVL_PI * (0.5 - (double)r0 / h), bot = ENVL_PI * (0.5 - (double)r1 / h);
+    double cmax = top > 0 && bot < 0 ? 1.0 : fmax(cos(top), cos(bot));
+    int32_t cb = b > w ? w : (int32_t)b;
+    double bw = cb * 2 * ENVL_PI / w * cmax; /* a block's widest width */
+    int32_t g = 1;
+    while ((int64_t)g * 2 * cb <= w && 2 * g * bw <= (top - bot) * (1 + 1e-9))
+        g *= 2;
+    int32_t cw = g * cb;
+    if (k + 1 < nlev) {
+        int32_t up = cell_cols(w, h, nlev, k + 1, i / 2);
+        cw = cw < up ? cw : up;
+    }
+    return cw;
+}
+
+/* The levels' row groups (C->row[k] set: fills them) or only their counts. Levels go on while
+ * a row group is at most half the map's height. */
+static void geometry(envl_cells *C, int32_t w, int32_t h, int32_t *nlev, size_t *nrows,
+                     size_t *ncell)
+{
+    *nlev = level_count(h), *nrows = 0, *ncell = 0;
+    for (int32_t k = 0; k < *nlev; k++) {
+        int64_t b = (int64_t)1 << k;
+        int32_t rows = (int32_t)((h + b - 1) / b);
+        for (int32_t i = 0; i < rows; i++) {
+            int64_t r0 = i * b, r1 = (i + 1) * b > h ? h : (i + 1) * b;
+            double top = ENVL_PI * (0.5 - (double)r0 / h), bot = ENVL_PI * (0.5 - (double)r1 / h);
+            int32_t cw = cell_cols(w, h, *nlev, k, i), n = (w + cw - 1) / cw;
+            if (C) {
+                cell_row *R = C->row[k] + i;
+                R->lat = 0.5 * (top + bot), R->hh = 0.5 * (top - bot);
+                R->sl = sin(R->lat), R->cl = cos(R->lat);
+                R->cw = cw, R->n = n, R->off = *ncell;
+            }
+            *ncell += (size_t)n;
+        }
+        if (C)
+            C->rows[k] = rows;
+        *nrows += (size_t)rows;
+    }
+}
+
+envl_result envl__cells_build(const float *px, int32_t w, int32_t h, envl_cells **out)
+{
+    *out = NULL;
+    int32_t nlev;
+    size_t nrows, ncell;
+    geometry(NULL, w, h, &nlev, &nrows, &ncell);
+    size_t head = (sizeof(envl_cells) + 15) / 16 * 16;
+    envl_cells *C = malloc(head + sizeof(cell_row) * nrows + sizeof(cell) * ncell);
+    double *acc = malloc(sizeof(double) * NS * (size_t)w);
+    double *cs = malloc(sizeof(double) * 6 * (size_t)w);
+    if (!C || !acc || !cs) {
+        free(C), free(acc), free(cs);
+        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for the cell pyramid");
+    }
+    memset(C, 0, sizeof *C);
+    C->w = w, C->h = h, C->nlev = nlev;
+    cell_row *rows = (cell_row *)((char *)C + head);
+    for (int32_t k = 0, at = 0; k < nlev; k++) {
+        C->row[k] = rows + at;
+        at += (int32_t)((h + ((int64_t)1 << k) - 1) >> k);
+    }
+    C->buf = (cell *)(rows + nrows);
+    geometry(C, w, h, &nlev, &nrows, &ncell);
+    /* Each level from the map's pixels, one row group at a time: O(pixels) per level; the
+     * levels number log2(H) at most. */
+    for (int32_t c = 0; c < w; c++) {
+        double f0 = ENVL_PI * (1.0 - 2.0 * (c + 1.0) / w), f1 = ENVL_PI * (1.0 - 2.0 * c / w);
+        double s0 = sin(f0), s1 = sin(f1), c0 = cos(f0), c1 = cos(f1);
+        double *az = cs + 6 * c;
+        az[0] = f1 - f0, az[1] = s1 - s0, az[2] = c0 - c1;
+        az[3] = 0.5 * az[0] + 0.25 * (sin(2 * f1) - sin(2 * f0));
+        az[4] = 0.5 * az[0] - 0.25 * (sin(2 * f1) - sin(2 * f0));
+        az[5] = 0.5 * (s1 * s1 - s0 * s0);
+    }
+    for (int32_t k = 0; k < nlev; k++) {
+        int64_t b = (int64_t)1 << k;
+        for (int32_t i = 0; i < C->rows[k]; i++) {
+            cell_row *R = C->row[k] + i;
+            memset(acc, 0, sizeof(double) * NS * R->n);
+            int64_t r0 = i * b, r1 = (i + 1) * b > h ? h : (i + 1) * b;
+            for (int64_t r = r0; r < r1; r++) {
+                double la = ENVL_PI * (0.5 - (r + 1.0) / h), lb = ENVL_PI * (0.5 - (double)r / h);
+                double sa = sin(la), sb = sin(lb), ca = cos(la), cb = cos(lb);
+                double lat[6] = {sb - sa, 0.5 * (lb - la) + 0.25 * (sin(2 * lb) - sin(2 * la)),
+                                 0.5 * (sb * sb - sa * sa),
+                                 (sb - sb * sb * sb / 3) - (sa - sa * sa * sa / 3),
+                                 (sb * sb * sb - sa * sa * sa) / 3,
+                                 -(cb * cb * cb - ca * ca * ca) / 3};
+                const float *p = px + 3 * (size_t)r * w;
+                for (int32_t c = 0; c < w; c++)
+                    add_pixel(p + 3 * c, lat, cs + 6 * c, acc + NS * (c / R->cw));
+            }
+            for (int32_t j = 0; j < R->n; j++)
+                make_cell(acc + NS * j, C->buf + R->off + j);
+        }
+    }
+    free(acc), free(cs);
+    *out = C;
+    return ENVL_OK;
+}
+
+/* The kernel's half width at half maximum (angle from R where w falls to w(1) / 2). */
+static double half_width(double a2)
+{
+    double lo = 0, hi = ENVL_PI / 2, top = ggx_w(1.0, a2);
+    for (int i = 0; i < 60; i++) {
+        double m = 0.5 * (lo + hi);
+        if (ggx_w(cos(m), a2) > 0.5 * top)
+            lo = m;
+        else
+            hi = m;
+    }
+    return lo;
+}
+
+typedef struct quad_job {
+    const envl_cells *C;
+    double a2, A, B;          /* alpha^2, (1 + alpha^2) / 2, (alpha^2 - 1) / 2 */
+    int32_t kmin;             /* levels up to kmin: never opened for their distance */
+    int32_t kh;               /* levels above kh: opened where they may straddle R's horizon */
+    double horiz[40];         /* ... when |R.mg| < horiz[k] */
+    double open_x[40];        /* level k > kmin: a cell opens when 1 - R.d < open_x[k] (nearer
+                                 than rho p_k) */
+    double behind[40];        /* a cell of level k lies wholly behind R when R.g < behind[k] */
+    int32_t w, h;             /* the level */
+    float *out;
+    int64_t *terms;           /* cells summed, per output row */
+} quad_job;
+
+typedef struct texel {
+    double R[3];
+    double acc[4];            /* sum w E (RGB), sum w omega */
+    int64_t terms;
+} texel;
+
+/* The mean of w(R.l) over a cell's directions l (w = 0 behind R), U = R.l having mean
+ * u = R.m and variance v = R^T C R (m, C: the cell's mean direction and covariance). Away from
+ * the horizon, to second order: w(u) + w''(u) v / 2. With w = u / q^2, q = A + B u,
+ * A = (1 + a^2) / 2, B = (a^2 - 1) / 2: w'' = -2 B (2 A - B u) / q^4. Within 3 standard
+ * deviations of the horizon, where w = u g(u) is cut to 0, U as a normal variable:
+ * g(u) E[max(U, 0)] = g(u) (u Phi(u / s) + s phi(u / s)), s = sqrt(v). The cell's own spread
+ * thus counts, and so does a line (only its variance along R). */
+static inline double w_cell(const quad_job *J, const double R[3], double u, const float *c)
+{
+    double var = c[0] * R[0] * R[0] + c[1] * R[1] * R[1] + c[2] * R[2] * R[2] +
+                 2 * (c[3] * R[0] * R[1] + c[4] * R[0] * R[2] + c[5] * R[1] * R[2]);
+    var = var > 0 ? var : 0;
+    double A = J->A, B = J->B, iq = 1 / (A + B * u), iq2 = iq * iq;
+    if (u * u < 9 * var) {
+        double sd = sqrt(var), z = u / sd;
+        double cut = u * 0.5 * erfc(-z * 0.70710678118654752) + sd * exp(-0.5 * z * z) / sqrt(2 * ENVL_PI);
+        return iq2 * cut;
+    }
+    if (u <= 0)
+        return 0;
+    double r = u * iq2 - B * (2 * A - B * u) * iq2 * iq2 * var;
+    return r > 0 ? r : 0;
+}
+
+/* Barnes-Hut over the cell tree: a cell far enough from R (or of a level fine enough for the
+ * lobe) adds its power at its luminance centroid and its solid angle at its area centroid;
+ * else its children (level k - 1) are visited. Every bit of the sphere is counted once. */
+static void visit(const quad_job *J, texel *t, int32_t k, int32_t i, int32_t j)
+{
+    const envl_cells *C = J->C;
+    const cell_row *G = C->row[k] + i;
+    const cell *c = C->buf + G->off + j;
+    const double *R = t->R;
+    double ug = R[0] * c->mg[0] + R[1] * c->mg[1] + R[2] * c->mg[2];
+    if (ug < J->behind[k])
+        return;
+    double u = R[0] * c->m[0] + R[1] * c->m[1] + R[2] * c->m[2];
+    if ((k > J->kmin && 1 - u < J->open_x[k]) || (k > J->kh && fabs(ug) < J->horiz[k])) {
+        int32_t i1 = 2 * i + 1 < C->rows[k - 1] ? 2 * i + 1 : 2 * i;
+        for (int32_t ci = 2 * i; ci <= i1; ci++) {
+            const cell_row *H = C->row[k - 1] + ci;
+            int32_t ratio = G->cw / H->cw, j0 = j * ratio, j1 = (j + 1) * ratio;
+            j1 = j1 < H->n ? j1 : H->n;
+            for (int32_t cj = j0; cj < j1; cj++)
+                visit(J, t, k - 1, ci, cj);
+        }
+        return;
+    }
+    t->terms++;
+    double f = w_cell(J, R, u, c->c);
+    t->acc[0] += f * c->e[0], t->acc[1] += f * c->e[1], t->acc[2] += f * c->e[2];
+    t->acc[3] += w_cell(J, R, ug, c->cg) * c->om;
+}
+
+static void quad_rows(void *ctx, int64_t begin, int64_t end)
+{
+    quad_job *J = ctx;
+    const envl_cells *C = J->C;
+    int32_t top = C->nlev - 1;
+    for (int64_t r = begin; r < end; r++) {
+        double latR = ENVL_PI * (0.5 - (r + 0.5) / J->h), sR = sin(latR), cR = cos(latR);
+        int64_t terms = 0;
+        for (int32_t col = 0; col < J->w; col++) {
+            double phiR = ENVL_PI * (1.0 - 2.0 * (col + 0.5) / J->w);
+            texel t = {{cR * cos(phiR), cR * sin(phiR), sR}, {0, 0, 0, 0}, 0};
+            for (int32_t i = 0; i < C->rows[top]; i++)
+                for (int32_t j = 0; j < C->row[top][i].n; j++)
+                    visit(J, &t, top, i, j);
+            float *o = J->out + 3 * ((size_t)r * J->w + col);
+            for (int k = 0; k < 3; k++)
+                o[k] = t.acc[3] > 0 ? (float)(t.acc[k] / t.acc[3]) : 0.0f;
+            terms += t.terms;
+        }
+        J->terms[r] = terms;
+    }
+}
+
+envl_result envl__cells_level(const envl_cells *C, double alpha, double rho, int32_t w, int32_t h,
+                              int32_t threads, float *out, double *terms)
+{
+    quad_job J = {.C = C, .a2 = alpha * alpha, .w = w, .h = h, .out = out};
+    J.A = 0.5 * (1 + J.a2), J.B = 0.5 * (J.a2 - 1);
+    J.terms = calloc((size_t)h, sizeof(int64_t));
+    if (!J.terms)
+        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
+    /* kmin: the coarsest level whose cells are at most HWHM / CORE_K across */
+    double hw = half_width(J.a2);
+    int32_t kmin = 0;
+    while (kmin + 1 < C->nlev && ENVL_PI * (double)((int64_t)1 << (kmin + 1)) / C->h <= hw / CORE_K)
+        kmin++;
+    J.kmin = kmin;
+    /* The kernel is cut at R's horizon (w = 0 for R.l < 0, slope w'(0) = 1 / A^2 above): a cell
+     * across it is summed by the model of w_cell, off by up to E w'(0) sd / 2 for a cell of
+     * power E. Such cells are opened down to the level kh whose cells, p_kh across, keep that
+     * within HORIZON_EPS of E N(alpha) / p: w'(0) p_kh <= HORIZON_EPS N(alpha) (at roughness 1:
+     * 0.01 rad; at 0.5 and below it is never needed). */
+    double wslope = 1 / (J.A * J.A), norm = envl_ggx_lobe_norm(alpha);
+    int32_t kh = 0;
+    while (kh + 1 < C->nlev &&
+           wslope * ENVL_PI * (double)((int64_t)1 << (kh + 1)) / C->h <= HORIZON_EPS * norm)
+        kh++;
+    J.kh = kh;
+    for (int32_t k = 0; k < C->nlev; k++) {
+        double p = ENVL_PI * (double)((int64_t)1 << k) / C->h; /* a cell's height */
+        J.open_x[k] = rho * p >= ENVL_PI ? 3.0 : 1 - cos(rho * p);
+        /* a cell is within 1.5 p of its area centroid (at most as wide as tall) */
+        J.behind[k] = 1.5 * p >= ENVL_PI / 2 ? -2.0 : -sin(1.5 * p);
+        J.horiz[k] = 1.5 * p >= ENVL_PI / 2 ? 2.0 : sin(1.5 * p);
+    }
+    envl__parallel_for(h, threads, quad_rows, &J);
+    double t = 0;
+    for (int32_t r = 0; r < h; r++)
+        t += (double)J.terms[r];
+    free(J.terms);
+    *terms = t / ((double)w * h);
+    return ENVL_OK;
+}
+
+void envl__cells_energy(const envl_cells *C, double e[3])
+{
+    e[0] = e[1] = e[2] = 0;
+    for (int32_t i = 0; i < C->rows[0]; i++) {
+        const cell_row *R = C->row[0] + i;
+        for (int32_t j = 0; j < R->n; j++)
+            for (int k = 0; k < 3; k++)
+                e[k] += C->buf[R->off + j].e[k];
+    }
+}
+
+int32_t envl__cells_levels(const envl_cells *C)
+{
+    return C ? C->nlev : 0;
+}
