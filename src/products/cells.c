@@ -5,16 +5,18 @@
  * narrower than it is tall, g of them merge (g a power of 2: at most as wide as tall, never
  * wider than the parent's cells, so cells nest), so a cell is about p_k = pi 2^k / H across
  * everywhere. Each cell keeps its power (sum of L dw, RGB), its solid angle, and the mean and
- * covariance of its pixels' centre directions weighted by luminance and by solid angle.
+ * covariance of its pixels' centre directions weighted by luminance and by solid angle (each
+ * pixel a point at its centre, as the reference sums it).
  *
  * P(R) = sum over cells c of E_c <w>_c / sum over the same cells of omega_c <w>g_c, with
  * w(u) = u / q^2 the GGX kernel of design.md and <w> its mean over the cell's directions to
  * second order (w_cell): the reference's sum over every pixel, each cell standing for its
  * pixels. The cells are a Barnes-Hut cut of the tree, made per texel: from the top level down,
  * a cell is summed whole when its luminance centroid is at least rho p_k from R (rho: options.c,
- * 2-5.7) or its level is fine enough for the lobe (at most HWHM / CORE_K across, HWHM the
- * kernel's half width at half maximum), else its children are visited. Each pixel is counted
- * exactly once and a bright spot inside a coarse cell sits where it is (the first moment is
+ * 2-3.8) or its level is fine enough for the lobe (at most HWHM / CORE_K across, HWHM the
+ * kernel's half width at half maximum), and does not straddle R's horizon (where the kernel is
+ * cut) unless its level is fine enough for the kernel's slope there; else its children are.
+ * Each pixel is counted exactly once and a bright spot inside a coarse cell sits where it is (the first moment is
  * exact, the second is the correction); what is left is third order in p / distance. The
  * denominator is the same cut over the solid angles, so a constant map gives P = L. Cells
  * wholly behind R are skipped. Deterministic: a texel's value depends on no other texel. */
@@ -28,7 +30,7 @@
 /* Cells per kernel half width at the finest level a texel's cut need reach. */
 #define CORE_K 4.0
 /* How finely the cut resolves R's horizon (envl__cells_level). */
-#define HORIZON_EPS 4e-3
+#define HORIZON_EPS 1.6e-2
 
 typedef struct cell {
     float e[3];               /* sum of L dw */
@@ -62,25 +64,20 @@ void envl__cells_free(envl_cells *c)
  * dw (1). */
 #define NS 23
 
-/* A pixel's moments over its area (the map piecewise constant): with dw = cos(lat) dlat dphi
- * they factor into integrals over the row's latitudes (lat[6]: sin, cos^2, sin cos, cos^3,
- * sin^2 cos, cos^2 sin) and the column's azimuths (az[6]: 1, cos, sin, cos^2, sin^2, cos sin). */
-static inline void add_pixel(const float *p, const double *lat, const double *az, double *s)
+/* A pixel as the reference sums it: its solid angle om at its centre direction d. */
+static inline void add_pixel(const float *p, double om, const double d[3], double *s)
 {
-    double om = lat[0] * az[0];
-    double m1[3] = {lat[1] * az[1], lat[1] * az[2], lat[2] * az[0]};
-    double m2[6] = {lat[3] * az[3], lat[3] * az[4], lat[4] * az[0],
-                    lat[3] * az[5], lat[5] * az[1], lat[5] * az[2]};
-    double y = envl__lum(p[0], p[1], p[2]);
+    double dd[6] = {d[0] * d[0], d[1] * d[1], d[2] * d[2], d[0] * d[1], d[0] * d[2], d[1] * d[2]};
+    double y = envl__lum(p[0], p[1], p[2]) * om;
     for (int k = 0; k < 3; k++) {
         s[k] += p[k] * om;
-        s[4 + k] += y * m1[k];
-        s[13 + k] += m1[k];
+        s[4 + k] += y * d[k];
+        s[13 + k] += om * d[k];
     }
-    s[3] += y * om;
+    s[3] += y;
     for (int k = 0; k < 6; k++) {
-        s[7 + k] += y * m2[k];
-        s[16 + k] += m2[k];
+        s[7 + k] += y * dd[k];
+        s[16 + k] += om * dd[k];
     }
     s[22] += om;
 }
@@ -180,7 +177,7 @@ envl_result envl__cells_build(const float *px, int32_t w, int32_t h, envl_cells 
     size_t head = (sizeof(envl_cells) + 15) / 16 * 16;
     envl_cells *C = malloc(head + sizeof(cell_row) * nrows + sizeof(cell) * ncell);
     double *acc = malloc(sizeof(double) * NS * (size_t)w);
-    double *cs = malloc(sizeof(double) * 6 * (size_t)w);
+    double *cs = malloc(sizeof(double) * 2 * (size_t)w);
     if (!C || !acc || !cs) {
         free(C), free(acc), free(cs);
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for the cell pyramid");
@@ -197,13 +194,8 @@ envl_result envl__cells_build(const float *px, int32_t w, int32_t h, envl_cells 
     /* Each level from the map's pixels, one row group at a time: O(pixels) per level; the
      * levels number log2(H) at most. */
     for (int32_t c = 0; c < w; c++) {
-        double f0 = ENVL_PI * (1.0 - 2.0 * (c + 1.0) / w), f1 = ENVL_PI * (1.0 - 2.0 * c / w);
-        double s0 = sin(f0), s1 = sin(f1), c0 = cos(f0), c1 = cos(f1);
-        double *az = cs + 6 * c;
-        az[0] = f1 - f0, az[1] = s1 - s0, az[2] = c0 - c1;
-        az[3] = 0.5 * az[0] + 0.25 * (sin(2 * f1) - sin(2 * f0));
-        az[4] = 0.5 * az[0] - 0.25 * (sin(2 * f1) - sin(2 * f0));
-        az[5] = 0.5 * (s1 * s1 - s0 * s0);
+        double phi = ENVL_PI * (1.0 - 2.0 * (c + 0.5) / w);
+        cs[2 * c] = cos(phi), cs[2 * c + 1] = sin(phi);
     }
     for (int32_t k = 0; k < nlev; k++) {
         int64_t b = (int64_t)1 << k;
@@ -212,16 +204,13 @@ envl_result envl__cells_build(const float *px, int32_t w, int32_t h, envl_cells 
             memset(acc, 0, sizeof(double) * NS * R->n);
             int64_t r0 = i * b, r1 = (i + 1) * b > h ? h : (i + 1) * b;
             for (int64_t r = r0; r < r1; r++) {
-                double la = ENVL_PI * (0.5 - (r + 1.0) / h), lb = ENVL_PI * (0.5 - (double)r / h);
-                double sa = sin(la), sb = sin(lb), ca = cos(la), cb = cos(lb);
-                double lat[6] = {sb - sa, 0.5 * (lb - la) + 0.25 * (sin(2 * lb) - sin(2 * la)),
-                                 0.5 * (sb * sb - sa * sa),
-                                 (sb - sb * sb * sb / 3) - (sa - sa * sa * sa / 3),
-                                 (sb * sb * sb - sa * sa * sa) / 3,
-                                 -(cb * cb * cb - ca * ca * ca) / 3};
+                double lat = ENVL_PI * (0.5 - (r + 0.5) / h), cl = cos(lat), sl = sin(lat);
+                double om = envl_latlong_solid_angle(w, h, (int32_t)r);
                 const float *p = px + 3 * (size_t)r * w;
-                for (int32_t c = 0; c < w; c++)
-                    add_pixel(p + 3 * c, lat, cs + 6 * c, acc + NS * (c / R->cw));
+                for (int32_t c = 0; c < w; c++) {
+                    double d[3] = {cl * cs[2 * c], cl * cs[2 * c + 1], sl};
+                    add_pixel(p + 3 * c, om, d, acc + NS * (c / R->cw));
+                }
             }
             for (int32_t j = 0; j < R->n; j++)
                 make_cell(acc + NS * j, C->buf + R->off + j);
@@ -270,20 +259,17 @@ typedef struct texel {
  * u = R.m and variance v = R^T C R (m, C: the cell's mean direction and covariance). Away from
  * the horizon, to second order: w(u) + w''(u) v / 2. With w = u / q^2, q = A + B u,
  * A = (1 + a^2) / 2, B = (a^2 - 1) / 2: w'' = -2 B (2 A - B u) / q^4. Within 3 standard
- * deviations of the horizon, where w = u g(u) is cut to 0, U as a normal variable:
- * g(u) E[max(U, 0)] = g(u) (u Phi(u / s) + s phi(u / s)), s = sqrt(v). The cell's own spread
- * thus counts, and so does a line (only its variance along R). */
+ * deviations of the horizon, where w = u g(u) is cut to 0: g(u) E[max(U, 0)], the latter as
+ * (u + sqrt(u^2 + 2 v / pi)) / 2 (a normal U's value at u = 0, u and 0 far from it). The
+ * cell's own spread thus counts, and so does a line (only its variance along R). */
 static inline double w_cell(const quad_job *J, const double R[3], double u, const float *c)
 {
     double var = c[0] * R[0] * R[0] + c[1] * R[1] * R[1] + c[2] * R[2] * R[2] +
                  2 * (c[3] * R[0] * R[1] + c[4] * R[0] * R[2] + c[5] * R[1] * R[2]);
     var = var > 0 ? var : 0;
     double A = J->A, B = J->B, iq = 1 / (A + B * u), iq2 = iq * iq;
-    if (u * u < 9 * var) {
-        double sd = sqrt(var), z = u / sd;
-        double cut = u * 0.5 * erfc(-z * 0.70710678118654752) + sd * exp(-0.5 * z * z) / sqrt(2 * ENVL_PI);
-        return iq2 * cut;
-    }
+    if (u * u < 9 * var) /* E max(U, 0) ~ (u + sqrt(u^2 + 2 v / pi)) / 2: a normal's at u = 0 */
+        return iq2 * 0.5 * (u + sqrt(u * u + 0.63661977236758134 * var));
     if (u <= 0)
         return 0;
     double r = u * iq2 - B * (2 * A - B * u) * iq2 * iq2 * var;
@@ -359,9 +345,10 @@ envl_result envl__cells_level(const envl_cells *C, double alpha, double rho, int
     J.kmin = kmin;
     /* The kernel is cut at R's horizon (w = 0 for R.l < 0, slope w'(0) = 1 / A^2 above): a cell
      * across it is summed by the model of w_cell, off by up to E w'(0) sd / 2 for a cell of
-     * power E. Such cells are opened down to the level kh whose cells, p_kh across, keep that
-     * within HORIZON_EPS of E N(alpha) / p: w'(0) p_kh <= HORIZON_EPS N(alpha) (at roughness 1:
-     * 0.01 rad; at 0.5 and below it is never needed). */
+     * power E, sd ~ p / 3.5 for a cell p across. Such cells are opened down to the level kh
+     * whose cells keep that within HORIZON_EPS / 7 of E N(alpha) (the whole lobe's weight):
+     * w'(0) p_kh <= HORIZON_EPS N(alpha) (at roughness 1: 0.05 rad; at 0.5 and below it is
+     * never needed). */
     double wslope = 1 / (J.A * J.A), norm = envl_ggx_lobe_norm(alpha);
     int32_t kh = 0;
     while (kh + 1 < C->nlev &&

@@ -123,15 +123,15 @@ int32_t envl__level_width(const resolved *r, double roughness)
 
 /* The quadrature's opening distance of a filtered level w wide (cells.c: a cell of the
  * pyramid is summed whole when its centroid is at least rho of its widths from R; the cells
- * summed per texel grow as rho^2): rho = sqrt(n) / 4, n = M (W / w)^2 at most ROUGH_SAMPLES_MAX
- * M (M samples, W the base width): rho 2 at the base width, 4 at half of it, 5.7 below (M 64).
- * A narrower level's few texels get a finer quadrature for about the base level's cost. */
+ * summed per texel grow as rho^2): rho = 1 + sqrt(n) / 8, n = M (W / w)^2 at most
+ * ROUGH_SAMPLES_MAX M (M samples, W the base width): rho 2 at the base width, 3 at half of it,
+ * 3.8 below (M 64). A narrower level's few texels get a finer quadrature for little cost. */
 #define ROUGH_SAMPLES_MAX 8
 double envl__level_rho(const resolved *r, int32_t w)
 {
     double f = w >= r->width ? 1.0 : (double)r->width / w;
     double n = r->samples * fmin(f * f, ROUGH_SAMPLES_MAX);
-    return sqrt(n) / 4.0;
+    return 1 + sqrt(n) / 8.0;
 }
 
 int32_t envl_prefilter_level_width(const envl_prefilter_options *options, double roughness)
