@@ -217,7 +217,7 @@ int cli_prefilter(int argc, char **argv)
     printf("%s: %d x %d -> %s (%s, %s), %.3f s", info.file, (int)info.width, (int)info.height,
            dir, eo.format ? eo.format : "exr", envl_export_layout_name(eo.layout), s.seconds);
     if (s.specular_levels)
-        printf("; mip pyramid %.3f s", s.seconds_pyramid);
+        printf("; cell pyramid %.3f s", s.seconds_pyramid);
     printf("\n");
     envl_irradiance_map irr;
     if (envl_products_irradiance(p, &irr) == ENVL_OK) {

@@ -50,6 +50,7 @@ typedef struct cell_row {
 
 struct envl_cells {
     int32_t w, h, nlev;
+    int32_t base;             /* the finest level built (levels below it are not) */
     int32_t rows[40];         /* row groups of each level (2^k map rows each, the last fewer) */
     cell_row *row[40];
     cell *buf;                /* rows and cells live in the same block as this header: one free */
@@ -143,11 +144,11 @@ static int32_t cell_cols(int32_t w, int32_t h, int32_t nlev, int32_t k, int32_t 
 
 /* The levels' row groups (C->row[k] set: fills them) or only their counts. Levels go on while
  * a row group is at most half the map's height. */
-static void geometry(envl_cells *C, int32_t w, int32_t h, int32_t *nlev, size_t *nrows,
-                     size_t *ncell)
+static void geometry(envl_cells *C, int32_t w, int32_t h, int32_t base, int32_t *nlev,
+                     size_t *nrows, size_t *ncell)
 {
     *nlev = level_count(h), *nrows = 0, *ncell = 0;
-    for (int32_t k = 0; k < *nlev; k++) {
+    for (int32_t k = base; k < *nlev; k++) {
         int64_t b = (int64_t)1 << k;
         int32_t rows = (int32_t)((h + b - 1) / b);
         for (int32_t i = 0; i < rows; i++) {
@@ -168,12 +169,14 @@ static void geometry(envl_cells *C, int32_t w, int32_t h, int32_t *nlev, size_t 
     }
 }
 
-envl_result envl__cells_build(const float *px, int32_t w, int32_t h, envl_cells **out)
+envl_result envl__cells_build(const float *px, int32_t w, int32_t h, int32_t base,
+                              envl_cells **out)
 {
     *out = NULL;
     int32_t nlev;
     size_t nrows, ncell;
-    geometry(NULL, w, h, &nlev, &nrows, &ncell);
+    base = base < 0 ? 0 : base < level_count(h) ? base : level_count(h) - 1;
+    geometry(NULL, w, h, base, &nlev, &nrows, &ncell);
     size_t head = (sizeof(envl_cells) + 15) / 16 * 16;
     envl_cells *C = malloc(head + sizeof(cell_row) * nrows + sizeof(cell) * ncell);
     double *acc = malloc(sizeof(double) * NS * (size_t)w);
@@ -183,21 +186,21 @@ envl_result envl__cells_build(const float *px, int32_t w, int32_t h, envl_cells 
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for the cell pyramid");
     }
     memset(C, 0, sizeof *C);
-    C->w = w, C->h = h, C->nlev = nlev;
+    C->w = w, C->h = h, C->nlev = nlev, C->base = base;
     cell_row *rows = (cell_row *)((char *)C + head);
-    for (int32_t k = 0, at = 0; k < nlev; k++) {
+    for (int32_t k = base, at = 0; k < nlev; k++) {
         C->row[k] = rows + at;
         at += (int32_t)((h + ((int64_t)1 << k) - 1) >> k);
     }
     C->buf = (cell *)(rows + nrows);
-    geometry(C, w, h, &nlev, &nrows, &ncell);
+    geometry(C, w, h, base, &nlev, &nrows, &ncell);
     /* Each level from the map's pixels, one row group at a time: O(pixels) per level; the
      * levels number log2(H) at most. */
     for (int32_t c = 0; c < w; c++) {
         double phi = ENVL_PI * (1.0 - 2.0 * (c + 0.5) / w);
         cs[2 * c] = cos(phi), cs[2 * c + 1] = sin(phi);
     }
-    for (int32_t k = 0; k < nlev; k++) {
+    for (int32_t k = base; k < nlev; k++) {
         int64_t b = (int64_t)1 << k;
         for (int32_t i = 0; i < C->rows[k]; i++) {
             cell_row *R = C->row[k] + i;
@@ -329,6 +332,38 @@ static void quad_rows(void *ctx, int64_t begin, int64_t end)
     }
 }
 
+/* The finest levels a cut needs for GGX alpha on a map H tall: *kmin, the coarsest whose cells
+ * are at most HWHM / CORE_K across (HWHM: the kernel's half width at half maximum); *kh, down
+ * to which cells across R's horizon open. The kernel is cut there (w = 0 for R.l < 0, slope
+ * w'(0) = 1 / A^2 above): a cell across it is summed by the model of w_cell, off by up to
+ * E w'(0) sd / 2 for a cell of power E, sd ~ p / 3.5 for a cell p across; kh keeps that within
+ * HORIZON_EPS / 7 of E N(alpha) (the whole lobe's weight): w'(0) p_kh <= HORIZON_EPS N(alpha)
+ * (at roughness 1: 0.05 rad; at 0.5 and below it is never needed). */
+static void finest_levels(double alpha, int32_t h, int32_t *kmin, int32_t *kh)
+{
+    int32_t n = level_count(h);
+    double a2 = alpha * alpha, hw = half_width(a2), A = 0.5 * (1 + a2);
+    double wslope = 1 / (A * A), norm = envl_ggx_lobe_norm(alpha);
+    *kmin = 0, *kh = 0;
+    while (*kmin + 1 < n && ENVL_PI * (double)((int64_t)1 << (*kmin + 1)) / h <= hw / CORE_K)
+        (*kmin)++;
+    while (*kh + 1 < n &&
+           wslope * ENVL_PI * (double)((int64_t)1 << (*kh + 1)) / h <= HORIZON_EPS * norm)
+        (*kh)++;
+}
+
+int32_t envl__cells_base(double alpha, int32_t h)
+{
+    int32_t kmin, kh;
+    finest_levels(alpha, h, &kmin, &kh);
+    return kmin < kh ? kmin : kh;
+}
+
+int32_t envl__cells_base_of(const envl_cells *C)
+{
+    return C->base;
+}
+
 envl_result envl__cells_level(const envl_cells *C, double alpha, double rho, int32_t w, int32_t h,
                               int32_t threads, float *out, double *terms)
 {
@@ -337,25 +372,10 @@ envl_result envl__cells_level(const envl_cells *C, double alpha, double rho, int
     J.terms = calloc((size_t)h, sizeof(int64_t));
     if (!J.terms)
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
-    /* kmin: the coarsest level whose cells are at most HWHM / CORE_K across */
-    double hw = half_width(J.a2);
-    int32_t kmin = 0;
-    while (kmin + 1 < C->nlev && ENVL_PI * (double)((int64_t)1 << (kmin + 1)) / C->h <= hw / CORE_K)
-        kmin++;
-    J.kmin = kmin;
-    /* The kernel is cut at R's horizon (w = 0 for R.l < 0, slope w'(0) = 1 / A^2 above): a cell
-     * across it is summed by the model of w_cell, off by up to E w'(0) sd / 2 for a cell of
-     * power E, sd ~ p / 3.5 for a cell p across. Such cells are opened down to the level kh
-     * whose cells keep that within HORIZON_EPS / 7 of E N(alpha) (the whole lobe's weight):
-     * w'(0) p_kh <= HORIZON_EPS N(alpha) (at roughness 1: 0.05 rad; at 0.5 and below it is
-     * never needed). */
-    double wslope = 1 / (J.A * J.A), norm = envl_ggx_lobe_norm(alpha);
-    int32_t kh = 0;
-    while (kh + 1 < C->nlev &&
-           wslope * ENVL_PI * (double)((int64_t)1 << (kh + 1)) / C->h <= HORIZON_EPS * norm)
-        kh++;
-    J.kh = kh;
-    for (int32_t k = 0; k < C->nlev; k++) {
+    finest_levels(alpha, C->h, &J.kmin, &J.kh);
+    J.kmin = J.kmin > C->base ? J.kmin : C->base;
+    J.kh = J.kh > C->base ? J.kh : C->base;
+    for (int32_t k = C->base; k < C->nlev; k++) {
         double p = ENVL_PI * (double)((int64_t)1 << k) / C->h; /* a cell's height */
         J.open_x[k] = rho * p >= ENVL_PI ? 3.0 : 1 - cos(rho * p);
         /* a cell is within 1.5 p of its area centroid (at most as wide as tall) */
@@ -374,8 +394,8 @@ envl_result envl__cells_level(const envl_cells *C, double alpha, double rho, int
 void envl__cells_energy(const envl_cells *C, double e[3])
 {
     e[0] = e[1] = e[2] = 0;
-    for (int32_t i = 0; i < C->rows[0]; i++) {
-        const cell_row *R = C->row[0] + i;
+    for (int32_t i = 0; i < C->rows[C->base]; i++) {
+        const cell_row *R = C->row[C->base] + i;
         for (int32_t j = 0; j < R->n; j++)
             for (int k = 0; k < 3; k++)
                 e[k] += C->buf[R->off + j].e[k];

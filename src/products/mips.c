@@ -87,15 +87,16 @@ void envl_envmap_drop_mips(envl_envmap *m)
     m->cells = NULL;
 }
 
-envl_result envl__map_cells(envl_envmap *m, const envl_cells **out, int *built)
+envl_result envl__map_cells(envl_envmap *m, int32_t base, const envl_cells **out, int *built)
 {
     if (built)
         *built = 0;
-    if (!m->cells) {
+    if (!m->cells || envl__cells_base_of(m->cells) > base) {
         envl_cells *c;
-        envl_result rc = envl__cells_build(m->px, m->width, m->height, &c);
+        envl_result rc = envl__cells_build(m->px, m->width, m->height, base, &c);
         if (rc)
             return rc;
+        free(m->cells);
         m->cells = c;
         if (built)
             *built = 1;

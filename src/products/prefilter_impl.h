@@ -27,12 +27,18 @@ void envl__image_energy(const float *px, int32_t w, int32_t h, double e[3]);
 
 /* ---- the cell pyramid and its quadrature (cells.c) ---- */
 typedef struct envl_cells envl_cells;
-/* The cells of a W x H lat-long image (one malloc'd block: envl__cells_free or free). */
-envl_result envl__cells_build(const float *px, int32_t w, int32_t h, envl_cells **out);
+/* The cells of a W x H lat-long image from level `base` up (one malloc'd block:
+ * envl__cells_free or free). */
+envl_result envl__cells_build(const float *px, int32_t w, int32_t h, int32_t base,
+                              envl_cells **out);
+/* The finest level a level of GGX alpha needs on a map h tall, and the finest one built. */
+int32_t envl__cells_base(double alpha, int32_t h);
+int32_t envl__cells_base_of(const envl_cells *C);
 void envl__cells_free(envl_cells *c);
 int32_t envl__cells_levels(const envl_cells *C);
-/* The map's cells, built once and cached in it. */
-envl_result envl__map_cells(envl_envmap *m, const envl_cells **out, int *built);
+/* The map's cells from level `base` (or finer) up, built once and cached in it (rebuilt when a
+ * finer base is asked for). */
+envl_result envl__map_cells(envl_envmap *m, int32_t base, const envl_cells **out, int *built);
 /* The w x h level of GGX alpha into out (RGB), each level of the pyramid serving rho .. 4 rho
  * of its cells' widths from R (envl__level_rho); *terms: the mean number of cells summed per
  * texel. */

@@ -160,15 +160,22 @@ static envl_result compute_levels(envl_envmap *m, envl_products *p, plan *pl)
         envl_result rc = ENVL_OK;
         int built = 0;
         const envl_cells *C = NULL;
+        /* the finest level any of the levels needs: the cells below it are never built */
+        int32_t base = 1 << 30;
+        for (int32_t i = 0; i < pl->n_want; i++)
+            if (pl->want[i] > 0) {
+                int32_t b = envl__cells_base(pl->want[i] * pl->want[i], m->height);
+                base = b < base ? b : base;
+            }
         if (p->n_sun) {
             float *px = pixels_without_sun_lights(m, &pl->sp.sun);
-            rc = px ? envl__cells_build(px, m->width, m->height, &pl->sp.cells)
+            rc = px ? envl__cells_build(px, m->width, m->height, base, &pl->sp.cells)
                     : envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
             free(px);
             C = pl->sp.cells;
             built = 1;
         } else {
-            rc = envl__map_cells(m, &C, &built);
+            rc = envl__map_cells(m, base, &C, &built);
         }
         if (rc)
             return rc;

@@ -246,7 +246,7 @@ envl_result envl__specular_level(envl_envmap *m, const resolved *o, double rough
         envl__image_energy(m->px, m->width, m->height, ein);
     } else {
         const envl_cells *C = sp && sp->cells ? sp->cells : NULL;
-        if (!C && (rc = envl__map_cells(m, &C, NULL))) {
+        if (!C && (rc = envl__map_cells(m, envl__cells_base(st->alpha, m->height), &C, NULL))) {
             free(px);
             return rc;
         }
