@@ -391,10 +391,12 @@ typedef struct envl_prefilter_options {
     int32_t levels;           /* K levels of the chain; default 6 */
     int32_t width;            /* lat-long width of the roughness-0 level; default 512 */
     int32_t min_width;        /* no specular level narrower than this; default 64 */
-    int32_t samples;          /* GGX samples per texel at the base width; default 64 (a level w
-                                 wide: samples (width / w)^2, at most 8 x; unfiltered: samples) */
+    int32_t samples;          /* the filtered levels' density, default 64: a level w wide sums
+                                 pyramid cells whole from rho = sqrt(n) / 4 of their widths from R,
+                                 n = samples (width / w)^2 at most 8 x samples (rho 2, 4, 5.7 at
+                                 512, 256, <= 128 wide); unfiltered: GGX samples per texel */
     int32_t unfiltered;       /* nonzero: plain GGX importance sampling of the full-resolution
-                                 map (no mip filtering): the benchmark's baseline */
+                                 map (no pyramid): the benchmark's baseline */
     int32_t irradiance_method;/* ENVL_IRRADIANCE_*; default SPLIT */
     int32_t irradiance_width; /* lat-long width of the irradiance map; default 64 */
     int32_t irradiance_order; /* ENVL_IRRADIANCE_SH: SH order 0..32 (ENVL_ORDER_0 for 0);
@@ -416,8 +418,9 @@ typedef struct envl_level {
     double roughness, alpha;  /* alpha = roughness^2 */
     int32_t width, height;    /* lat-long */
     const float *rgb;         /* width * height * 3, row 0 = top; owned by the products */
-    int32_t samples;          /* per texel (0 for roughness 0: the map resampled by area) */
-    int32_t filtered;         /* 1: filtered importance sampling, 0: plain */
+    int32_t samples;          /* filtered: pyramid cells summed per texel (mean); unfiltered: GGX
+                                 samples per texel; 0 for roughness 0 (the map resampled by area) */
+    int32_t filtered;         /* 1: the cell pyramid's quadrature, 0: plain GGX sampling */
     double energy_scale;      /* factor applied so that the level's integral of L dw equals the
                                  map's (the continuous P(R) preserves it exactly); luminance
                                  ratio before the correction, 1 when none was needed */
@@ -443,7 +446,7 @@ typedef struct envl_brdf_options {
 } envl_brdf_options;
 
 /* What a scene needs. Zero-initialised = nothing. Products are computed once each, sharing the
- * intermediate work (one SH projection; one mip pyramid, cached on the map, for every specular
+ * intermediate work (one SH projection; one cell pyramid, cached on the map, for every specular
  * level). */
 typedef struct envl_request {
     int32_t diffuse;          /* diffuse ambient: SH irradiance coefficients of order sh_order,
@@ -467,7 +470,7 @@ typedef struct envl_request {
 /* What a call computed: counters that show the sharing, and times. */
 typedef struct envl_products_summary {
     int32_t sh_projections;   /* SH passes over the map (0 or 1) */
-    int32_t pyramids_built;   /* mip pyramids built by this call (0: none needed, or cached) */
+    int32_t pyramids_built;   /* cell pyramids built by this call (0: none needed, or cached) */
     int32_t pyramid_levels;   /* levels of the map's pyramid (0 if it has none) */
     int32_t specular_levels;  /* levels computed */
     int32_t irradiance_maps, lights_computed, brdf_tables;
@@ -514,7 +517,8 @@ ENVL_API envl_result envl_prefilter_specular(envl_envmap *map, double roughness,
                                              const envl_prefilter_options *options, float **rgb,
                                              envl_level *stats);
 /* The map's area-averaged mip pyramid (level 0 = the map, each next level half the size, down
- * to 1 x 1), built once and cached on the map; envl_envmap_drop_mips frees it. */
+ * to 1 x 1), built once and cached on the map; envl_envmap_drop_mips frees it and the specular
+ * levels' cell pyramid (docs/methods.md), cached the same way. */
 ENVL_API envl_result envl_envmap_mips(envl_envmap *map, int32_t *levels);
 ENVL_API void envl_envmap_drop_mips(envl_envmap *map);
 

@@ -8,7 +8,7 @@ source "$(dirname "$0")/clitest.sh"
 run "$ENVLIGHT" bench - --sky-width 128 --quick --runs 1 --only tables --csv points.csv --plots plots
 has out.txt '#### Lights: built-in sky'
 has out.txt '#### SH irradiance: built-in sky'
-has out.txt '#### Specular (GGX, filtered importance sampling): built-in sky'
+has out.txt '#### Specular (GGX, prefiltered levels): built-in sky'
 has out.txt '#### Irradiance map (64 x 32): built-in sky'
 has points.csv '^map,measure,series,param,count,error,seconds$'
 for series in median variance fit sh-none sh-auto ggx-r0.50-samples ggx-r0.50-size \

@@ -104,8 +104,9 @@ int cli_prefilter(int argc, char **argv)
                    .help = "no level narrower than S (lat-long width; default 64)"),
         CLI_OPTION("--samples", "M", CLI_INT, .min = 1, .max = 1 << 20,
                    .value = &q.prefilter.samples,
-                   .help = "GGX samples per texel at the base width S (default 64; a level w\n"
-                           "wide: M (S / w)^2, at most 8 M; filtered importance sampling)"),
+                   .help = "the levels' density (default 64): a level w wide sums pyramid\n"
+                           "cells whole from sqrt(n) / 4 cell widths away, n = M (S / w)^2 at\n"
+                           "most 8 M; with --unfiltered, GGX samples per texel"),
         CLI_OPTION("--unfiltered", NULL, CLI_FLAG, .value = &q.prefilter.unfiltered,
                    .help = "plain GGX importance sampling of the full map (the baseline)"),
         CLI_OPTION("--sun-lights", NULL, CLI_FLAG, .value = &q.prefilter.sun_lights,
@@ -215,7 +216,7 @@ int cli_prefilter(int argc, char **argv)
     printf("%s: %d x %d -> %s (%s, %s), %.3f s", info.file, (int)info.width, (int)info.height,
            dir, eo.format ? eo.format : "exr", envl_export_layout_name(eo.layout), s.seconds);
     if (s.specular_levels)
-        printf("; mip pyramid %.3f s", s.seconds_pyramid);
+        printf("; cell pyramid %.3f s", s.seconds_pyramid);
     printf("\n");
     envl_irradiance_map irr;
     if (envl_products_irradiance(p, &irr) == ENVL_OK) {

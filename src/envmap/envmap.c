@@ -288,6 +288,7 @@ void envl_envmap_free(envl_envmap *m)
     envl_envmap_free(m->reference_copy);
     free(m->region_table);
     free(m->mip_px);
+    free(m->cells);
     free(m);
 }
 

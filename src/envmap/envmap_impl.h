@@ -27,6 +27,8 @@ struct envl_envmap {
     int32_t mip_levels;
     int32_t mip_w[40], mip_h[40];
     size_t mip_offset[40];
+    /* cells.c: the cached cell pyramid of the specular levels (one malloc'd block) or NULL */
+    void *cells;
 };
 
 /* ---- the lights' region table (region_table.c): sums over pixel rectangles ---- */

@@ -239,7 +239,7 @@ static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_o
     static const int samples[] = {16, 64, 256, 1024}, widths[] = {128, 256, 512, 1024};
     static const double rough[] = {0.25, 0.5};
     int nr = o->quick ? 1 : 2, ns = o->quick ? 2 : 4, nw = o->quick ? 2 : 4;
-    printf("\n#### Specular (GGX, filtered importance sampling): %s\n\nglossy error %% "
+    printf("\n#### Specular (GGX, prefiltered levels): %s\n\nglossy error %% "
            "(seconds, samples per texel); base level 512 wide, level width for the roughness as "
            "the chain's; --samples M (a level w wide gets M (512 / w)^2, at most 8 M)\n\n"
            "| roughness | level |", name);

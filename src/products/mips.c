@@ -1,5 +1,6 @@
-/* The area-averaged mip pyramid of a lat-long map (built once per map and cached in it) and
- * the energy of a lat-long image. */
+/* The area-averaged mip pyramid of a lat-long map (built once per map and cached in it; the
+ * public envl_envmap_mips), the cached cell pyramid of the specular levels (cells.c) and the
+ * energy of a lat-long image. */
 #include "prefilter_impl.h"
 
 #include <stdlib.h>
@@ -82,11 +83,26 @@ void envl_envmap_drop_mips(envl_envmap *m)
     free(m->mip_px);
     m->mip_px = NULL;
     m->mip_levels = 0;
+    free(m->cells);
+    m->cells = NULL;
 }
 
-const float *envl__mip_level(const envl_envmap *m, int32_t k)
+envl_result envl__map_cells(envl_envmap *m, int32_t base, const envl_cells **out, int *built)
 {
-    return k == 0 ? m->px : m->mip_px + m->mip_offset[k];
+    if (built)
+        *built = 0;
+    if (!m->cells || envl__cells_base_of(m->cells) > base) {
+        envl_cells *c;
+        envl_result rc = envl__cells_build(m->px, m->width, m->height, base, &c);
+        if (rc)
+            return rc;
+        free(m->cells);
+        m->cells = c;
+        if (built)
+            *built = 1;
+    }
+    *out = m->cells;
+    return ENVL_OK;
 }
 
 /* Integral of L dw of a lat-long image, per channel. */

@@ -121,20 +121,17 @@ int32_t envl__level_width(const resolved *r, double roughness)
     return w < mn ? mn : w;
 }
 
-/* GGX samples per texel of a filtered level w wide: M at the base width W and M (W / w)^2 below
- * it, at most ROUGH_SAMPLES_MAX x M: a rough level's few texels get the samples its wide lobe
- * needs for about the base level's cost (at roughness 1 the sum of 128 mip footprints was
- * 0.4-6.8 % off the lobe on the built-in sky, adams_place_bridge, lebombo and forest_slope;
- * of 512, 0.1-2.9 %; docs/specular_bench.md has today's figures). The
- * unfiltered baseline always takes M. */
+/* The quadrature's opening distance of a filtered level w wide (cells.c: a cell of the
+ * pyramid is summed whole when its centroid is at least rho of its widths from R; the cells
+ * summed per texel grow as rho^2): rho = 1 + sqrt(n) / 8, n = M (W / w)^2 at most
+ * ROUGH_SAMPLES_MAX M (M samples, W the base width): rho 2 at the base width, 3 at half of it,
+ * 3.8 below (M 64). A narrower level's few texels get a finer quadrature for little cost. */
 #define ROUGH_SAMPLES_MAX 8
-int32_t envl__level_samples(const resolved *r, int32_t w)
+double envl__level_rho(const resolved *r, int32_t w)
 {
-    if (r->unfiltered || w >= r->width)
-        return r->samples;
-    double f = (double)r->width / w;
+    double f = w >= r->width ? 1.0 : (double)r->width / w;
     double n = r->samples * fmin(f * f, ROUGH_SAMPLES_MAX);
-    return n > (1 << 20) ? (1 << 20) : (int32_t)n;
+    return 1 + sqrt(n) / 8.0;
 }
 
 int32_t envl_prefilter_level_width(const envl_prefilter_options *options, double roughness)

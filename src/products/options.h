@@ -33,7 +33,7 @@ envl_result envl__prefilter_resolve(const envl_prefilter_options *o, const envl_
 /* Width of the level of `roughness`: base width >> floor(roughness (levels - 1)), at least the
  * minimum width. */
 int32_t envl__level_width(const resolved *r, double roughness);
-/* GGX samples per texel of a filtered level w wide. */
-int32_t envl__level_samples(const resolved *r, int32_t w);
+/* The quadrature density rho of a filtered level w wide (cells.c). */
+double envl__level_rho(const resolved *r, int32_t w);
 
 #endif

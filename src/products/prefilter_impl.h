@@ -1,7 +1,10 @@
 /* Prefiltering's insides, shared by its files (not installed):
  *   options.c            the defaults resolved in one pass, each level's width and samples
- *   mips.c               the map's cached mip pyramid, the energy of a lat-long image
- *   specular.c           a GGX specular level (filtered importance sampling)
+ *   mips.c               the map's cached mip pyramid and cell pyramid, the energy of a
+ *                        lat-long image
+ *   specular.c           a GGX specular level (the cells' quadrature, or plain importance
+ *                        sampling for the unfiltered baseline)
+ *   cells.c              the cell pyramid and its quadrature of P(R)
  *   bright_lobes.c       bright pixels as point lobes, sun lights added to P(R) or E(n)
  *   glossy_reference.c   the brute-force reference and the error of a product against it
  *   irradiance_map.c     irradiance maps
@@ -20,24 +23,39 @@
 /* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */
 envl_result envl__build_pyramid(const float *px, int32_t w, int32_t h, float **buf_out,
                                 int32_t *n_out, int32_t mw[40], int32_t mh[40], size_t off[40]);
-/* Level k of the map's cached pyramid (0: the map). */
-const float *envl__mip_level(const envl_envmap *m, int32_t k);
 /* Integral of L dw of a w x h lat-long image, per channel. */
 void envl__image_energy(const float *px, int32_t w, int32_t h, double e[3]);
 
+/* ---- the cell pyramid and its quadrature (cells.c) ---- */
+typedef struct envl_cells envl_cells;
+/* The cells of a W x H lat-long image from level `base` up (one malloc'd block:
+ * envl__cells_free or free). */
+envl_result envl__cells_build(const float *px, int32_t w, int32_t h, int32_t base,
+                              envl_cells **out);
+/* The finest level a level of GGX alpha needs on a map h tall, and the finest one built. */
+int32_t envl__cells_base(double alpha, int32_t h);
+int32_t envl__cells_base_of(const envl_cells *C);
+void envl__cells_free(envl_cells *c);
+int32_t envl__cells_levels(const envl_cells *C);
+/* The map's cells from level `base` (or finer) up, built once and cached in it (rebuilt when a
+ * finer base is asked for). */
+envl_result envl__map_cells(envl_envmap *m, int32_t base, const envl_cells **out, int *built);
+/* The w x h level of GGX alpha into out (RGB), each level of the pyramid serving rho .. 4 rho
+ * of its cells' widths from R (envl__level_rho); *terms: the mean number of cells summed per
+ * texel. */
+envl_result envl__cells_level(const envl_cells *C, double alpha, double rho, int32_t w, int32_t h,
+                              int32_t threads, float *out, double *terms);
+/* Integral of L dw of the image the cells were built from, per channel. */
+void envl__cells_energy(const envl_cells *C, double e[3]);
+
 /* ---- bright pixels (bright_lobes.c) ---- */
-/* A map's split (sun_split.c) with the pyramid of its residual. */
+/* The map's split (sun_split.c) and, with sun lights, the cells of the map less the lights. */
 typedef struct split {
-    envl_sun_split sun;       /* the lobes and the residual (sun_split.c) */
-    float *mip;               /* the residual's pyramid, levels 1 .. levels - 1 */
-    int32_t levels, mw[40], mh[40];
-    size_t off[40];
+    envl_sun_split sun;       /* the split-off pixels and the residual (sun_split.c) */
+    envl_cells *cells;        /* the map less what the sun lights took; NULL: the map's own */
 } split;
 envl_result envl__split_make(const envl_envmap *m, split *s);
 void envl__split_free(split *s);
-/* Adds the lobes' part of a level (w x h, alpha) to px, energy-scaled per channel to sum E. */
-envl_result envl__add_lobes(const envl_sun_split *s, int32_t mh, double alpha, int32_t w,
-                            int32_t h, int32_t threads, float *px);
 /* Adds what n lights give to P(R) at roughness > 0, or to E(n) for roughness < 0, in `count`
  * directions (out: count x 3). */
 void envl__sun_lights_add(const envl_light *l, int32_t n, double roughness, int32_t count,

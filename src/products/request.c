@@ -31,8 +31,9 @@ typedef struct plan {
     double *want;             /* the roughness of each level, without repeats */
     int32_t n_want;
     int32_t sh_order;         /* of the diffuse SH */
-    int need_mips;            /* a filtered level of roughness > 0 */
-    split sp;                 /* the bright pixels, split once (bright_lobes.c) */
+    int need_mips;            /* a filtered level of roughness > 0 (needs the cell pyramid) */
+    split sp;                 /* with sun lights: the bright pixels, split once, and the cells
+                                 of the map less the lights (bright_lobes.c) */
 } plan;
 
 /* Adds a level of roughness r unless the plan has it. */
@@ -82,20 +83,30 @@ static envl_result compute_diffuse(envl_envmap *m, envl_products *p, const plan 
     return rc;
 }
 
-/* The map less what the sun lights took (their pixels at the split's threshold). */
-static envl_result without_sun_lights(const envl_envmap *m, const envl_sun_split *sun,
-                                      int32_t threads, envl_envmap **out)
+/* The pixels of the map less what the sun lights took (their pixels at the split's
+ * threshold). */
+static float *pixels_without_sun_lights(const envl_envmap *m, const envl_sun_split *sun)
 {
     size_t npx = (size_t)m->width * m->height;
     float *px = malloc(sizeof(float) * 3 * npx);
     if (!px)
-        return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+        return NULL;
     memcpy(px, m->px, sizeof(float) * 3 * npx);
     for (int32_t i = 0; i < sun->n; i++)
         if (sun->lobes[i].taken) {
             size_t at = 3 * ((size_t)sun->lobes[i].r * m->width + sun->lobes[i].c);
             memcpy(px + at, sun->res + at, sizeof(float) * 3);
         }
+    return px;
+}
+
+/* The map less what the sun lights took, as a map. */
+static envl_result without_sun_lights(const envl_envmap *m, const envl_sun_split *sun,
+                                      int32_t threads, envl_envmap **out)
+{
+    float *px = pixels_without_sun_lights(m, sun);
+    if (!px)
+        return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
     envl_result rc = envl_envmap_from_pixels(px, m->width, m->height, 3, &lo, out);
     free(px);
@@ -139,16 +150,36 @@ static envl_result compute_shadows(envl_envmap *m, const envl_request *q, envl_p
     return rc;
 }
 
-/* One pyramid for every filtered level of non-zero roughness, then the levels. */
-static envl_result compute_levels(envl_envmap *m, envl_products *p, const plan *pl)
+/* One cell pyramid for every filtered level of non-zero roughness (the map's, cached in it,
+ * or with sun lights that of the map less the lights), then the levels. */
+static envl_result compute_levels(envl_envmap *m, envl_products *p, plan *pl)
 {
     envl_products_summary *s = &p->summary;
     if (pl->need_mips) {
         double t = envl__seconds();
-        int built = m->mip_levels == 0;
-        envl_result rc = envl_envmap_mips(m, &s->pyramid_levels);
+        envl_result rc = ENVL_OK;
+        int built = 0;
+        const envl_cells *C = NULL;
+        /* the finest level any of the levels needs: the cells below it are never built */
+        int32_t base = 1 << 30;
+        for (int32_t i = 0; i < pl->n_want; i++)
+            if (pl->want[i] > 0) {
+                int32_t b = envl__cells_base(pl->want[i] * pl->want[i], m->height);
+                base = b < base ? b : base;
+            }
+        if (p->n_sun) {
+            float *px = pixels_without_sun_lights(m, &pl->sp.sun);
+            rc = px ? envl__cells_build(px, m->width, m->height, base, &pl->sp.cells)
+                    : envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
+            free(px);
+            C = pl->sp.cells;
+            built = 1;
+        } else {
+            rc = envl__map_cells(m, base, &C, &built);
+        }
         if (rc)
             return rc;
+        s->pyramid_levels = envl__cells_levels(C);
         s->pyramids_built += built;
         s->seconds_pyramid += envl__seconds() - t;
     }
@@ -236,9 +267,9 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
         rc = plan_levels(q, p, &pl);
     if (!rc && q->diffuse)
         rc = compute_diffuse(m, p, &pl);
-    /* the bright pixels split once for every filtered level, and for the irradiance map
-     * when they become lights */
-    if (!rc && (pl.need_mips || (p->opt.sun_lights && q->irradiance_map)))
+    /* the bright pixels split once when they become lights (for the filtered levels and the
+     * irradiance map) */
+    if (!rc && p->opt.sun_lights && (pl.need_mips || q->irradiance_map))
         rc = envl__split_make(m, &pl.sp);
     if (!rc && p->opt.sun_lights)
         rc = envl__sun_split_lights(m, &pl.sp.sun, &p->sun, &p->n_sun);

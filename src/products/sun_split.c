@@ -3,9 +3,10 @@
  * pixels brighter than T = SPLIT_K x the map's mean luminance (at most SPLIT_MAX of them: T is
  * raised to the luminance of the next brightest pixel if needed) are split: the residual keeps
  * the pixel scaled to luminance T, and the excess E_j = L_j (1 - T / Y_j) omega_j (per
- * channel) becomes a lobe at the pixel's centre direction l_j. The prefiltered maps filter the
- * residual and add the lobes analytically, or as sun lights (prefilter.c); the lights method
- * "sun" returns the sun lights and the residual (lights.c). */
+ * channel) becomes a lobe at the pixel's centre direction l_j. With options.sun_lights the
+ * prefiltered maps turn the groups that are suns into lights and filter the map less what they
+ * took (request.c, cells.c); the lights method "sun" returns the sun lights and the residual
+ * (lights.c). */
 #include "sun_split.h"
 
 #include <math.h>
@@ -97,8 +98,8 @@ envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s)
  * group's pixels, each pixel counted as its own disc (mean(1 - cos t) = omega_j / 4 pi), as
  * lights.c sizes fit lights. A sun: that disc at most SUN_MAX_ANGLE across, the group's pixels
  * filling at least 1 / SUN_MIN_FILL of it (a window frame or a ring of lamps is no disc), and
- * at least SUN_MIN_SHARE of the map's power (no light for a glint). The other groups stay point
- * lobes baked into the prefiltered levels (prefilter.c), or in the residual (lights.c). */
+ * at least SUN_MIN_SHARE of the map's power (no light for a glint). The other groups stay
+ * in the map the prefiltered levels filter (request.c), or in the residual (lights.c). */
 #define SUN_MAX_ANGLE (5.0 * ENVL_PI / 180)
 #define SUN_MIN_FILL 2.0
 #define SUN_MIN_SHARE 0.01

@@ -1,0 +1,408 @@
+/* The filtered specular levels: P(R) summed over a pyramid of cells, each as coarse as its
+ * distance from R allows (docs/methods.md, "What is computed").
+ *
+ * A cell of level k is a block of 2^k x 2^k map pixels; near the poles, where such a block is
+ * narrower than it is tall, g of them merge (g a power of 2: at most as wide as tall, never
+ * wider than the parent's cells, so cells nest), so a cell is about p_k = pi 2^k / H across
+ * everywhere. Each cell keeps its power (sum of L dw, RGB), its solid angle, and the mean and
+ * covariance of its pixels' centre directions weighted by luminance and by solid angle (each
+ * pixel a point at its centre, as the reference sums it).
+ *
+ * P(R) = sum over cells c of E_c <w>_c / sum over the same cells of omega_c <w>g_c, with
+ * w(u) = u / q^2 the GGX kernel of design.md and <w> its mean over the cell's directions to
+ * second order (w_cell): the reference's sum over every pixel, each cell standing for its
+ * pixels. The cells are a Barnes-Hut cut of the tree, made per texel: from the top level down,
+ * a cell is summed whole when its luminance centroid is at least rho p_k from R (rho: options.c,
+ * 2-3.8) or its level is fine enough for the lobe (at most HWHM / CORE_K across, HWHM the
+ * kernel's half width at half maximum), and does not straddle R's horizon (where the kernel is
+ * cut) unless its level is fine enough for the kernel's slope there; else its children are.
+ * Each pixel is counted exactly once and a bright spot inside a coarse cell sits where it is (the first moment is
+ * exact, the second is the correction); what is left is third order in p / distance. The
+ * denominator is the same cut over the solid angles, so a constant map gives P = L. Cells
+ * wholly behind R are skipped. Deterministic: a texel's value depends on no other texel. */
+#include "prefilter_impl.h"
+#include "ggx.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Cells per kernel half width at the finest level a texel's cut need reach. */
+#define CORE_K 4.0
+/* How finely the cut resolves R's horizon (envl__cells_level). */
+#define HORIZON_EPS 1.6e-2
+
+typedef struct cell {
+    float e[3];               /* sum of L dw */
+    float m[3];               /* luminance-weighted mean direction (|m| <= 1; the area's when
+                                 black) */
+    float c[6];               /* and the covariance of the directions about it: xx yy zz xy xz
+                                 yz */
+    float mg[3], cg[6];       /* the same weighted by solid angle */
+    float om;                 /* solid angle */
+} cell;
+
+typedef struct cell_row {
+    double lat, hh, sl, cl;   /* centre latitude, half height, sin and cos of lat */
+    int32_t n, cw;            /* cells, map columns per cell (the last may have fewer) */
+    size_t off;               /* first cell */
+} cell_row;
+
+struct envl_cells {
+    int32_t w, h, nlev;
+    int32_t base;             /* the finest level built (levels below it are not) */
+    int32_t rows[40];         /* row groups of each level (2^k map rows each, the last fewer) */
+    cell_row *row[40];
+    cell *buf;                /* rows and cells live in the same block as this header: one free */
+};
+
+void envl__cells_free(envl_cells *c)
+{
+    free(c);
+}
+
+/* Sums of a block: L dw (3), Y dw (1), Y d dw (3), Y d d^T dw (6), d dw (3), d d^T dw (6),
+ * dw (1). */
+#define NS 23
+
+/* A pixel as the reference sums it: its solid angle om at its centre direction d. */
+static inline void add_pixel(const float *p, double om, const double d[3], double *s)
+{
+    double dd[6] = {d[0] * d[0], d[1] * d[1], d[2] * d[2], d[0] * d[1], d[0] * d[2], d[1] * d[2]};
+    double y = envl__lum(p[0], p[1], p[2]) * om;
+    for (int k = 0; k < 3; k++) {
+        s[k] += p[k] * om;
+        s[4 + k] += y * d[k];
+        s[13 + k] += om * d[k];
+    }
+    s[3] += y;
+    for (int k = 0; k < 6; k++) {
+        s[7 + k] += y * dd[k];
+        s[16 + k] += om * dd[k];
+    }
+    s[22] += om;
+}
+
+/* Mean and covariance from the weight, first and second moment sums; 0 when wsum is not > 0. */
+static int moments(double wsum, const double *m1, const double *m2, float m[3], float c[6])
+{
+    if (!(wsum > 0))
+        return 0;
+    double mu[3] = {m1[0] / wsum, m1[1] / wsum, m1[2] / wsum};
+    const int a[6] = {0, 1, 2, 0, 0, 1}, b[6] = {0, 1, 2, 1, 2, 2};
+    for (int k = 0; k < 3; k++)
+        m[k] = (float)mu[k];
+    for (int k = 0; k < 6; k++)
+        c[k] = (float)(m2[k] / wsum - mu[a[k]] * mu[b[k]]);
+    return 1;
+}
+
+static void make_cell(const double *s, cell *c)
+{
+    for (int k = 0; k < 3; k++)
+        c->e[k] = (float)s[k];
+    if (!moments(s[22], s + 13, s + 16, c->mg, c->cg)) {
+        memset(c, 0, sizeof *c);
+        return;
+    }
+    if (!moments(s[3], s + 4, s + 7, c->m, c->c)) {
+        memcpy(c->m, c->mg, sizeof c->m);
+        memcpy(c->c, c->cg, sizeof c->c);
+    }
+    c->om = (float)s[22];
+}
+
+static int32_t level_count(int32_t h)
+{
+    int32_t n = 1;
+    while (n < 31 && ((int64_t)1 << n) <= h / 2)
+        n++;
+    return n;
+}
+
+/* Map columns per cell of row group i of level k: blocks of 2^k columns, g of them merged
+ * (g a power of 2) while the merged cell is at most as wide, at its widest, as it is tall; and
+ * never wider than its parent's cells (row group i / 2 of level k + 1), so that cells nest. */
+static int32_t cell_cols(int32_t w, int32_t h, int32_t nlev, int32_t k, int32_t i)
+{
+    int64_t b = (int64_t)1 << k;
+    int64_t r0 = i * b, r1 = (i + 1) * b > h ? h : (i + 1) * b;
+    double top = ENVL_PI * (0.5 - (double)r0 / h), bot = ENVL_PI * (0.5 - (double)r1 / h);
+    double cmax = top > 0 && bot < 0 ? 1.0 : fmax(cos(top), cos(bot));
+    int32_t cb = b > w ? w : (int32_t)b;
+    double bw = cb * 2 * ENVL_PI / w * cmax; /* a block's widest width */
+    int32_t g = 1;
+    while ((int64_t)g * 2 * cb <= w && 2 * g * bw <= (top - bot) * (1 + 1e-9))
+        g *= 2;
+    int32_t cw = g * cb;
+    if (k + 1 < nlev) {
+        int32_t up = cell_cols(w, h, nlev, k + 1, i / 2);
+        cw = cw < up ? cw : up;
+    }
+    return cw;
+}
+
+/* The levels' row groups (C->row[k] set: fills them) or only their counts. Levels go on while
+ * a row group is at most half the map's height. */
+static void geometry(envl_cells *C, int32_t w, int32_t h, int32_t base, int32_t *nlev,
+                     size_t *nrows, size_t *ncell)
+{
+    *nlev = level_count(h), *nrows = 0, *ncell = 0;
+    for (int32_t k = base; k < *nlev; k++) {
+        int64_t b = (int64_t)1 << k;
+        int32_t rows = (int32_t)((h + b - 1) / b);
+        for (int32_t i = 0; i < rows; i++) {
+            int64_t r0 = i * b, r1 = (i + 1) * b > h ? h : (i + 1) * b;
+            double top = ENVL_PI * (0.5 - (double)r0 / h), bot = ENVL_PI * (0.5 - (double)r1 / h);
+            int32_t cw = cell_cols(w, h, *nlev, k, i), n = (w + cw - 1) / cw;
+            if (C) {
+                cell_row *R = C->row[k] + i;
+                R->lat = 0.5 * (top + bot), R->hh = 0.5 * (top - bot);
+                R->sl = sin(R->lat), R->cl = cos(R->lat);
+                R->cw = cw, R->n = n, R->off = *ncell;
+            }
+            *ncell += (size_t)n;
+        }
+        if (C)
+            C->rows[k] = rows;
+        *nrows += (size_t)rows;
+    }
+}
+
+envl_result envl__cells_build(const float *px, int32_t w, int32_t h, int32_t base,
+                              envl_cells **out)
+{
+    *out = NULL;
+    int32_t nlev;
+    size_t nrows, ncell;
+    base = base < 0 ? 0 : base < level_count(h) ? base : level_count(h) - 1;
+    geometry(NULL, w, h, base, &nlev, &nrows, &ncell);
+    size_t head = (sizeof(envl_cells) + 15) / 16 * 16;
+    envl_cells *C = malloc(head + sizeof(cell_row) * nrows + sizeof(cell) * ncell);
+    double *acc = malloc(sizeof(double) * NS * (size_t)w);
+    double *cs = malloc(sizeof(double) * 2 * (size_t)w);
+    if (!C || !acc || !cs) {
+        free(C), free(acc), free(cs);
+        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for the cell pyramid");
+    }
+    memset(C, 0, sizeof *C);
+    C->w = w, C->h = h, C->nlev = nlev, C->base = base;
+    cell_row *rows = (cell_row *)((char *)C + head);
+    for (int32_t k = base, at = 0; k < nlev; k++) {
+        C->row[k] = rows + at;
+        at += (int32_t)((h + ((int64_t)1 << k) - 1) >> k);
+    }
+    C->buf = (cell *)(rows + nrows);
+    geometry(C, w, h, base, &nlev, &nrows, &ncell);
+    /* Each level from the map's pixels, one row group at a time: O(pixels) per level; the
+     * levels number log2(H) at most. */
+    for (int32_t c = 0; c < w; c++) {
+        double phi = ENVL_PI * (1.0 - 2.0 * (c + 0.5) / w);
+        cs[2 * c] = cos(phi), cs[2 * c + 1] = sin(phi);
+    }
+    for (int32_t k = base; k < nlev; k++) {
+        int64_t b = (int64_t)1 << k;
+        for (int32_t i = 0; i < C->rows[k]; i++) {
+            cell_row *R = C->row[k] + i;
+            memset(acc, 0, sizeof(double) * NS * R->n);
+            int64_t r0 = i * b, r1 = (i + 1) * b > h ? h : (i + 1) * b;
+            for (int64_t r = r0; r < r1; r++) {
+                double lat = ENVL_PI * (0.5 - (r + 0.5) / h), cl = cos(lat), sl = sin(lat);
+                double om = envl_latlong_solid_angle(w, h, (int32_t)r);
+                const float *p = px + 3 * (size_t)r * w;
+                for (int32_t c = 0; c < w; c++) {
+                    double d[3] = {cl * cs[2 * c], cl * cs[2 * c + 1], sl};
+                    add_pixel(p + 3 * c, om, d, acc + NS * (c / R->cw));
+                }
+            }
+            for (int32_t j = 0; j < R->n; j++)
+                make_cell(acc + NS * j, C->buf + R->off + j);
+        }
+    }
+    free(acc), free(cs);
+    *out = C;
+    return ENVL_OK;
+}
+
+/* The kernel's half width at half maximum (angle from R where w falls to w(1) / 2). */
+static double half_width(double a2)
+{
+    double lo = 0, hi = ENVL_PI / 2, top = ggx_w(1.0, a2);
+    for (int i = 0; i < 60; i++) {
+        double m = 0.5 * (lo + hi);
+        if (ggx_w(cos(m), a2) > 0.5 * top)
+            lo = m;
+        else
+            hi = m;
+    }
+    return lo;
+}
+
+typedef struct quad_job {
+    const envl_cells *C;
+    double a2, A, B;          /* alpha^2, (1 + alpha^2) / 2, (alpha^2 - 1) / 2 */
+    int32_t kmin;             /* levels up to kmin: never opened for their distance */
+    int32_t kh;               /* levels above kh: opened where they may straddle R's horizon */
+    double horiz[40];         /* ... when |R.mg| < horiz[k] */
+    double open_x[40];        /* level k > kmin: a cell opens when 1 - R.d < open_x[k] (nearer
+                                 than rho p_k) */
+    double behind[40];        /* a cell of level k lies wholly behind R when R.g < behind[k] */
+    int32_t w, h;             /* the level */
+    float *out;
+    int64_t *terms;           /* cells summed, per output row */
+} quad_job;
+
+typedef struct texel {
+    double R[3];
+    double acc[4];            /* sum w E (RGB), sum w omega */
+    int64_t terms;
+} texel;
+
+/* The mean of w(R.l) over a cell's directions l (w = 0 behind R), U = R.l having mean
+ * u = R.m and variance v = R^T C R (m, C: the cell's mean direction and covariance). Away from
+ * the horizon, to second order: w(u) + w''(u) v / 2. With w = u / q^2, q = A + B u,
+ * A = (1 + a^2) / 2, B = (a^2 - 1) / 2: w'' = -2 B (2 A - B u) / q^4. Within 3 standard
+ * deviations of the horizon, where w = u g(u) is cut to 0: g(u) E[max(U, 0)], the latter as
+ * (u + sqrt(u^2 + 2 v / pi)) / 2 (a normal U's value at u = 0, u and 0 far from it). The
+ * cell's own spread thus counts, and so does a line (only its variance along R). */
+static inline double w_cell(const quad_job *J, const double R[3], double u, const float *c)
+{
+    double var = c[0] * R[0] * R[0] + c[1] * R[1] * R[1] + c[2] * R[2] * R[2] +
+                 2 * (c[3] * R[0] * R[1] + c[4] * R[0] * R[2] + c[5] * R[1] * R[2]);
+    var = var > 0 ? var : 0;
+    double A = J->A, B = J->B, iq = 1 / (A + B * u), iq2 = iq * iq;
+    if (u * u < 9 * var) /* E max(U, 0) ~ (u + sqrt(u^2 + 2 v / pi)) / 2: a normal's at u = 0 */
+        return iq2 * 0.5 * (u + sqrt(u * u + 0.63661977236758134 * var));
+    if (u <= 0)
+        return 0;
+    double r = u * iq2 - B * (2 * A - B * u) * iq2 * iq2 * var;
+    return r > 0 ? r : 0;
+}
+
+/* Barnes-Hut over the cell tree: a cell far enough from R (or of a level fine enough for the
+ * lobe) adds its power at its luminance centroid and its solid angle at its area centroid;
+ * else its children (level k - 1) are visited. Every bit of the sphere is counted once. */
+static void visit(const quad_job *J, texel *t, int32_t k, int32_t i, int32_t j)
+{
+    const envl_cells *C = J->C;
+    const cell_row *G = C->row[k] + i;
+    const cell *c = C->buf + G->off + j;
+    const double *R = t->R;
+    double ug = R[0] * c->mg[0] + R[1] * c->mg[1] + R[2] * c->mg[2];
+    if (ug < J->behind[k])
+        return;
+    double u = R[0] * c->m[0] + R[1] * c->m[1] + R[2] * c->m[2];
+    if ((k > J->kmin && 1 - u < J->open_x[k]) || (k > J->kh && fabs(ug) < J->horiz[k])) {
+        int32_t i1 = 2 * i + 1 < C->rows[k - 1] ? 2 * i + 1 : 2 * i;
+        for (int32_t ci = 2 * i; ci <= i1; ci++) {
+            const cell_row *H = C->row[k - 1] + ci;
+            int32_t ratio = G->cw / H->cw, j0 = j * ratio, j1 = (j + 1) * ratio;
+            j1 = j1 < H->n ? j1 : H->n;
+            for (int32_t cj = j0; cj < j1; cj++)
+                visit(J, t, k - 1, ci, cj);
+        }
+        return;
+    }
+    t->terms++;
+    double f = w_cell(J, R, u, c->c);
+    t->acc[0] += f * c->e[0], t->acc[1] += f * c->e[1], t->acc[2] += f * c->e[2];
+    t->acc[3] += w_cell(J, R, ug, c->cg) * c->om;
+}
+
+static void quad_rows(void *ctx, int64_t begin, int64_t end)
+{
+    quad_job *J = ctx;
+    const envl_cells *C = J->C;
+    int32_t top = C->nlev - 1;
+    for (int64_t r = begin; r < end; r++) {
+        double latR = ENVL_PI * (0.5 - (r + 0.5) / J->h), sR = sin(latR), cR = cos(latR);
+        int64_t terms = 0;
+        for (int32_t col = 0; col < J->w; col++) {
+            double phiR = ENVL_PI * (1.0 - 2.0 * (col + 0.5) / J->w);
+            texel t = {{cR * cos(phiR), cR * sin(phiR), sR}, {0, 0, 0, 0}, 0};
+            for (int32_t i = 0; i < C->rows[top]; i++)
+                for (int32_t j = 0; j < C->row[top][i].n; j++)
+                    visit(J, &t, top, i, j);
+            float *o = J->out + 3 * ((size_t)r * J->w + col);
+            for (int k = 0; k < 3; k++)
+                o[k] = t.acc[3] > 0 ? (float)(t.acc[k] / t.acc[3]) : 0.0f;
+            terms += t.terms;
+        }
+        J->terms[r] = terms;
+    }
+}
+
+/* The finest levels a cut needs for GGX alpha on a map H tall: *kmin, the coarsest whose cells
+ * are at most HWHM / CORE_K across (HWHM: the kernel's half width at half maximum); *kh, down
+ * to which cells across R's horizon open. The kernel is cut there (w = 0 for R.l < 0, slope
+ * w'(0) = 1 / A^2 above): a cell across it is summed by the model of w_cell, off by up to
+ * E w'(0) sd / 2 for a cell of power E, sd ~ p / 3.5 for a cell p across; kh keeps that within
+ * HORIZON_EPS / 7 of E N(alpha) (the whole lobe's weight): w'(0) p_kh <= HORIZON_EPS N(alpha)
+ * (at roughness 1: 0.05 rad; at 0.5 and below it is never needed). */
+static void finest_levels(double alpha, int32_t h, int32_t *kmin, int32_t *kh)
+{
+    int32_t n = level_count(h);
+    double a2 = alpha * alpha, hw = half_width(a2), A = 0.5 * (1 + a2);
+    double wslope = 1 / (A * A), norm = envl_ggx_lobe_norm(alpha);
+    *kmin = 0, *kh = 0;
+    while (*kmin + 1 < n && ENVL_PI * (double)((int64_t)1 << (*kmin + 1)) / h <= hw / CORE_K)
+        (*kmin)++;
+    while (*kh + 1 < n &&
+           wslope * ENVL_PI * (double)((int64_t)1 << (*kh + 1)) / h <= HORIZON_EPS * norm)
+        (*kh)++;
+}
+
+int32_t envl__cells_base(double alpha, int32_t h)
+{
+    int32_t kmin, kh;
+    finest_levels(alpha, h, &kmin, &kh);
+    return kmin < kh ? kmin : kh;
+}
+
+int32_t envl__cells_base_of(const envl_cells *C)
+{
+    return C->base;
+}
+
+envl_result envl__cells_level(const envl_cells *C, double alpha, double rho, int32_t w, int32_t h,
+                              int32_t threads, float *out, double *terms)
+{
+    quad_job J = {.C = C, .a2 = alpha * alpha, .w = w, .h = h, .out = out};
+    J.A = 0.5 * (1 + J.a2), J.B = 0.5 * (J.a2 - 1);
+    J.terms = calloc((size_t)h, sizeof(int64_t));
+    if (!J.terms)
+        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
+    finest_levels(alpha, C->h, &J.kmin, &J.kh);
+    J.kmin = J.kmin > C->base ? J.kmin : C->base;
+    J.kh = J.kh > C->base ? J.kh : C->base;
+    for (int32_t k = C->base; k < C->nlev; k++) {
+        double p = ENVL_PI * (double)((int64_t)1 << k) / C->h; /* a cell's height */
+        J.open_x[k] = rho * p >= ENVL_PI ? 3.0 : 1 - cos(rho * p);
+        /* a cell is within 1.5 p of its area centroid (at most as wide as tall) */
+        J.behind[k] = 1.5 * p >= ENVL_PI / 2 ? -2.0 : -sin(1.5 * p);
+        J.horiz[k] = 1.5 * p >= ENVL_PI / 2 ? 2.0 : sin(1.5 * p);
+    }
+    envl__parallel_for(h, threads, quad_rows, &J);
+    double t = 0;
+    for (int32_t r = 0; r < h; r++)
+        t += (double)J.terms[r];
+    free(J.terms);
+    *terms = t / ((double)w * h);
+    return ENVL_OK;
+}
+
+void envl__cells_energy(const envl_cells *C, double e[3])
+{
+    e[0] = e[1] = e[2] = 0;
+    for (int32_t i = 0; i < C->rows[C->base]; i++) {
+        const cell_row *R = C->row[C->base] + i;
+        for (int32_t j = 0; j < R->n; j++)
+            for (int k = 0; k < 3; k++)
+                e[k] += C->buf[R->off + j].e[k];
+    }
+}
+
+int32_t envl__cells_levels(const envl_cells *C)
+{
+    return C ? C->nlev : 0;
+}
