@@ -56,6 +56,16 @@ struct envl_cells {
     cell *buf;                /* rows and cells live in the same block as this header: one free */
 };
 
+/* N(alpha): the integral of w over the sphere. */
+double envl_ggx_lobe_norm(double alpha)
+{
+    double a2 = alpha * alpha;
+    double A = 0.5 * (1 + a2), B = 0.5 * (a2 - 1), x = B / A;
+    if (fabs(x) < 1e-3) /* ln(1+x) + 1/(1+x) - 1 = x^2/2 - 2x^3/3 + 3x^4/4 - ... */
+        return 2 * ENVL_PI / (A * A) * (0.5 - 2 * x / 3 + 0.75 * x * x - 0.8 * x * x * x);
+    return 2 * ENVL_PI / (B * B) * (log(a2 / A) + A / a2 - 1);
+}
+
 void envl__cells_free(envl_cells *c)
 {
     free(c);
