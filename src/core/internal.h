@@ -130,6 +130,10 @@ int32_t envl__default_latlong_width(const envl_image *src, int32_t layout);
 /* Exact area-weighted resampling of a lat-long image to out_w x out_h, turned by
  * rotate_degrees about +Z: every output pixel is the solid-angle weighted mean of the input
  * over its footprint, so the integral of L dw is preserved. */
+/* A lat-long map out_w wide (height in proportion, at least 1) resampled as above from px, as
+ * an envmap of `threads` threads (envmap.c). */
+envl_result envl__envmap_resampled(const float *px, int32_t w, int32_t h, int32_t out_w,
+                                   int32_t threads, envl_envmap **out);
 envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32_t out_w,
                                    int32_t out_h, double rotate_degrees, float **out);
 

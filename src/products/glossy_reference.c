@@ -97,15 +97,8 @@ envl_result envl__glossy_reference(const envl_envmap *m, double roughness, int32
     int32_t w = envl__glossy_reference_width(m->width, roughness);
     if (w == m->width)
         return envl_prefilter_reference(m, roughness, count, dirs, out);
-    float *px;
-    int32_t h = (int32_t)fmax(1, llround((double)w * m->height / m->width));
-    envl_result rc = envl__latlong_resample(m->px, m->width, m->height, w, h, 0.0, &px);
-    envl_envmap *small = NULL;
-    if (!rc) {
-        envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads};
-        rc = envl_envmap_from_pixels(px, w, h, 3, &lo, &small);
-        free(px);
-    }
+    envl_envmap *small;
+    envl_result rc = envl__envmap_resampled(m->px, m->width, m->height, w, m->threads, &small);
     if (!rc)
         rc = envl_prefilter_reference(small, roughness, count, dirs, out);
     envl_envmap_free(small);

@@ -277,7 +277,7 @@ static int irradiance_block(const void *ctx, const double n[3], const double *s,
  * estimate when its bound is within the allowance, for every channel. f: per unit radiance,
  * the pixel's L being one constant (the estimate's t0 = n.D / dw is the same for all channels). */
 static int straddling_estimate(const irradiance_kernel *k, const double n[3], int32_t c,
-                               int32_t r, double centre, double *f, double *bound)
+                               int32_t r, double *f, double *bound)
 {
     const irradiance_tables *t = k->t;
     const float *p = k->m->px + 3 * ((size_t)r * k->m->width + c);
@@ -285,7 +285,6 @@ static int straddling_estimate(const irradiance_kernel *k, const double n[3], in
     double nd = t->ri[r] * (n[0] * t->sx[c] + n[1] * t->sy[c]) + n[2] * t->rz[r];
     double lo, hi, mid, half;
     envl__ktree_pixel_range(k->tree, n, c, r, &lo, &hi);
-    (void)centre;
     if (hi <= 0 || lo >= 0) /* wholly on one side: the closed form (0 or n.D) */
         mid = fabs(nd) / om, half = 0;
     else
@@ -316,7 +315,7 @@ static void irradiance_pixels(const void *ctx, const double n[3], int32_t c0, in
                 f = I * (n[0] * t->sx[c] + n[1] * t->sy[c]) + b;
             else if (centre < -rho)
                 continue;
-            else if (!straddling_estimate(k, n, c, r, centre, &f, &fb))
+            else if (!straddling_estimate(k, n, c, r, &f, &fb))
                 f = straddling_pixel(t, n, c, r);
             for (int ch = 0; ch < 3; ch++)
                 bound[ch] += fb * p[3 * c + ch];
@@ -439,15 +438,9 @@ envl_result envl__reference_copy(envl_envmap *m, const envl_envmap **out)
     if (m->width <= ENVL_REFERENCE_WIDTH)
         return ENVL_OK;
     if (!m->reference_copy) {
-        float *px;
-        int32_t w = ENVL_REFERENCE_WIDTH;
-        int32_t h = (int32_t)fmax(1, llround((double)w * m->height / m->width));
-        envl_result rc = envl__latlong_resample(m->px, m->width, m->height, w, h, 0.0, &px);
-        if (rc)
-            return rc;
-        envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads};
-        rc = envl_envmap_from_pixels(px, w, h, 3, &lo, &m->reference_copy);
-        free(px);
+        envl_result rc = envl__envmap_resampled(m->px, m->width, m->height,
+                                                ENVL_REFERENCE_WIDTH, m->threads,
+                                                &m->reference_copy);
         if (rc)
             return rc;
     }

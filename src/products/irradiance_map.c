@@ -55,17 +55,9 @@ static envl_result resampled_copy(const float *px, int32_t w, int32_t h, int32_t
                                   envl_envmap **out)
 {
     *out = NULL;
-    if (w <= RESAMPLED_IRRADIANCE_WIDTH)
-        return ENVL_OK;
-    float *spx;
-    int32_t sw = RESAMPLED_IRRADIANCE_WIDTH, sh = sw / 2;
-    envl_result rc = envl__latlong_resample(px, w, h, sw, sh, 0.0, &spx);
-    if (rc)
-        return rc;
-    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
-    rc = envl_envmap_from_pixels(spx, sw, sh, 3, &lo, out);
-    free(spx);
-    return rc;
+    return w <= RESAMPLED_IRRADIANCE_WIDTH
+               ? ENVL_OK
+               : envl__envmap_resampled(px, w, h, RESAMPLED_IRRADIANCE_WIDTH, threads, out);
 }
 
 /* The split-off pixels of one 16 x 16 block of the map: their sum of e d per channel and the
