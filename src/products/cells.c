@@ -179,8 +179,82 @@ static void geometry(envl_cells *C, int32_t w, int32_t h, int32_t base, int32_t 
     }
 }
 
+/* The build: the base level's sums from the map's pixels, each coarser level's from its
+ * children's (cells nest), so the map is read once. Level L's row groups (the coarsest level
+ * with at least 8 per thread) are built in parallel, each down to the base through per-thread
+ * scratch, and keep their sums; the levels above L are summed from them. A parent's sums are
+ * its children's added in the same order whatever L is: the same pyramid at any thread count. */
+typedef struct build_job {
+    envl_cells *C;
+    const float *px;
+    const double *cs;         /* cos, sin of each column's azimuth */
+    int32_t L;
+    double **sums;            /* level k >= L: NS per cell, from the level's first cell */
+    double **scratch;         /* per thread: NS x w for each level below L */
+    int32_t nscratch;
+    int failed;
+} build_job;
+
+/* Row group i of level k: its cells' sums into s (NS per cell) and its cells made; below level
+ * L, the children's sums are worked out in `scratch` (one NS x w block per level). */
+static void group_sums(const build_job *b, int32_t k, int32_t i, double *s, double *scratch)
+{
+    const envl_cells *C = b->C;
+    const cell_row *R = C->row[k] + i;
+    int32_t w = C->w, h = C->h;
+    memset(s, 0, sizeof(double) * NS * R->n);
+    if (k == C->base) {
+        int64_t bk = (int64_t)1 << k, r0 = i * bk, r1 = (i + 1) * bk > h ? h : (i + 1) * bk;
+        for (int64_t r = r0; r < r1; r++) {
+            double lat = ENVL_PI * (0.5 - (r + 0.5) / h), cl = cos(lat), sl = sin(lat);
+            double om = envl_latlong_solid_angle(w, h, (int32_t)r);
+            const float *p = b->px + 3 * (size_t)r * w;
+            for (int32_t c = 0; c < w; c++) {
+                double d[3] = {cl * b->cs[2 * c], cl * b->cs[2 * c + 1], sl};
+                add_pixel(p + 3 * c, om, d, s + NS * (c / R->cw));
+            }
+        }
+    } else {
+        double *t = scratch, *below = scratch + (size_t)NS * w;
+        for (int32_t ci = 2 * i; ci <= 2 * i + 1 && ci < C->rows[k - 1]; ci++) {
+            const cell_row *H = C->row[k - 1] + ci;
+            const double *cs;
+            if (k - 1 >= b->L) {
+                cs = b->sums[k - 1] + NS * (H->off - C->row[k - 1][0].off);
+            } else {
+                group_sums(b, k - 1, ci, t, below);
+                cs = t;
+            }
+            for (int32_t j = 0; j < H->n; j++) {
+                double *d = s + NS * (int64_t)((int64_t)j * H->cw / R->cw);
+                for (int q = 0; q < NS; q++)
+                    d[q] += cs[NS * j + q];
+            }
+        }
+    }
+    for (int32_t j = 0; j < R->n; j++)
+        make_cell(s + NS * j, C->buf + R->off + j);
+}
+
+static void level_l_range(void *ctx, int64_t begin, int64_t end)
+{
+    build_job *b = ctx;
+    const envl_cells *C = b->C;
+    double *scratch = malloc(sizeof(double) * NS * (size_t)C->w * (b->L - C->base + 1));
+    if (!scratch) {
+        b->failed = 1;
+        return;
+    }
+    for (int64_t i = begin; i < end; i++) {
+        const cell_row *R = C->row[b->L] + i;
+        group_sums(b, b->L, (int32_t)i, b->sums[b->L] + NS * (R->off - C->row[b->L][0].off),
+                   scratch);
+    }
+    free(scratch);
+}
+
 envl_result envl__cells_build(const float *px, int32_t w, int32_t h, int32_t base,
-                              envl_cells **out)
+                              int32_t threads, envl_cells **out)
 {
     *out = NULL;
     int32_t nlev;
@@ -189,10 +263,9 @@ envl_result envl__cells_build(const float *px, int32_t w, int32_t h, int32_t bas
     geometry(NULL, w, h, base, &nlev, &nrows, &ncell);
     size_t head = (sizeof(envl_cells) + 15) / 16 * 16;
     envl_cells *C = malloc(head + sizeof(cell_row) * nrows + sizeof(cell) * ncell);
-    double *acc = malloc(sizeof(double) * NS * (size_t)w);
     double *cs = malloc(sizeof(double) * 2 * (size_t)w);
-    if (!C || !acc || !cs) {
-        free(C), free(acc), free(cs);
+    if (!C || !cs) {
+        free(C), free(cs);
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for the cell pyramid");
     }
     memset(C, 0, sizeof *C);
@@ -204,32 +277,33 @@ envl_result envl__cells_build(const float *px, int32_t w, int32_t h, int32_t bas
     }
     C->buf = (cell *)(rows + nrows);
     geometry(C, w, h, base, &nlev, &nrows, &ncell);
-    /* Each level from the map's pixels, one row group at a time: O(pixels) per level; the
-     * levels number log2(H) at most. */
     for (int32_t c = 0; c < w; c++) {
         double phi = ENVL_PI * (1.0 - 2.0 * (c + 0.5) / w);
         cs[2 * c] = cos(phi), cs[2 * c + 1] = sin(phi);
     }
-    for (int32_t k = base; k < nlev; k++) {
-        int64_t b = (int64_t)1 << k;
-        for (int32_t i = 0; i < C->rows[k]; i++) {
-            cell_row *R = C->row[k] + i;
-            memset(acc, 0, sizeof(double) * NS * R->n);
-            int64_t r0 = i * b, r1 = (i + 1) * b > h ? h : (i + 1) * b;
-            for (int64_t r = r0; r < r1; r++) {
-                double lat = ENVL_PI * (0.5 - (r + 0.5) / h), cl = cos(lat), sl = sin(lat);
-                double om = envl_latlong_solid_angle(w, h, (int32_t)r);
-                const float *p = px + 3 * (size_t)r * w;
-                for (int32_t c = 0; c < w; c++) {
-                    double d[3] = {cl * cs[2 * c], cl * cs[2 * c + 1], sl};
-                    add_pixel(p + 3 * c, om, d, acc + NS * (c / R->cw));
-                }
-            }
-            for (int32_t j = 0; j < R->n; j++)
-                make_cell(acc + NS * j, C->buf + R->off + j);
-        }
+    threads = envl__threads(threads);
+    build_job b = {.C = C, .px = px, .cs = cs, .L = base};
+    while (b.L + 1 < nlev && C->rows[b.L + 1] >= 8 * threads)
+        b.L++;
+    double *sums[40] = {0};
+    b.sums = sums;
+    size_t first = C->row[b.L][0].off;
+    double *store = malloc(sizeof(double) * NS * (ncell - first));
+    if (!store) {
+        free(C), free(cs);
+        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for the cell pyramid");
     }
-    free(acc), free(cs);
+    for (int32_t k = b.L; k < nlev; k++)
+        sums[k] = store + NS * (C->row[k][0].off - first);
+    envl__parallel_for(C->rows[b.L], threads, level_l_range, &b);
+    for (int32_t k = b.L + 1; k < nlev && !b.failed; k++)
+        for (int32_t i = 0; i < C->rows[k]; i++)
+            group_sums(&b, k, i, sums[k] + NS * (C->row[k][i].off - C->row[k][0].off), NULL);
+    free(store), free(cs);
+    if (b.failed) {
+        free(C);
+        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for the cell pyramid");
+    }
     *out = C;
     return ENVL_OK;
 }

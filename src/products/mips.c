@@ -93,7 +93,7 @@ envl_result envl__map_cells(envl_envmap *m, int32_t base, const envl_cells **out
         *built = 0;
     if (!m->cells || envl__cells_base_of(m->cells) > base) {
         envl_cells *c;
-        envl_result rc = envl__cells_build(m->px, m->width, m->height, base, &c);
+        envl_result rc = envl__cells_build(m->px, m->width, m->height, base, m->threads, &c);
         if (rc)
             return rc;
         free(m->cells);

@@ -28,10 +28,11 @@ void envl__image_energy(const float *px, int32_t w, int32_t h, double e[3]);
 
 /* ---- the cell pyramid and its quadrature (cells.c) ---- */
 typedef struct envl_cells envl_cells;
-/* The cells of a W x H lat-long image from level `base` up (one malloc'd block:
- * envl__cells_free or free). */
+/* The cells of a W x H lat-long image from level `base` up, read once on `threads` threads
+ * (0: the online cores; the result does not depend on it). One malloc'd block:
+ * envl__cells_free or free. */
 envl_result envl__cells_build(const float *px, int32_t w, int32_t h, int32_t base,
-                              envl_cells **out);
+                              int32_t threads, envl_cells **out);
 /* The finest level a level of GGX alpha needs on a map h tall, and the finest one built. */
 int32_t envl__cells_base(double alpha, int32_t h);
 int32_t envl__cells_base_of(const envl_cells *C);
