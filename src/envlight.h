@@ -460,7 +460,7 @@ typedef struct envl_request {
     const double *roughness;
     int32_t brdf_lut;         /* the split-sum table (options in `brdf`) */
     int32_t measure;          /* nonzero: also measure the diffuse / glossy error of each
-                                 product (the brute-force glossy reference is slow) */
+                                 product (docs/design.md, "Error measures") */
     int32_t sh_order;         /* diffuse: SH order 0..32 (ENVL_ORDER_0 for 0); default 2 */
     envl_prefilter_options prefilter;
     envl_lights_options lights;

@@ -13,7 +13,7 @@
  * second order (w_cell): the reference's sum over every pixel, each cell standing for its
  * pixels. The cells are a Barnes-Hut cut of the tree, made per texel: from the top level down,
  * a cell is summed whole when its luminance centroid is at least rho p_k from R (rho: options.c,
- * 2-3.8) or its level is fine enough for the lobe (at most HWHM / CORE_K across, HWHM the
+ * 2-3.8) or its level is fine enough for the lobe (at most HWHM / core_k across, HWHM the
  * kernel's half width at half maximum), and does not straddle R's horizon (where the kernel is
  * cut) unless its level is fine enough for the kernel's slope there; else its children are.
  * Each pixel is counted exactly once and a bright spot inside a coarse cell sits where it is (the first moment is
@@ -27,18 +27,19 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Cells per kernel half width at the finest level a texel's cut need reach. */
-#define CORE_K 4.0
-/* How finely the cut resolves R's horizon (envl__cells_level). */
-#define HORIZON_EPS 1.6e-2
+/* The specular levels' cut: rho is per level (envl__level_rho); cells per kernel half width
+ * at the finest level a texel's cut need reach (CORE_K); how finely it resolves R's horizon
+ * (HORIZON_EPS, finest_levels). */
+const cut_accuracy envl__level_cut = {.rho = 2.0, .core_k = 4.0, .horizon_eps = 1.6e-2};
 
 typedef struct cell {
+    double m[3];              /* luminance-weighted mean direction (|m| <= 1; the area's when
+                                 black); doubles: a sharp lobe's peak moves with a float's
+                                 rounding */
+    double mg[3];             /* the same weighted by solid angle */
     float e[3];               /* sum of L dw */
-    float m[3];               /* luminance-weighted mean direction (|m| <= 1; the area's when
-                                 black) */
-    float c[6];               /* and the covariance of the directions about it: xx yy zz xy xz
-                                 yz */
-    float mg[3], cg[6];       /* the same weighted by solid angle */
+    float c[6];               /* the covariance of the directions about m: xx yy zz xy xz yz */
+    float cg[6];              /* ... and about mg */
     float om;                 /* solid angle */
 } cell;
 
@@ -94,14 +95,14 @@ static inline void add_pixel(const float *p, double om, const double d[3], doubl
 }
 
 /* Mean and covariance from the weight, first and second moment sums; 0 when wsum is not > 0. */
-static int moments(double wsum, const double *m1, const double *m2, float m[3], float c[6])
+static int moments(double wsum, const double *m1, const double *m2, double m[3], float c[6])
 {
     if (!(wsum > 0))
         return 0;
     double mu[3] = {m1[0] / wsum, m1[1] / wsum, m1[2] / wsum};
     const int a[6] = {0, 1, 2, 0, 0, 1}, b[6] = {0, 1, 2, 1, 2, 2};
     for (int k = 0; k < 3; k++)
-        m[k] = (float)mu[k];
+        m[k] = mu[k];
     for (int k = 0; k < 6; k++)
         c[k] = (float)(m2[k] / wsum - mu[a[k]] * mu[b[k]]);
     return 1;
@@ -393,53 +394,60 @@ static void visit(const quad_job *J, texel *t, int32_t k, int32_t i, int32_t j)
     t->acc[3] += w_cell(J, R, ug, c->cg) * c->om;
 }
 
+/* P(R) at one direction: the cut from the top level down. */
+static void cut_at(const quad_job *J, const double R[3], float out[3], int64_t *terms)
+{
+    const envl_cells *C = J->C;
+    int32_t top = C->nlev - 1;
+    texel t = {{R[0], R[1], R[2]}, {0, 0, 0, 0}, 0};
+    for (int32_t i = 0; i < C->rows[top]; i++)
+        for (int32_t j = 0; j < C->row[top][i].n; j++)
+            visit(J, &t, top, i, j);
+    for (int k = 0; k < 3; k++)
+        out[k] = t.acc[3] > 0 ? (float)(t.acc[k] / t.acc[3]) : 0.0f;
+    *terms += t.terms;
+}
+
 static void quad_rows(void *ctx, int64_t begin, int64_t end)
 {
     quad_job *J = ctx;
-    const envl_cells *C = J->C;
-    int32_t top = C->nlev - 1;
     for (int64_t r = begin; r < end; r++) {
         double latR = ENVL_PI * (0.5 - (r + 0.5) / J->h), sR = sin(latR), cR = cos(latR);
         int64_t terms = 0;
         for (int32_t col = 0; col < J->w; col++) {
             double phiR = ENVL_PI * (1.0 - 2.0 * (col + 0.5) / J->w);
-            texel t = {{cR * cos(phiR), cR * sin(phiR), sR}, {0, 0, 0, 0}, 0};
-            for (int32_t i = 0; i < C->rows[top]; i++)
-                for (int32_t j = 0; j < C->row[top][i].n; j++)
-                    visit(J, &t, top, i, j);
-            float *o = J->out + 3 * ((size_t)r * J->w + col);
-            for (int k = 0; k < 3; k++)
-                o[k] = t.acc[3] > 0 ? (float)(t.acc[k] / t.acc[3]) : 0.0f;
-            terms += t.terms;
+            double R[3] = {cR * cos(phiR), cR * sin(phiR), sR};
+            cut_at(J, R, J->out + 3 * ((size_t)r * J->w + col), &terms);
         }
         J->terms[r] = terms;
     }
 }
 
 /* The finest levels a cut needs for GGX alpha on a map H tall: *kmin, the coarsest whose cells
- * are at most HWHM / CORE_K across (HWHM: the kernel's half width at half maximum); *kh, down
+ * are at most HWHM / core_k across (HWHM: the kernel's half width at half maximum); *kh, down
  * to which cells across R's horizon open. The kernel is cut there (w = 0 for R.l < 0, slope
  * w'(0) = 1 / A^2 above): a cell across it is summed by the model of w_cell, off by up to
  * E w'(0) sd / 2 for a cell of power E, sd ~ p / 3.5 for a cell p across; kh keeps that within
- * HORIZON_EPS / 7 of E N(alpha) (the whole lobe's weight): w'(0) p_kh <= HORIZON_EPS N(alpha)
- * (at roughness 1: 0.05 rad; at 0.5 and below it is never needed). */
-static void finest_levels(double alpha, int32_t h, int32_t *kmin, int32_t *kh)
+ * heps / 7 of E N(alpha) (the whole lobe's weight): w'(0) p_kh <= heps N(alpha) (for the
+ * levels' HORIZON_EPS, at roughness 1: 0.05 rad; at 0.5 and below it is never needed). */
+static void finest_levels(const cut_accuracy *a, double alpha, int32_t h, int32_t *kmin,
+                          int32_t *kh)
 {
     int32_t n = level_count(h);
     double a2 = alpha * alpha, hw = half_width(a2), A = 0.5 * (1 + a2);
     double wslope = 1 / (A * A), norm = envl_ggx_lobe_norm(alpha);
     *kmin = 0, *kh = 0;
-    while (*kmin + 1 < n && ENVL_PI * (double)((int64_t)1 << (*kmin + 1)) / h <= hw / CORE_K)
+    while (*kmin + 1 < n && ENVL_PI * (double)((int64_t)1 << (*kmin + 1)) / h <= hw / a->core_k)
         (*kmin)++;
     while (*kh + 1 < n &&
-           wslope * ENVL_PI * (double)((int64_t)1 << (*kh + 1)) / h <= HORIZON_EPS * norm)
+           wslope * ENVL_PI * (double)((int64_t)1 << (*kh + 1)) / h <= a->horizon_eps * norm)
         (*kh)++;
 }
 
-int32_t envl__cells_base(double alpha, int32_t h)
+int32_t envl__cells_base(const cut_accuracy *a, double alpha, int32_t h)
 {
     int32_t kmin, kh;
-    finest_levels(alpha, h, &kmin, &kh);
+    finest_levels(a ? a : &envl__level_cut, alpha, h, &kmin, &kh);
     return kmin < kh ? kmin : kh;
 }
 
@@ -448,30 +456,66 @@ int32_t envl__cells_base_of(const envl_cells *C)
     return C->base;
 }
 
+/* The cut's settings for GGX alpha; J->terms is the caller's. */
+static void quad_setup(quad_job *J, const envl_cells *C, const cut_accuracy *a, double alpha)
+{
+    J->C = C, J->a2 = alpha * alpha;
+    J->A = 0.5 * (1 + J->a2), J->B = 0.5 * (J->a2 - 1);
+    finest_levels(a, alpha, C->h, &J->kmin, &J->kh);
+    J->kmin = J->kmin > C->base ? J->kmin : C->base;
+    J->kh = J->kh > C->base ? J->kh : C->base;
+    for (int32_t k = C->base; k < C->nlev; k++) {
+        double p = ENVL_PI * (double)((int64_t)1 << k) / C->h; /* a cell's height */
+        J->open_x[k] = a->rho * p >= ENVL_PI ? 3.0 : 1 - cos(a->rho * p);
+        /* a cell is within 1.5 p of its area centroid (at most as wide as tall) */
+        J->behind[k] = 1.5 * p >= ENVL_PI / 2 ? -2.0 : -sin(1.5 * p);
+        J->horiz[k] = 1.5 * p >= ENVL_PI / 2 ? 2.0 : sin(1.5 * p);
+    }
+}
+
 envl_result envl__cells_level(const envl_cells *C, double alpha, double rho, int32_t w, int32_t h,
                               int32_t threads, float *out, double *terms)
 {
-    quad_job J = {.C = C, .a2 = alpha * alpha, .w = w, .h = h, .out = out};
-    J.A = 0.5 * (1 + J.a2), J.B = 0.5 * (J.a2 - 1);
+    quad_job J = {.w = w, .h = h, .out = out};
+    cut_accuracy a = envl__level_cut;
+    a.rho = rho;
+    quad_setup(&J, C, &a, alpha);
     J.terms = calloc((size_t)h, sizeof(int64_t));
     if (!J.terms)
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
-    finest_levels(alpha, C->h, &J.kmin, &J.kh);
-    J.kmin = J.kmin > C->base ? J.kmin : C->base;
-    J.kh = J.kh > C->base ? J.kh : C->base;
-    for (int32_t k = C->base; k < C->nlev; k++) {
-        double p = ENVL_PI * (double)((int64_t)1 << k) / C->h; /* a cell's height */
-        J.open_x[k] = rho * p >= ENVL_PI ? 3.0 : 1 - cos(rho * p);
-        /* a cell is within 1.5 p of its area centroid (at most as wide as tall) */
-        J.behind[k] = 1.5 * p >= ENVL_PI / 2 ? -2.0 : -sin(1.5 * p);
-        J.horiz[k] = 1.5 * p >= ENVL_PI / 2 ? 2.0 : sin(1.5 * p);
-    }
     envl__parallel_for(h, threads, quad_rows, &J);
     double t = 0;
     for (int32_t r = 0; r < h; r++)
         t += (double)J.terms[r];
     free(J.terms);
     *terms = t / ((double)w * h);
+    return ENVL_OK;
+}
+
+typedef struct dirs_job {
+    quad_job J;
+    const double *dirs;
+    double *out;
+} dirs_job;
+
+static void dirs_range(void *ctx, int64_t begin, int64_t end)
+{
+    dirs_job *d = ctx;
+    for (int64_t i = begin; i < end; i++) {
+        float o[3];
+        int64_t terms = 0;
+        cut_at(&d->J, d->dirs + 3 * i, o, &terms);
+        for (int k = 0; k < 3; k++)
+            d->out[3 * i + k] = o[k];
+    }
+}
+
+envl_result envl__cells_at(const envl_cells *C, const cut_accuracy *a, double alpha,
+                           int32_t count, const double *dirs, int32_t threads, double *out)
+{
+    dirs_job d = {.dirs = dirs, .out = out};
+    quad_setup(&d.J, C, a, alpha);
+    envl__parallel_for(count, threads, dirs_range, &d);
     return ENVL_OK;
 }
 

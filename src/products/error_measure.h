@@ -1,11 +1,13 @@
 /* The error measures' references (docs/design.md, "Error measures"): the exact irradiance
- * (irradiance.c) and the glossy reference (glossy_reference.c), each summed through the kernel
- * tree (kernel_tree.h) within a stated tolerance of the pixel-by-pixel brute force, which stays
- * the test oracle (envl_irradiance_exact, envl_prefilter_reference). Not installed. */
+ * (irradiance.c, through the kernel tree of kernel_tree.h) and the glossy reference
+ * (glossy_reference.c, through the cell pyramid of cells.c), each within a stated tolerance of
+ * the pixel-by-pixel brute force, which stays the test oracle (envl_irradiance_exact,
+ * envl_prefilter_reference). Not installed. */
 #ifndef ENVL_ERROR_MEASURE_H
 #define ENVL_ERROR_MEASURE_H
 
 #include "envmap_impl.h"
+#include "cells.h"
 
 /* The ENVL_ERROR_NORMALS Fibonacci directions (malloc'd; NULL when out of memory). */
 double *envl__fibonacci_dirs(void);
@@ -31,11 +33,16 @@ envl_result envl__reference_copy(envl_envmap *m, const envl_envmap **out);
 envl_result envl__irradiance_reference(const envl_envmap *m, int32_t count,
                                        const double *normals, double *rgb_out);
 
-/* The glossy reference of the error measure: envl_prefilter_reference over the map
- * area-resampled to envl__glossy_reference_width (the map itself up to 1024 wide). */
-int32_t envl__glossy_reference_width(int32_t map_width, double roughness);
-envl_result envl__glossy_reference(const envl_envmap *m, double roughness, int32_t count,
-                                   const double *dirs, double *out);
+/* The glossy reference of the error measure: P(R) summed over the map's cell pyramid with a
+ * finer cut than the levels' (envl__reference_cut), within ENVL_GLOSSY_REFERENCE_TOLERANCE
+ * relative RMS (luminance, over the error measure's directions) of envl_prefilter_reference;
+ * the mirror (roughness 0) is the brute force's nearest pixel. C: the map's pyramid, or NULL;
+ * one is built (and freed) when C is NULL or coarser than envl__glossy_reference_base. */
+#define ENVL_GLOSSY_REFERENCE_TOLERANCE 1e-3
+extern const cut_accuracy envl__reference_cut;
+int32_t envl__glossy_reference_base(double roughness, int32_t height);
+envl_result envl__glossy_reference(const envl_envmap *m, const envl_cells *C, double roughness,
+                                   int32_t count, const double *dirs, double *out);
 
 /* The error of a lat-long product read bilinearly, plus n_sun sun lights as they add to P(R) at
  * `roughness` (or to E(n) for roughness < 0), against ref at dirs. */

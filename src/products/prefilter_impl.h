@@ -18,6 +18,7 @@
 #include "envmap_impl.h"
 #include "sun_split.h"
 #include "error_measure.h"
+#include "cells.h"
 
 /* ---- the mip pyramid (mips.c) ---- */
 /* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */
@@ -25,29 +26,6 @@ envl_result envl__build_pyramid(const float *px, int32_t w, int32_t h, float **b
                                 int32_t *n_out, int32_t mw[40], int32_t mh[40], size_t off[40]);
 /* Integral of L dw of a w x h lat-long image, per channel. */
 void envl__image_energy(const float *px, int32_t w, int32_t h, double e[3]);
-
-/* ---- the cell pyramid and its quadrature (cells.c) ---- */
-typedef struct envl_cells envl_cells;
-/* The cells of a W x H lat-long image from level `base` up, read once on `threads` threads
- * (0: the online cores; the result does not depend on it). One malloc'd block:
- * envl__cells_free or free. */
-envl_result envl__cells_build(const float *px, int32_t w, int32_t h, int32_t base,
-                              int32_t threads, envl_cells **out);
-/* The finest level a level of GGX alpha needs on a map h tall, and the finest one built. */
-int32_t envl__cells_base(double alpha, int32_t h);
-int32_t envl__cells_base_of(const envl_cells *C);
-void envl__cells_free(envl_cells *c);
-int32_t envl__cells_levels(const envl_cells *C);
-/* The map's cells from level `base` (or finer) up, built once and cached in it (rebuilt when a
- * finer base is asked for). */
-envl_result envl__map_cells(envl_envmap *m, int32_t base, const envl_cells **out, int *built);
-/* The w x h level of GGX alpha into out (RGB), each level of the pyramid serving rho .. 4 rho
- * of its cells' widths from R (envl__level_rho); *terms: the mean number of cells summed per
- * texel. */
-envl_result envl__cells_level(const envl_cells *C, double alpha, double rho, int32_t w, int32_t h,
-                              int32_t threads, float *out, double *terms);
-/* Integral of L dw of the image the cells were built from, per channel. */
-void envl__cells_energy(const envl_cells *C, double e[3]);
 
 /* ---- bright pixels (bright_lobes.c) ---- */
 /* The map's split (sun_split.c) and, with sun lights, the cells of the map less the lights. */

@@ -164,7 +164,7 @@ static envl_result compute_levels(envl_envmap *m, envl_products *p, plan *pl)
         int32_t base = 1 << 30;
         for (int32_t i = 0; i < pl->n_want; i++)
             if (pl->want[i] > 0) {
-                int32_t b = envl__cells_base(pl->want[i] * pl->want[i], m->height);
+                int32_t b = envl__cells_base(NULL, pl->want[i] * pl->want[i], m->height);
                 base = b < base ? b : base;
             }
         if (p->n_sun) {
@@ -228,9 +228,20 @@ static envl_result measure(envl_envmap *m, envl_products *p)
     double *ref = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
     envl_result rc = dirs && ref ? ENVL_OK
                                  : envl__fail(ENVL_ERR_MEMORY, "error measure: out of memory");
+    /* the glossy references cut the map's own pyramid (the levels' when no sun light took
+     * from it), built once at the finest base they need */
+    const envl_cells *C = NULL;
+    int32_t base = 1 << 30;
+    for (int32_t i = 0; i < p->n_levels; i++)
+        if (p->levels[i].roughness > 0) {
+            int32_t b = envl__glossy_reference_base(p->levels[i].roughness, m->height);
+            base = b < base ? b : base;
+        }
+    if (!rc && base < (1 << 30))
+        rc = envl__map_cells(m, base, &C, NULL);
     for (int32_t i = 0; !rc && i < p->n_levels; i++) {
         envl_level *l = &p->levels[i];
-        rc = envl__glossy_reference(m, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
+        rc = envl__glossy_reference(m, C, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
         if (!rc)
             rc = envl__sampled_error(dirs, ref, l->rgb, l->width, l->height, p->sun,
                                      l->roughness > 0 ? p->n_sun : 0, l->roughness,

@@ -246,7 +246,8 @@ envl_result envl__specular_level(envl_envmap *m, const resolved *o, double rough
         envl__image_energy(m->px, m->width, m->height, ein);
     } else {
         const envl_cells *C = sp && sp->cells ? sp->cells : NULL;
-        if (!C && (rc = envl__map_cells(m, envl__cells_base(st->alpha, m->height), &C, NULL))) {
+        int32_t base = envl__cells_base(NULL, st->alpha, m->height);
+        if (!C && (rc = envl__map_cells(m, base, &C, NULL))) {
             free(px);
             return rc;
         }
