@@ -29,19 +29,104 @@ typedef struct fit_problem {
     double *scratch;        /* m */
 } fit_problem;
 
+/* ---- cones about a direction: angular bins, and the rows and columns that hold them ---- */
+
+#define CONE_BINS 16384
+#define CONE_RINGS 128
+#define RING_BINS (CONE_BINS / CONE_RINGS)
+#define CONE_CHUNKS 64      /* row chunks of a pass (fewer on maps under 64 rows) */
+
+/* Angular bin of the pixel at (cos, sin) theta = (rc, rs), (cos, sin) phi = (cc, cs) about
+ * dir: floor(sin(angle / 2) BINS), sin(angle / 2) = sqrt((1 - d.dir) / 2): monotonic in the
+ * angle, no trigonometry per pixel. d = (rc cc, rc cs, rs), the products of
+ * envl_envmap_direction, summed in the same order. */
+static inline int32_t cone_bin(double rc, double rs, double cc, double cs, const double dir[3])
+{
+    double v = 0.5 * (1.0 - (rc * cc * dir[0] + rc * cs * dir[1] + rs * dir[2]));
+    int32_t b = (int32_t)(sqrt(v > 0.0 ? v : 0.0) * CONE_BINS);
+    return b < CONE_BINS ? b : CONE_BINS - 1;
+}
+
+/* The pixels a pass about dir visits: rows r0..r1, in each a run of columns around the axis,
+ * together every pixel whose bin is <= max_bin. Bin <= B means sin(angle / 2) < s =
+ * (B + 1) / BINS, angle < a = 2 asin s; visited: all within a + one pixel (rounding in the
+ * bin's arithmetic moves its edge by far less). */
+typedef struct cone_geom {
+    int full;               /* the whole map */
+    double cos_r, z, xy;    /* cos of the visited radius; the axis' z and |(x, y)| */
+    double col;             /* the axis' column, c = (1 - phi / pi) W / 2 - 1/2 */
+    int32_t r0, r1;
+} cone_geom;
+
+static cone_geom cone_geometry(const envl_envmap *m, const double dir[3], int32_t max_bin)
+{
+    int32_t W = m->width, H = m->height;
+    cone_geom g = {.full = 1, .r0 = 0, .r1 = H - 1};
+    double rad = 2.0 * asin(fmin(1.0, (max_bin + 1.0) / CONE_BINS)) +
+                 fmax(2.0 * ENVL_PI / W, ENVL_PI / H);
+    if (max_bin >= CONE_BINS - 1 || rad >= ENVL_PI)
+        return g;
+    g.full = 0;
+    g.cos_r = cos(rad);
+    g.z = dir[2];
+    g.xy = hypot(dir[0], dir[1]);
+    g.col = (1.0 - atan2(dir[1], dir[0]) / ENVL_PI) * W / 2 - 0.5;
+    /* rows whose elevation is within rad of the axis': r = H (1/2 - theta / pi) - 1/2 */
+    double el = atan2(dir[2], g.xy);
+    double top = floor(H * (0.5 - (el + rad) / ENVL_PI) - 0.5);
+    double bottom = ceil(H * (0.5 - (el - rad) / ENVL_PI) - 0.5);
+    g.r0 = top < 0 ? 0 : (int32_t)top;
+    g.r1 = bottom > H - 1 ? H - 1 : (int32_t)bottom;
+    return g;
+}
+
+/* Columns lo..hi (wrapping: c mod W) of row r within the visited radius; 0 if none. In the
+ * row, d.dir = rc xy cos(phi - phi_axis) + rs z >= cos_r where cos(phi - phi_axis) >= q. */
+static int cone_span(const envl_envmap *m, const cone_geom *g, int32_t r, int32_t *lo,
+                     int32_t *hi)
+{
+    int32_t W = m->width;
+    *lo = 0;
+    *hi = W - 1;
+    if (g->full)
+        return 1;
+    double den = m->row_cos[r] * g->xy, base = m->row_sin[r] * g->z;
+    if (base + den < g->cos_r)
+        return 0;
+    if (base - den >= g->cos_r)
+        return 1;
+    double q = (g->cos_r - base) / den;
+    double half = acos(q < -1 ? -1 : q > 1 ? 1 : q) * W / (2.0 * ENVL_PI);
+    double a = floor(g->col - half) - 1, b = ceil(g->col + half) + 1;
+    if (b - a + 1 >= W)
+        return 1;
+    *lo = (int32_t)a;
+    *hi = (int32_t)b;
+    return 1;
+}
+
 /* Power (sum of L dw) of the fit map within FIT_CONE_DEGREES of d: rgb (if asked) and the
  * luminance, returned. */
 static double cone_power(const envl_envmap *fm, const double d[3], double *rgb)
 {
     const double cmin = cos(FIT_CONE_DEGREES * ENVL_PI / 180.0);
+    /* the rows and columns within the cone's bin (and a pixel), each pixel then tested */
+    cone_geom g = cone_geometry(fm, d, (int32_t)(sin(FIT_CONE_DEGREES * ENVL_PI / 360.0) *
+                                                 CONE_BINS));
     double acc[3] = {0, 0, 0};
-    for (int32_t r = 0; r < fm->height; r++) {
+    int32_t W = fm->width;
+    for (int32_t r = g.r0; r <= g.r1; r++) {
+        int32_t lo, hi;
+        if (!cone_span(fm, &g, r, &lo, &hi))
+            continue;
         double ct = fm->row_cos[r], z = d[2] * fm->row_sin[r], row[3] = {0, 0, 0};
-        const float *p = fm->px + (size_t)r * fm->width * 3;
-        for (int32_t c = 0; c < fm->width; c++, p += 3)
+        for (int32_t cw = lo; cw <= hi; cw++) {
+            int32_t c = cw < 0 ? cw + W : cw >= W ? cw - W : cw;
+            const float *p = fm->px + 3 * ((size_t)r * W + c);
             if (ct * (d[0] * fm->col_cos[c] + d[1] * fm->col_sin[c]) + z >= cmin)
                 for (int k = 0; k < 3; k++)
                     row[k] += p[k];
+        }
         for (int k = 0; k < 3; k++)
             acc[k] += row[k] * fm->row_omega[r];
     }
@@ -391,80 +476,6 @@ done:
  * pixels within that ring's outer edge), the cone taken, and what it took is subtracted from
  * the later lights' rings. Partial sums belong to fixed chunks of rows and are combined in
  * chunk order: the same result at any thread count. */
-
-#define CONE_BINS 16384
-#define CONE_RINGS 128
-#define RING_BINS (CONE_BINS / CONE_RINGS)
-#define CONE_CHUNKS 64      /* row chunks of a pass (fewer on maps under 64 rows) */
-
-/* Angular bin of the pixel at (cos, sin) theta = (rc, rs), (cos, sin) phi = (cc, cs) about
- * dir: floor(sin(angle / 2) BINS), sin(angle / 2) = sqrt((1 - d.dir) / 2): monotonic in the
- * angle, no trigonometry per pixel. d = (rc cc, rc cs, rs), the products of
- * envl_envmap_direction, summed in the same order. */
-static inline int32_t cone_bin(double rc, double rs, double cc, double cs, const double dir[3])
-{
-    double v = 0.5 * (1.0 - (rc * cc * dir[0] + rc * cs * dir[1] + rs * dir[2]));
-    int32_t b = (int32_t)(sqrt(v > 0.0 ? v : 0.0) * CONE_BINS);
-    return b < CONE_BINS ? b : CONE_BINS - 1;
-}
-
-/* The pixels a pass about dir visits: rows r0..r1, in each a run of columns around the axis,
- * together every pixel whose bin is <= max_bin. Bin <= B means sin(angle / 2) < s =
- * (B + 1) / BINS, angle < a = 2 asin s; visited: all within a + one pixel (rounding in the
- * bin's arithmetic moves its edge by far less). */
-typedef struct cone_geom {
-    int full;               /* the whole map */
-    double cos_r, z, xy;    /* cos of the visited radius; the axis' z and |(x, y)| */
-    double col;             /* the axis' column, c = (1 - phi / pi) W / 2 - 1/2 */
-    int32_t r0, r1;
-} cone_geom;
-
-static cone_geom cone_geometry(const envl_envmap *m, const double dir[3], int32_t max_bin)
-{
-    int32_t W = m->width, H = m->height;
-    cone_geom g = {.full = 1, .r0 = 0, .r1 = H - 1};
-    double rad = 2.0 * asin(fmin(1.0, (max_bin + 1.0) / CONE_BINS)) +
-                 fmax(2.0 * ENVL_PI / W, ENVL_PI / H);
-    if (max_bin >= CONE_BINS - 1 || rad >= ENVL_PI)
-        return g;
-    g.full = 0;
-    g.cos_r = cos(rad);
-    g.z = dir[2];
-    g.xy = hypot(dir[0], dir[1]);
-    g.col = (1.0 - atan2(dir[1], dir[0]) / ENVL_PI) * W / 2 - 0.5;
-    /* rows whose elevation is within rad of the axis': r = H (1/2 - theta / pi) - 1/2 */
-    double el = atan2(dir[2], g.xy);
-    double top = floor(H * (0.5 - (el + rad) / ENVL_PI) - 0.5);
-    double bottom = ceil(H * (0.5 - (el - rad) / ENVL_PI) - 0.5);
-    g.r0 = top < 0 ? 0 : (int32_t)top;
-    g.r1 = bottom > H - 1 ? H - 1 : (int32_t)bottom;
-    return g;
-}
-
-/* Columns lo..hi (wrapping: c mod W) of row r within the visited radius; 0 if none. In the
- * row, d.dir = rc xy cos(phi - phi_axis) + rs z >= cos_r where cos(phi - phi_axis) >= q. */
-static int cone_span(const envl_envmap *m, const cone_geom *g, int32_t r, int32_t *lo,
-                     int32_t *hi)
-{
-    int32_t W = m->width;
-    *lo = 0;
-    *hi = W - 1;
-    if (g->full)
-        return 1;
-    double den = m->row_cos[r] * g->xy, base = m->row_sin[r] * g->z;
-    if (base + den < g->cos_r)
-        return 0;
-    if (base - den >= g->cos_r)
-        return 1;
-    double q = (g->cos_r - base) / den;
-    double half = acos(q < -1 ? -1 : q > 1 ? 1 : q) * W / (2.0 * ENVL_PI);
-    double a = floor(g->col - half) - 1, b = ceil(g->col + half) + 1;
-    if (b - a + 1 >= W)
-        return 1;
-    *lo = (int32_t)a;
-    *hi = (int32_t)b;
-    return 1;
-}
 
 /* A chunk's partial sums in one pass. */
 typedef struct cone_chunk {
