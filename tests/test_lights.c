@@ -848,7 +848,8 @@ static void ref_take_cones(const envl_envmap *m, envl_light *ls, int n, float *r
 /* envl__take_cones against ref_take_cones on a 300 x 150 map (a sky, noise, three discs), five
  * lights: two whose cones overlap (the second's histogram is of what the first left), one on
  * the seam, one at the pole, and one asking for more blue than the sphere holds (it takes the
- * whole sphere, its blue cut to all there is). With 1 and 3 threads: bit-identical.
+ * whole sphere, its blue cut to all there is). With 1 and 3 threads, with and without a
+ * coarse copy's rings to start the search from: bit-identical.
  * Against the reference: the same rects (the same cones), the rest within what reordered sums
  * allow. Every sum (histogram bins, the cumulated rgb, taken, its moment) has at most
  * n = (K + 1) N terms (a pixel, and its change at each earlier take), together at most
@@ -903,18 +904,30 @@ static void test_take_cones(void)
     memcpy(ref, in, sizeof in);
     ref_cone rc[K];
     ref_take_cones(m1, ref, K, res_ref, rc);
-    envl_envmap *maps[2] = {m1, m3};
-    float *res[2] = {res1, res3};
-    envl_light *got[2] = {got1, got3};
-    for (int t = 0; t < 2; t++) {
+    /* 1 and 3 threads, and each with the rings estimated on a 100 x 50 copy (the search then
+     * starts elsewhere; the cones are decided on the map, so nothing may change) */
+    envl_envmap *coarse;
+    CHECK_OK(envl__envmap_resampled(px, W, H, 100, 2, &coarse));
+    float *res_c = malloc(sizeof(float) * nf);
+    envl_light got_c[K];
+    envl_envmap *maps[4] = {m1, m3, m1, m3}, *hint[4] = {NULL, NULL, coarse, coarse};
+    float *res[4] = {res1, res3, res_c, res_c};
+    envl_light *got[4] = {got1, got3, got_c, got_c};
+    for (int t = 0; t < 4; t++) {
         memcpy(res[t], px, sizeof(float) * nf);
         memcpy(got[t], in, sizeof in);
         envl_lights ls = {.lights = got[t], .residual = res[t], .width = W, .height = H};
         ls.summary.count = K;
-        CHECK_OK(envl__take_cones(maps[t], &ls));
+        CHECK_OK(envl__take_cones(maps[t], hint[t], &ls));
+        if (t >= 2) {
+            CHECK(memcmp(got1, got_c, sizeof got1) == 0);
+            CHECK(memcmp(res1, res_c, sizeof(float) * nf) == 0);
+        }
     }
     CHECK(memcmp(got1, got3, sizeof got1) == 0);
     CHECK(memcmp(res1, res3, sizeof(float) * nf) == 0);
+    envl_envmap_free(coarse);
+    free(res_c);
 
     const double u = ldexp(1.0, -53), f = ldexp(1.0, -23);
     double s = 2.0 * (K + 1) * (K + 1) * W * H * u * P, eta = K * (f + s / rgb_min) + s / rgb_min;

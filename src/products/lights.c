@@ -141,9 +141,12 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
         rc = envl__fit_lights(m, n, order, ls);
         if (rc == ENVL_OK && !(ls->residual = malloc(sizeof(float) * npx)))
             rc = envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the residual map");
-        if (rc == ENVL_OK) {
+        const envl_envmap *coarse = NULL;
+        if (rc == ENVL_OK && !(rc = envl__reference_copy(m, &coarse))) {
+            /* the fit's copy (cached) points the cones' search: one pass over 1024 columns,
+             * not over the map */
             memcpy(ls->residual, m->px, sizeof(float) * npx);
-            rc = envl__take_cones(m, ls);
+            rc = envl__take_cones(m, coarse != m ? coarse : NULL, ls);
         }
     } else if (o->method == ENVL_METHOD_SUN) {
         rc = envl__sun_lights(m, n, ls);

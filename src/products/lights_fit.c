@@ -481,6 +481,7 @@ done:
 typedef struct cone_chunk {
     double *rings;          /* K x CONE_RINGS x 3: the histograms, or changes to them */
     double fine[RING_BINS][3];
+    double inner[3];        /* the pixels of the rings inside `ring` */
     double taken, own, moment[3];
     int32_t x0, x1, y0, y1;
 } cone_chunk;
@@ -488,6 +489,7 @@ typedef struct cone_chunk {
 typedef struct cone_job {
     const envl_envmap *m;
     float *res;
+    const float *scan;      /* what the rings pass reads: res, or a coarser copy's pixels */
     int32_t k, rows;        /* lights; rows per chunk */
     const double (*dirs)[3]; /* in take order */
     cone_chunk *chunks;
@@ -511,7 +513,7 @@ static void chunk_rows(const cone_job *j, int64_t chunk, int32_t *r0, int32_t *r
 static void row_rings(const cone_job *j, int32_t r, int32_t i, double *h)
 {
     const envl_envmap *m = j->m;
-    const float *p = j->res + (size_t)r * m->width * 3;
+    const float *p = j->scan + (size_t)r * m->width * 3;
     double om = m->row_omega[r], rc = m->row_cos[r], rs = m->row_sin[r], run[3] = {0, 0, 0};
     int32_t ring = 0;
     for (int32_t c = 0; c < m->width; c++, p += 3) {
@@ -545,7 +547,7 @@ static void rings_range(void *ctx, int64_t begin, int64_t end)
     }
 }
 
-/* Light `light`'s bins in ring `ring`: its pixels' L dw. */
+/* Light `light`'s bins in ring `ring`, and the rings inside it: their pixels' L dw. */
 static void ring_range(void *ctx, int64_t begin, int64_t end)
 {
     const cone_job *j = ctx;
@@ -554,6 +556,7 @@ static void ring_range(void *ctx, int64_t begin, int64_t end)
     for (int64_t it = begin; it < end; it++) {
         cone_chunk *ch = &j->chunks[j->chunk0 + it];
         memset(ch->fine, 0, sizeof ch->fine);
+        memset(ch->inner, 0, sizeof ch->inner);
         int32_t r0, r1;
         chunk_rows(j, j->chunk0 + it, &r0, &r1);
         for (int32_t r = r0; r <= r1; r++) {
@@ -564,11 +567,12 @@ static void ring_range(void *ctx, int64_t begin, int64_t end)
             for (int32_t cw = lo; cw <= hi; cw++) {
                 int32_t c = (cw % W + W) % W;
                 int32_t b = cone_bin(rc, rs, m->col_cos[c], m->col_sin[c], j->dirs[j->light]);
-                if (b / RING_BINS != j->ring)
+                if (b / RING_BINS > j->ring)
                     continue;
                 const float *p = j->res + 3 * ((size_t)r * W + c);
+                double *to = b / RING_BINS == j->ring ? ch->fine[b % RING_BINS] : ch->inner;
                 for (int k = 0; k < 3; k++)
-                    ch->fine[b % RING_BINS][k] += p[k] * om;
+                    to[k] += p[k] * om;
             }
         }
     }
@@ -644,34 +648,55 @@ static int32_t cone_pass(cone_job *j, int32_t max_bin, envl_range_fn fn)
     return n;
 }
 
-/* The first bin where the light's histogram, summed from bin 0, reaches rgb in every channel
- * (CONE_BINS - 1 if none); avail = that sum. The rings find the ring, its bins the bin. */
+static int reaches(const double *sum, const double rgb[3])
+{
+    return sum[0] >= rgb[0] && sum[1] >= rgb[1] && sum[2] >= rgb[2];
+}
+
+/* The first bin where the light's L dw, summed from bin 0, reaches rgb in every channel
+ * (CONE_BINS - 1 if none); avail = that sum. The rings (an estimate: of a coarser copy, or
+ * rounded differently) point at a ring; a pass over the pixels within it decides: if the rings
+ * inside it already hold rgb, the ring before; if the ring's last bin does not reach it, the
+ * next; else the bin. Once moved, it keeps its direction: the search ends. */
 static int32_t cone_last(cone_job *j, const double rgb[3], double avail[3])
 {
     const double *h = j->rings + (size_t)3 * CONE_RINGS * j->light;
-    double cum[3] = {0, 0, 0};
-    for (int32_t ring = 0; ring < CONE_RINGS; ring++) {
-        const double *hr = h + 3 * ring;
-        if (!(cum[0] + hr[0] >= rgb[0] && cum[1] + hr[1] >= rgb[1] && cum[2] + hr[2] >= rgb[2])) {
-            for (int k = 0; k < 3; k++)
-                cum[k] += hr[k];
-            continue;
-        }
+    double est[3] = {0, 0, 0};
+    int32_t ring = 0;
+    for (; ring < CONE_RINGS - 1; ring++) {
+        for (int k = 0; k < 3; k++)
+            est[k] += h[3 * ring + k];
+        if (reaches(est, rgb))
+            break;
+    }
+    for (int step = 0;;) {
         j->ring = ring;
         int32_t n = cone_pass(j, (ring + 1) * RING_BINS - 1, ring_range);
+        double cum[3] = {0, 0, 0};
+        for (int32_t it = 0; it < n; it++)
+            for (int k = 0; k < 3; k++)
+                cum[k] += j->chunks[j->chunk0 + it].inner[k];
+        if (ring > 0 && step <= 0 && reaches(cum, rgb)) {
+            ring--, step = -1;
+            continue;
+        }
         for (int32_t b = 0; b < RING_BINS; b++) {
             for (int32_t it = 0; it < n; it++)
                 for (int k = 0; k < 3; k++)
                     cum[k] += j->chunks[j->chunk0 + it].fine[b][k];
-            if (cum[0] >= rgb[0] && cum[1] >= rgb[1] && cum[2] >= rgb[2]) {
+            if (reaches(cum, rgb)) {
                 memcpy(avail, cum, sizeof cum);
                 return ring * RING_BINS + b;
             }
         }
-        /* the bins' sum fell short of the ring's by rounding: on to the next ring */
+        if (ring == CONE_RINGS - 1 || step < 0) {
+            /* the whole sphere holds less; or (rounding) the ring before reached it, this one
+             * not: its last bin */
+            memcpy(avail, cum, sizeof cum);
+            return ring * RING_BINS + RING_BINS - 1;
+        }
+        ring++, step = 1;
     }
-    memcpy(avail, cum, sizeof cum);
-    return CONE_BINS - 1;
 }
 
 /* Lights' indices brightest (luminance) first, ties in index order. */
@@ -746,7 +771,36 @@ static void take_cone(cone_job *j, envl_light *l)
     l->rect[3] = y1 > 0 ? y1 : 0;
 }
 
-envl_result envl__take_cones(const envl_envmap *m, envl_lights *ls)
+/* Every light's rings of the residual (in j->rings), in one pass over `e` (the map, or a
+ * coarser copy of it: then an estimate, which cone_last corrects): fixed chunks of rows,
+ * summed in chunk order. */
+static envl_result ring_estimates(const cone_job *j, const envl_envmap *e, const float *px)
+{
+    int32_t H = e->height, rows = (H + CONE_CHUNKS - 1) / CONE_CHUNKS;
+    int32_t nch = (H + rows - 1) / rows;
+    size_t per = (size_t)3 * CONE_RINGS * j->k;
+    cone_job p = {.m = e, .scan = px, .k = j->k, .rows = rows, .dirs = j->dirs};
+    p.chunks = malloc(sizeof(cone_chunk) * nch);
+    double *mem = malloc(sizeof(double) * per * nch);
+    if (!p.chunks || !mem) {
+        free(p.chunks);
+        free(mem);
+        return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+    }
+    for (int32_t c = 0; c < nch; c++)
+        p.chunks[c].rings = mem + per * c;
+    p.g = (cone_geom){.full = 1, .r0 = 0, .r1 = H - 1};
+    envl__parallel_for(nch, e->threads, rings_range, &p);
+    memset(j->rings, 0, sizeof(double) * per);
+    for (int32_t c = 0; c < nch; c++)
+        for (size_t i = 0; i < per; i++)
+            j->rings[i] += p.chunks[c].rings[i];
+    free(p.chunks);
+    free(mem);
+    return ENVL_OK;
+}
+
+envl_result envl__take_cones(const envl_envmap *m, const envl_envmap *coarse, envl_lights *ls)
 {
     int32_t K = ls->summary.count, H = m->height, order[ENVL_NNLS_MAX];
     if (K <= 0)
@@ -757,25 +811,19 @@ envl_result envl__take_cones(const envl_envmap *m, envl_lights *ls)
         memcpy(dirs[i], ls->lights[order[i]].direction, sizeof dirs[i]);
     int32_t rows = (H + CONE_CHUNKS - 1) / CONE_CHUNKS, nch = (H + rows - 1) / rows;
     size_t per = (size_t)3 * CONE_RINGS * K;
-    cone_job j = {.m = m, .res = ls->residual, .k = K, .rows = rows, .dirs = (const double(*)[3])dirs};
+    cone_job j = {.m = m, .res = ls->residual, .scan = ls->residual, .k = K, .rows = rows,
+                  .dirs = (const double(*)[3])dirs};
     j.chunks = malloc(sizeof(cone_chunk) * nch);
     j.rings = calloc(per * (nch + 1), sizeof(double));
-    if (!j.chunks || !j.rings) {
-        free(j.chunks);
-        free(j.rings);
-        return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
-    }
-    for (int32_t c = 0; c < nch; c++)
+    envl_result rc = !j.chunks || !j.rings ? envl__fail(ENVL_ERR_MEMORY, "lights: out of memory")
+                                           : ENVL_OK;
+    for (int32_t c = 0; !rc && c < nch; c++)
         j.chunks[c].rings = j.rings + per * (c + 1);
-    /* the one pass over the map, then its chunks' rings summed in chunk order */
-    j.g = (cone_geom){.full = 1, .r0 = 0, .r1 = H - 1};
-    envl__parallel_for(nch, m->threads, rings_range, &j);
-    for (int32_t c = 0; c < nch; c++)
-        for (size_t i = 0; i < per; i++)
-            j.rings[i] += j.chunks[c].rings[i];
-    for (j.light = 0; j.light < K; j.light++)
+    if (!rc)
+        rc = coarse ? ring_estimates(&j, coarse, coarse->px) : ring_estimates(&j, m, ls->residual);
+    for (j.light = 0; !rc && j.light < K; j.light++)
         take_cone(&j, &ls->lights[order[j.light]]);
     free(j.chunks);
     free(j.rings);
-    return ENVL_OK;
+    return rc;
 }

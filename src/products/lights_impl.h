@@ -48,8 +48,9 @@ void envl__region_lights(const envl_envmap *m, const region *rs, int32_t k, envl
  * of the map). */
 envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lights *ls);
 /* The fit's residual: each light takes its rgb from the smallest cone around it that holds
- * that much light. */
-envl_result envl__take_cones(const envl_envmap *m, envl_lights *ls);
+ * that much light. coarse (may be NULL): a copy of m area-resampled smaller, whose rings
+ * point the search at each cone (the result is the same: the cones are decided on m). */
+envl_result envl__take_cones(const envl_envmap *m, const envl_envmap *coarse, envl_lights *ls);
 
 /* ---- sun (lights_sun.c) ---- */
 /* The map's n brightest suns as lights, the rest the residual map. */
