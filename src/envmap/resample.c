@@ -21,15 +21,15 @@ static void resample_row(const float *in, int32_t w, float *out, int32_t out_w, 
     double scale = (double)w / out_w;
     for (int32_t c = 0; c < out_w; c++) {
         double a = c * scale + shift, b = a + scale;
-        double acc[3] = {0, 0, 0};
-        for (double k = floor(a); k < b; k += 1.0) {
+        double acc[3] = {0, 0, 0}, k = floor(a);
+        int64_t idx = (int64_t)k % w; /* k mod w, stepped along with k */
+        if (idx < 0)
+            idx += w;
+        for (; k < b; k += 1.0, idx = idx + 1 < w ? idx + 1 : 0) {
             double lo = fmax(a, k), hi = fmin(b, k + 1.0);
             double wgt = hi - lo;
             if (wgt <= 0)
                 continue;
-            int64_t idx = (int64_t)k % w;
-            if (idx < 0)
-                idx += w;
             const float *p = in + 3 * idx;
             acc[0] += wgt * p[0];
             acc[1] += wgt * p[1];
