@@ -47,7 +47,7 @@ def spot_image(w=64, h=32, col=40, row=9, value=1000.0, base=0.05):
 # ---- loading and the ABI -----------------------------------------------------------------
 
 def test_library_loaded_with_matching_abi():
-    assert envlight.lib.envl_abi_version() == envlight.ABI_VERSION == 3
+    assert envlight.lib.envl_abi_version() == envlight.ABI_VERSION == 4
     assert envlight.version()
     want = os.environ.get("ENVLIGHT_LIBRARY")
     if want:
@@ -302,6 +302,17 @@ def test_error_measure_is_asked_for():
             assert a.lights == b.lights
         with pytest.raises(TypeError, match="measure must be True or False"):
             env.sh(2, measure="yes")
+
+
+def test_residual_kept_only_when_asked():
+    """residual=False (fit): the same lights and summary, and .residual says none was kept."""
+    with envlight.sky(width=256) as env:
+        with env.lights(4) as a, env.lights(4, residual=False) as b:
+            assert a.lights == b.lights
+            assert a.summary["residual_power"] == b.summary["residual_power"]
+            assert a.residual.shape == (128, 256, 3)
+            with pytest.raises(ValueError, match="none was kept"):
+                b.residual
 
 
 # ---- lights: energy, directions, residual --------------------------------------------------

@@ -367,6 +367,23 @@ static void test_fit_light_size(void)
            l.solid_angle, disc, l.angle * 180.0 / PI);
     CHECK_REL(l.solid_angle, disc, 0.083);
     CHECK_REL(l.angle, 2.0 * rho, 0.042); /* the square root of the solid angle's bound */
+    /* skip_residual: the same lights and error, no residual (a map wider than the fit's
+     * 1024-wide copy: the cones' search starts from the copy's rings) */
+    envl_lights *lk;
+    o.skip_residual = 1;
+    CHECK_OK(envl_lights_compute(m, &o, &lk));
+    envl_light l2;
+    CHECK_OK(envl_lights_get(lk, 0, &l2));
+    CHECK(memcmp(&l, &l2, sizeof l) == 0);
+    envl_lights_summary s1, s2;
+    envl_lights_get_summary(ls, &s1);
+    envl_lights_get_summary(lk, &s2);
+    CHECK(s1.count == s2.count && s1.diffuse_error == s2.diffuse_error);
+    CHECK(memcmp(s1.residual_power, s2.residual_power, sizeof s1.residual_power) == 0);
+    CHECK(envl_lights_residual(ls) != NULL);
+    CHECK(envl_lights_residual(lk) == NULL);
+    CHECK(strstr(envl_last_error(), "skip_residual") != NULL);
+    envl_lights_free(lk);
     envl_lights_free(ls);
     envl_envmap_free(m);
     free(px);
@@ -849,7 +866,8 @@ static void ref_take_cones(const envl_envmap *m, envl_light *ls, int n, float *r
  * lights: two whose cones overlap (the second's histogram is of what the first left), one on
  * the seam, one at the pole, and one asking for more blue than the sphere holds (it takes the
  * whole sphere, its blue cut to all there is). With 1 and 3 threads, with and without a
- * coarse copy's rings to start the search from: bit-identical.
+ * coarse copy's rings to start the search from, with and without a residual kept:
+ * bit-identical.
  * Against the reference: the same rects (the same cones), the rest within what reordered sums
  * allow. Every sum (histogram bins, the cumulated rgb, taken, its moment) has at most
  * n = (K + 1) N terms (a pixel, and its change at each earlier take), together at most
@@ -926,6 +944,14 @@ static void test_take_cones(void)
     }
     CHECK(memcmp(got1, got3, sizeof got1) == 0);
     CHECK(memcmp(res1, res3, sizeof(float) * nf) == 0);
+    /* and with no residual kept (each pixel's residual replayed from the map): the same lights */
+    for (int t = 0; t < 2; t++) {
+        memcpy(got_c, in, sizeof in);
+        envl_lights ls = {.lights = got_c, .residual = NULL, .width = W, .height = H};
+        ls.summary.count = K;
+        CHECK_OK(envl__take_cones(maps[t], t ? coarse : NULL, &ls));
+        CHECK(memcmp(got1, got_c, sizeof got1) == 0);
+    }
     envl_envmap_free(coarse);
     free(res_c);
 

@@ -495,7 +495,7 @@ class Envmap(_Handle):
         finally:
             lib.envl_free(p)
 
-    def lights(self, n=None, method=None, order=2, measure=True):
+    def lights(self, n=None, method=None, order=2, measure=True, residual=True):
         """Directional lights standing in for the map.
 
         n: number of lights, 1..32 for fit, else 1..2^24 (None = the library's default: fit 4,
@@ -503,19 +503,22 @@ class Envmap(_Handle):
         fit, as everywhere), 'median', 'variance' or 'sun' (the suns split off
         exactly; the residual is the map less their excess); order: fit's SH remainder order
         (0..8), None for lights only (ignored by the cuts and sun); measure: also measure the
-        diffuse error (summary["diffuse_error"]; None when False). Returns a LightsResult (a
-        context manager)."""
+        diffuse error (summary["diffuse_error"]; None when False); residual: keep the residual map
+        (fit: False keeps none, the same lights for half the memory; .residual then raises).
+        Returns a LightsResult (a context manager)."""
         o = _lib.LightsOptions()
         o.method = _method(method, "Envmap.lights: method")
         o.count = _count(n, o.method, "Envmap.lights: n")
         o.remainder_order = _order(order, "Envmap.lights: order", A.REMAINDER_MAX_ORDER,
                                    none=_lib.ENVL_REMAINDER_NONE)
         o.measure = 1 if A.flag(measure, "Envmap.lights: measure") else 0
+        o.skip_residual = 0 if A.flag(residual, "Envmap.lights: residual") else 1
         h = c_void_p()
         m = self._handle()
         _check(lib.envl_lights_compute(m, byref(o), byref(h)))
         # the residual has the map's size (the lights object does not export it)
-        return LightsResult(h, lib.envl_envmap_width(m), lib.envl_envmap_height(m))
+        return LightsResult(h, lib.envl_envmap_width(m), lib.envl_envmap_height(m),
+                            kept=not o.skip_residual)
 
     def sh(self, order=2, window="auto", measure=True):
         """Real SH projection of the map (order 0..32; window 'auto', the default as in
@@ -827,9 +830,10 @@ class LightsResult(_Handle):
     """Lights, their summary, the fit remainder and the residual environment."""
     _free = "envl_lights_free"
 
-    def __init__(self, handle, width, height):
+    def __init__(self, handle, width, height, kept=True):
         super().__init__(handle)
         self._wh = (width, height)
+        self._kept = kept
         s = _lib.LightsSummary()
         _check(lib.envl_lights_get_summary(handle, byref(s)))
         self.summary = {
@@ -880,6 +884,8 @@ class LightsResult(_Handle):
         """The residual environment (what the lights did not take): (height, width, 3) float32
         numpy array (flat list without numpy), row 0 at the top. A copy, valid after close()."""
         if self._residual is None:
+            if not self._kept:
+                raise ArgumentError("LightsResult.residual: none was kept (lights(residual=False))")
             h = self._handle()
             p = lib.envl_lights_residual(h)
             if not p:

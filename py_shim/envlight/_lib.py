@@ -11,7 +11,7 @@ from ctypes import (POINTER, Structure, c_char, c_char_p, c_double, c_float, c_i
                     c_int64, c_size_t, c_uint8, c_void_p)
 
 #: ENVL_ABI_VERSION of the envlight.h these bindings mirror.
-ABI_VERSION = 3
+ABI_VERSION = 4
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -103,6 +103,7 @@ class LightsOptions(Structure):
         ("count", c_int32),
         ("remainder_order", c_int32),
         ("measure", c_int32),
+        ("skip_residual", c_int32),
     ]
 
 

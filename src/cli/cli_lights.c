@@ -140,7 +140,8 @@ int cli_lights(int argc, char **argv)
                               .remainder_order = order < 0    ? ENVL_REMAINDER_NONE
                                                  : order == 0 ? ENVL_ORDER_0
                                                               : order,
-                              .measure = !no_error};
+                              .measure = !no_error,
+                              .skip_residual = !residual}; /* kept only to be saved */
     if (!cli_light_count_ok("lights", &lo)) /* once every option is read: any order */
         return CLI_USAGE;
     envl_envmap *map;

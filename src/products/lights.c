@@ -139,15 +139,18 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
     if (o->method == ENVL_METHOD_FIT) {
         /* the residual after the fit, whose own tables are freed by then (peak memory) */
         rc = envl__fit_lights(m, n, order, ls);
-        if (rc == ENVL_OK && !(ls->residual = malloc(sizeof(float) * npx)))
-            rc = envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the residual map");
-        const envl_envmap *coarse = NULL;
-        if (rc == ENVL_OK && !(rc = envl__reference_copy(m, &coarse))) {
-            /* the fit's copy (cached) points the cones' search: one pass over 1024 columns,
-             * not over the map */
-            memcpy(ls->residual, m->px, sizeof(float) * npx);
-            rc = envl__take_cones(m, coarse != m ? coarse : NULL, ls);
+        ls->residual_skipped = options && options->skip_residual;
+        if (rc == ENVL_OK && !ls->residual_skipped) {
+            if ((ls->residual = malloc(sizeof(float) * npx)))
+                memcpy(ls->residual, m->px, sizeof(float) * npx);
+            else
+                rc = envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the residual map");
         }
+        const envl_envmap *coarse = NULL;
+        /* the fit's copy (cached) points the cones' search: one pass over 1024 columns, not
+         * over the map */
+        if (rc == ENVL_OK && !(rc = envl__reference_copy(m, &coarse)))
+            rc = envl__take_cones(m, coarse != m ? coarse : NULL, ls);
     } else if (o->method == ENVL_METHOD_SUN) {
         rc = envl__sun_lights(m, n, ls);
     } else {
@@ -232,6 +235,10 @@ const float *envl_lights_residual(const envl_lights *ls)
 {
     if (!ls)
         return NULL;
+    if (ls->residual_skipped) {
+        envl__fail(ENVL_ERR_ARGUMENT, "lights: no residual was kept (skip_residual)");
+        return NULL;
+    }
     if (!ls->residual) {
         /* Cuts and black maps: nothing is left. calloc: zero pages cost nothing until read. */
         envl_lights *mut = (envl_lights *)ls;

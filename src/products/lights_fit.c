@@ -488,8 +488,8 @@ typedef struct cone_chunk {
 
 typedef struct cone_job {
     const envl_envmap *m;
-    float *res;
-    const float *scan;      /* what the rings pass reads: res, or a coarser copy's pixels */
+    float *res;             /* the residual, or NULL: none kept (residual_at) */
+    const float *scan;      /* what the rings pass reads: the map, or a coarser copy's pixels */
     int32_t k, rows;        /* lights; rows per chunk */
     const double (*dirs)[3]; /* in take order */
     cone_chunk *chunks;
@@ -498,7 +498,27 @@ typedef struct cone_job {
     int32_t light, ring, last, chunk0;
     cone_geom g;
     double keep[3];
+    int32_t lasts[ENVL_NNLS_MAX];      /* each light taken so far (take order): its last bin */
+    double keeps[ENVL_NNLS_MAX][3];    /* ... and the fraction of its cone it left */
 } cone_job;
+
+/* The residual at pixel (c, r) before light `light` takes: the one kept, or, with none kept,
+ * the map's pixel scaled by the keep of each light taken so far whose cone holds it, in take
+ * order, rounded to float after each as the kept one is: the same floats. */
+static inline void residual_at(const cone_job *j, int32_t c, int32_t r, float v[3])
+{
+    const envl_envmap *m = j->m;
+    size_t at = 3 * ((size_t)r * m->width + c);
+    const float *p = (j->res ? j->res : m->px) + at;
+    v[0] = p[0], v[1] = p[1], v[2] = p[2];
+    if (j->res)
+        return;
+    double rc = m->row_cos[r], rs = m->row_sin[r];
+    for (int32_t i = 0; i < j->light; i++)
+        if (cone_bin(rc, rs, m->col_cos[c], m->col_sin[c], j->dirs[i]) <= j->lasts[i])
+            for (int k = 0; k < 3; k++)
+                v[k] = (float)(v[k] * j->keeps[i][k]);
+}
 
 /* Rows of chunk j within the pass's rows. */
 static void chunk_rows(const cone_job *j, int64_t chunk, int32_t *r0, int32_t *r1)
@@ -569,7 +589,8 @@ static void ring_range(void *ctx, int64_t begin, int64_t end)
                 int32_t b = cone_bin(rc, rs, m->col_cos[c], m->col_sin[c], j->dirs[j->light]);
                 if (b / RING_BINS > j->ring)
                     continue;
-                const float *p = j->res + 3 * ((size_t)r * W + c);
+                float p[3];
+                residual_at(j, c, r, p);
                 double *to = b / RING_BINS == j->ring ? ch->fine[b % RING_BINS] : ch->inner;
                 for (int k = 0; k < 3; k++)
                     to[k] += p[k] * om;
@@ -584,7 +605,8 @@ static void take_pixel(const cone_job *j, cone_chunk *ch, int32_t c, int32_t r)
 {
     const envl_envmap *m = j->m;
     double om = m->row_omega[r], rc = m->row_cos[r], rs = m->row_sin[r];
-    float *p = j->res + 3 * ((size_t)r * m->width + c);
+    float p[3];
+    residual_at(j, c, r, p);
     const double *keep = j->keep;
     double e = om * envl__lum(p[0] * (1 - keep[0]), p[1] * (1 - keep[1]), p[2] * (1 - keep[2])),
            d[3] = {rc * m->col_cos[c], rc * m->col_sin[c], rs}, change[3];
@@ -596,6 +618,8 @@ static void take_pixel(const cone_job *j, cone_chunk *ch, int32_t c, int32_t r)
         change[k] = ((double)now - p[k]) * om;
         p[k] = now;
     }
+    if (j->res)
+        memcpy(j->res + 3 * ((size_t)r * m->width + c), p, sizeof p);
     for (int32_t i = j->light + 1; i < j->k; i++) {
         int32_t b = cone_bin(rc, rs, m->col_cos[c], m->col_sin[c], j->dirs[i]);
         double *hb = ch->rings + 3 * ((size_t)i * CONE_RINGS + b / RING_BINS);
@@ -727,6 +751,8 @@ static void take_cone(cone_job *j, envl_light *l)
         j->keep[k] = avail[k] > 0 ? 1.0 - l->rgb[k] / avail[k] : 1.0;
     }
     int32_t n = cone_pass(j, j->last, take_range);
+    j->lasts[j->light] = j->last;
+    memcpy(j->keeps[j->light], j->keep, sizeof j->keep);
     /* what it takes, sum e, and its first moment, sum e d; the later lights' rings less it */
     double taken = 0, moment[3] = {0, 0, 0}, own = 0;
     int32_t x0 = W, x1 = -1, y0 = H, y1 = -1;
@@ -811,7 +837,7 @@ envl_result envl__take_cones(const envl_envmap *m, const envl_envmap *coarse, en
         memcpy(dirs[i], ls->lights[order[i]].direction, sizeof dirs[i]);
     int32_t rows = (H + CONE_CHUNKS - 1) / CONE_CHUNKS, nch = (H + rows - 1) / rows;
     size_t per = (size_t)3 * CONE_RINGS * K;
-    cone_job j = {.m = m, .res = ls->residual, .scan = ls->residual, .k = K, .rows = rows,
+    cone_job j = {.m = m, .res = ls->residual, .scan = m->px, .k = K, .rows = rows,
                   .dirs = (const double(*)[3])dirs};
     j.chunks = malloc(sizeof(cone_chunk) * nch);
     j.rings = calloc(per * (nch + 1), sizeof(double));
@@ -820,7 +846,7 @@ envl_result envl__take_cones(const envl_envmap *m, const envl_envmap *coarse, en
     for (int32_t c = 0; !rc && c < nch; c++)
         j.chunks[c].rings = j.rings + per * (c + 1);
     if (!rc)
-        rc = coarse ? ring_estimates(&j, coarse, coarse->px) : ring_estimates(&j, m, ls->residual);
+        rc = coarse ? ring_estimates(&j, coarse, coarse->px) : ring_estimates(&j, m, m->px);
     for (j.light = 0; !rc && j.light < K; j.light++)
         take_cone(&j, &ls->lights[order[j.light]]);
     free(j.chunks);

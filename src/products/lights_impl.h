@@ -18,6 +18,7 @@ struct envl_lights {
     float *residual;        /* width x height x 3 (fit: what the cones left; sun: the map
                                less the suns' excess); for the cuts (which take everything)
                                made, all zero, only when asked for */
+    int32_t residual_skipped; /* fit with options.skip_residual: there is none */
 };
 
 /* A pixel rectangle of the canonical lat-long map, [x0, x1) x [y0, y1); x1 may exceed the width:
@@ -49,7 +50,9 @@ void envl__region_lights(const envl_envmap *m, const region *rs, int32_t k, envl
 envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lights *ls);
 /* The fit's residual: each light takes its rgb from the smallest cone around it that holds
  * that much light. coarse (may be NULL): a copy of m area-resampled smaller, whose rings
- * point the search at each cone (the result is the same: the cones are decided on m). */
+ * point the search at each cone (the result is the same: the cones are decided on m).
+ * ls->residual: a copy of m's pixels, made the residual; or NULL: none is kept (the lights
+ * are the same). */
 envl_result envl__take_cones(const envl_envmap *m, const envl_envmap *coarse, envl_lights *ls);
 
 /* ---- sun (lights_sun.c) ---- */
