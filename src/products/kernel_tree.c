@@ -79,7 +79,7 @@ static void sinusoid_range(double A, double nz, double c0, double s0, double c1,
 {
     double g0 = A * c0 + nz * s0, g1 = A * c1 + nz * s1;
     double d0 = nz * c0 - A * s0, d1 = nz * c1 - A * s1; /* the derivative at t0, t1 */
-    *lo = fmin(g0, g1), *hi = fmax(g0, g1);
+    *lo = g0 < g1 ? g0 : g1, *hi = g0 < g1 ? g1 : g0; /* not fmin / fmax: libm calls here */
     if (d0 > 0 && d1 < 0)
         *hi = sqrt(A * A + nz * nz);
     else if (d0 < 0 && d1 > 0)
@@ -96,7 +96,7 @@ static void block_range(const ktree_level *L, const double n[3], int32_t c, int3
     }
     double a0 = n[0] * L->p0c[c] + n[1] * L->p0s[c], a1 = n[0] * L->p1c[c] + n[1] * L->p1s[c];
     double d0 = n[1] * L->p0c[c] - n[0] * L->p0s[c], d1 = n[1] * L->p1c[c] - n[0] * L->p1s[c];
-    double amin = fmin(a0, a1), amax = fmax(a0, a1), rn = sqrt(n[0] * n[0] + n[1] * n[1]);
+    double amin = a0 < a1 ? a0 : a1, amax = a0 < a1 ? a1 : a0, rn = sqrt(n[0] * n[0] + n[1] * n[1]);
     if (d0 > 0 && d1 < 0)
         amax = rn;
     else if (d0 < 0 && d1 > 0)
