@@ -37,10 +37,28 @@ if method == "fit":
 assert 0 <= d["error"]["diffuse"] < 1 and d["seconds"] >= 0
 PY
 done
-run "$ENVLIGHT" lights - --sky-width 256 --method median -n 4 --csv
-checks=$((checks + 1))
-[ "$(head -1 out.txt)" = "x,y,z,r,g,b,solid_angle,angle" ] && [ "$(wc -l < out.txt)" = 5 ] ||
-  { fails=$((fails + 1)); echo "FAIL: CSV"; cat out.txt; }
+# CSV: a row per light, each with the set's error (the JSON's, a fraction) and seconds; the
+# error empty with --no-error
+run "$ENVLIGHT" lights - --sky-width 256 --method median -n 4 --json -o l_csv.json
+for e in "" --no-error; do
+  run "$ENVLIGHT" lights - --sky-width 256 --method median -n 4 --csv $e
+  checks=$((checks + 1))
+  python3 - "$e" <<'PY' || { fails=$((fails + 1)); echo "FAIL: CSV $e"; cat out.txt; }
+import csv, json, sys
+rows = list(csv.DictReader(open("out.txt")))
+d = json.load(open("l_csv.json"))
+assert open("out.txt").readline().strip() == \
+    "x,y,z,r,g,b,solid_angle,angle,diffuse_error,seconds"
+assert len(rows) == 4 == len(d["lights"])
+for r, l in zip(rows, d["lights"]):
+    assert [float(r[k]) for k in "xyz"] == [float("%.9g" % v) for v in l["direction"]]
+    assert float(r["seconds"]) >= 0
+    if sys.argv[1]:
+        assert r["diffuse_error"] == ""
+    else:
+        assert float(r["diffuse_error"]) == float("%.9g" % d["error"]["diffuse"]), (r, d["error"])
+PY
+done
 run "$ENVLIGHT" lights - --sky-width 256 -n 16 --method fit --order 4 --json
 checks=$((checks + 1))
 python3 -c 'import json; d = json.load(open("out.txt")); assert d["remainder"]["order"] == 4 and len(d["remainder"]["irradiance"]) == 25' ||

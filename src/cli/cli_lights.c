@@ -66,14 +66,22 @@ static void write_json(FILE *f, const envl_info *info, const envl_lights *ls)
     json_end(&j);
 }
 
+/* One row per light; every row also carries the set's diffuse error (a fraction, as in the
+ * JSON; empty when not measured) and seconds, so the CSV states both as every export does. */
 static void write_csv(FILE *f, const envl_lights *ls)
 {
-    fputs("x,y,z,r,g,b,solid_angle,angle\n", f);
+    envl_lights_summary s;
+    envl_lights_get_summary(ls, &s);
+    char err[32] = "";
+    if (s.diffuse_error >= 0)
+        snprintf(err, sizeof err, "%.9g", s.diffuse_error);
+    fputs("x,y,z,r,g,b,solid_angle,angle,diffuse_error,seconds\n", f);
     for (int32_t i = 0; i < envl_lights_count(ls); i++) {
         envl_light l;
         envl_lights_get(ls, i, &l);
-        fprintf(f, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", l.direction[0], l.direction[1],
-                l.direction[2], l.rgb[0], l.rgb[1], l.rgb[2], l.solid_angle, l.angle);
+        fprintf(f, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%s,%.6g\n", l.direction[0],
+                l.direction[1], l.direction[2], l.rgb[0], l.rgb[1], l.rgb[2], l.solid_angle,
+                l.angle, err, s.seconds);
     }
 }
 
