@@ -324,6 +324,26 @@ ENVL_API envl_result envl_lights_irradiance(const envl_lights *lights, int32_t c
 ENVL_API const char *envl_window_name(int32_t window);     /* "none", "hann", ... */
 ENVL_API int32_t envl_window_from_name(const char *name);  /* -1 if unknown */
 
+/* Output frames (every export's --frame): ENVL_FRAME_BLENDER, the canonical frame (right-handed,
+ * +Z up, the default), and ENVL_FRAME_GLTF: right-handed, +Y up, as glTF, OpenGL, three.js and
+ * Filament use; a canonical vector (x, y, z) is (x, z, -y) there (Blender's glTF exporter's
+ * conversion). The lat-long image is the same in both: u = 0.5 + atan2(z, x) / 2 pi,
+ * v = 0.5 - asin(y) / pi (row 0 at the top) in the glTF frame. */
+#define ENVL_FRAME_BLENDER 0
+#define ENVL_FRAME_GLTF 1
+#define ENVL_FRAME_COUNT 2
+#define ENVL_MAX_SH_ORDER 32
+ENVL_API const char *envl_frame_name(int32_t frame);     /* "blender", "gltf"; NULL if unknown */
+ENVL_API int32_t envl_frame_from_name(const char *name); /* -1 if unknown */
+/* A canonical vector in `frame` (out may be in). */
+ENVL_API void envl_frame_vector(int32_t frame, const double in[3], double out[3]);
+/* Real SH coefficients (docs/design.md's basis; index l (l + 1) + m, `channels` interleaved)
+ * of a function given in the canonical frame, as its coefficients in `frame`: exact at any
+ * order (each band turned by its rotation matrix, integrated by exact quadrature). out may
+ * be in. */
+ENVL_API envl_result envl_sh_to_frame(int32_t frame, int32_t order, int32_t channels,
+                                      const double *in, double *out);
+
 typedef struct envl_sh_options {
     int32_t order;            /* SH order L, 0..32 (ENVL_ORDER_0 for 0); default 2 */
     int32_t window;           /* ENVL_WINDOW_*; default none: the plain truncated expansion,

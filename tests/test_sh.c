@@ -1,6 +1,7 @@
 /* Spherical harmonics: the basis against docs/design.md's formulas, A_l, the white furnace, a
  * linear sky, windows, artist forms, and a single bright pixel. */
 #include "internal.h"
+#include "sh_basis.h"
 #include "check.h"
 
 static const double PI = 3.14159265358979323846;
@@ -387,6 +388,61 @@ static void test_orders(void)
     envl_envmap_free(m);
 }
 
+/* The glTF frame: vectors turned as Blender's glTF exporter turns them, and SH coefficients
+ * turned exactly at any order: for random coefficients c, sum c'_i Y_i(T d) = sum c_i Y_i(d)
+ * at random d. Tolerance 1e-9 of sum |c_i|: each band's matrix sums (L + 1)(2 L + 2) terms
+ * of at most |Y|^2 <= (2 L + 1) / 4 pi, and the check (L + 1)^2 more, each rounded by 2^-53:
+ * below 1e-10 at L = 32. */
+static void test_frames(void)
+{
+    CHECK(envl_frame_from_name("gltf") == ENVL_FRAME_GLTF);
+    CHECK(envl_frame_from_name("blender") == ENVL_FRAME_BLENDER);
+    CHECK(envl_frame_from_name("unity") == -1 && envl_frame_name(7) == NULL);
+    const double up[3] = {0, 0, 1}, y[3] = {0, 1, 0}, x[3] = {1, 0, 0};
+    double v[3];
+    envl_frame_vector(ENVL_FRAME_GLTF, up, v);
+    CHECK(v[0] == 0 && v[1] == 1 && v[2] == 0); /* up is +Y */
+    envl_frame_vector(ENVL_FRAME_GLTF, y, v);
+    CHECK(v[0] == 0 && v[1] == 0 && v[2] == -1); /* Blender's +Y (left of the map's centre) */
+    envl_frame_vector(ENVL_FRAME_GLTF, x, v);
+    CHECK(v[0] == 1 && v[1] == 0 && v[2] == 0);
+    const int orders[] = {0, 1, 2, 3, 8, 16, 32};
+    uint32_t seed = 7;
+    for (size_t t = 0; t < sizeof orders / sizeof orders[0]; t++) {
+        int L = orders[t], n = envl_sh_count(L);
+        double *c = malloc(sizeof(double) * 3 * n), *g = malloc(sizeof(double) * 3 * n);
+        double *y0 = malloc(sizeof(double) * n), *y1 = malloc(sizeof(double) * n), scale = 0;
+        for (int i = 0; i < 3 * n; i++) {
+            seed = seed * 1664525u + 1013904223u;
+            c[i] = (seed >> 8) / 8388608.0 - 1.0;
+            scale += fabs(c[i]);
+        }
+        CHECK_OK(envl_sh_to_frame(ENVL_FRAME_GLTF, L, 3, c, g));
+        double worst = 0;
+        for (int k = 0; k < 200; k++) {
+            double d[3], td[3];
+            envl_fibonacci_direction(k, 200, d);
+            envl_frame_vector(ENVL_FRAME_GLTF, d, td);
+            envl_sh_eval(L, d, y0);
+            envl_sh_eval(L, td, y1);
+            for (int ch = 0; ch < 3; ch++) {
+                double a = 0, b = 0;
+                for (int i = 0; i < n; i++)
+                    a += c[3 * i + ch] * y0[i], b += g[3 * i + ch] * y1[i];
+                worst = fmax(worst, fabs(a - b) / scale);
+            }
+        }
+        printf("SH to the glTF frame, order %d: worst |difference| %.2e of sum |c|\n", L, worst);
+        CHECK(worst <= 1e-9);
+        /* the canonical frame: the identity, to the quadrature's rounding (as above) */
+        CHECK_OK(envl_sh_to_frame(ENVL_FRAME_BLENDER, L, 3, c, g));
+        for (int i = 0; i < 3 * n; i++)
+            CHECK_NEAR(g[i], c[i], 1e-10);
+        free(c), free(g), free(y0), free(y1);
+    }
+    CHECK(envl_sh_to_frame(5, 2, 3, v, v) == ENVL_ERR_ARGUMENT);
+}
+
 int main(void)
 {
     test_basis();
@@ -398,5 +454,6 @@ int main(void)
     test_huge_values();
     test_never_negative();
     test_threads();
+    test_frames();
     return check_report("test_sh");
 }

@@ -160,4 +160,9 @@ void envl__light_set_angle(envl_light *l);
 envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *options,
                                     const char *file, envl_envmap **out);
 
+/* out = the coefficients of f(R^T d) given those of f(d): R (row-major) turns f by R
+ * (sh_rotate.c). */
+envl_result envl__sh_rotate(int32_t order, const double R[9], int32_t channels, const double *in,
+                            double *out);
+
 #endif
