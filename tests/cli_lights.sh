@@ -48,7 +48,7 @@ import csv, json, sys
 rows = list(csv.DictReader(open("out.txt")))
 d = json.load(open("l_csv.json"))
 assert open("out.txt").readline().strip() == \
-    "x,y,z,r,g,b,solid_angle,angle,diffuse_error,seconds"
+    "x,y,z,r,g,b,solid_angle,angle,diffuse_error,seconds,frame"
 assert len(rows) == 4 == len(d["lights"])
 for r, l in zip(rows, d["lights"]):
     assert [float(r[k]) for k in "xyz"] == [float("%.9g" % v) for v in l["direction"]]

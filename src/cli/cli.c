@@ -72,6 +72,11 @@ int cli_light_count_ok(const char *command, const envl_lights_options *lo)
  * the shape of the layout it was read as: OpenEXR's envmap attribute, 2:1 lat-long, 3:4 / 4:3
  * crosses, 6:1 / 1:6 strips. A square is a guess (an angular probe or a mirror ball?), and so
  * is a lat-long of any other aspect (no layout has that shape). */
+const char *cli_frame_label(int frame)
+{
+    return frame == ENVL_FRAME_GLTF ? "gltf-y-up" : "blender-z-up";
+}
+
 const char *cli_error_text(char *buf, size_t size, const char *what, double error)
 {
     if (error >= 0)

@@ -81,6 +81,15 @@ const cli_option *cli_seen(const cli_option *t, int n, const char *names);
     CLI_OPTION("--no-error", NULL, CLI_FLAG, .value = (flag),                                 \
                .help = "skip the error measure (docs/design.md); the output then says it\n"    \
                        "was not measured")
+/* --frame F, the same on every export (envlight.h: ENVL_FRAME_*). */
+#define CLI_FRAME_OPTION(frame)                                                               \
+    CLI_OPTION("--frame", "F", CLI_CHOICE, .value = (frame), .choices = "blender|gltf",       \
+               .lookup = envl_frame_from_name,                                                \
+               .help = "the frame of every direction, coefficient and cube face written:\n"  \
+                       "blender (default: right-handed, +Z up) or gltf (right-handed, +Y up,\n" \
+                       "as glTF, OpenGL, three.js, Filament: (x, y, z) -> (x, z, -y))")
+/* What an output states of its frame: "blender-z-up" or "gltf-y-up". */
+const char *cli_frame_label(int frame);
 /* "<what> error 0.123 %", or "<what> error not measured" for a negative error. */
 const char *cli_error_text(char *buf, size_t size, const char *what, double error);
 

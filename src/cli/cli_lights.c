@@ -3,12 +3,14 @@
 #include "json.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 static const cli_command lights_command = {
     "lights",
     "Usage: envlight lights [FILE] [-n N] [--method fit|median|variance|sun] [--json|--csv]\n"
-    "                       [-o OUT] [--residual FILE] [--order L] [input options]\n"
+    "                       [-o OUT] [--residual FILE] [--order L] [--frame blender|gltf]\n"
+    "                       [input options]\n"
     "Directional lights that stand in for the environment, in the canonical frame (Blender:\n"
     "+Z up). Each light: direction, rgb = irradiance it delivers at normal incidence (the sum\n"
     "of L dw it took), solid angle of its region and angular diameter (radians).\n",
@@ -16,21 +18,28 @@ static const cli_command lights_command = {
     "against the exact integrator; sun: of the lights + the residual map) and the seconds it\n"
     "took.\n"};
 
-static void write_json(FILE *f, const envl_info *info, const envl_lights *ls)
+/* Light i with its direction in `frame`. */
+static void light_in(const envl_lights *ls, int32_t i, int frame, envl_light *l)
+{
+    envl_lights_get(ls, i, l);
+    envl_frame_vector(frame, l->direction, l->direction);
+}
+
+static void write_json(FILE *f, const envl_info *info, const envl_lights *ls, int frame)
 {
     envl_lights_summary s;
     envl_lights_get_summary(ls, &s);
     json_writer j;
     json_begin(&j, f);
     json_string(&j, "file", info->file);
-    json_string(&j, "frame", "blender-z-up");
+    json_string(&j, "frame", cli_frame_label(frame));
     json_string(&j, "method", envl_method_name(s.method));
     json_int(&j, "count", s.count);
     json_numbers(&j, "power", s.power, 3);
     json_array(&j, "lights");
     for (int32_t i = 0; i < s.count; i++) {
         envl_light l;
-        envl_lights_get(ls, i, &l);
+        light_in(ls, i, frame, &l);
         json_object(&j, NULL);
         json_numbers(&j, "direction", l.direction, 3);
         json_numbers(&j, "rgb", l.rgb, 3);
@@ -46,15 +55,19 @@ static void write_json(FILE *f, const envl_info *info, const envl_lights *ls)
     json_numbers(&j, "residual_power", s.residual_power, 3);
     int32_t order;
     const double *rem = envl_lights_remainder(ls, &order);
-    if (rem) {
+    double *turned = rem ? malloc(sizeof(double) * 3 * (order + 1) * (order + 1)) : NULL;
+    if (turned && !envl_sh_to_frame(frame, order, 3, rem, turned)) {
         json_object(&j, "remainder");
         json_int(&j, "order", order);
         json_array(&j, "irradiance");
         for (int32_t i = 0; i < (order + 1) * (order + 1); i++)
-            json_numbers(&j, NULL, rem + 3 * i, 3);
+            json_numbers(&j, NULL, turned + 3 * i, 3);
         json_array_end(&j);
         json_object_end(&j);
+    } else if (rem) {
+        json_string(&j, "remainder", "out of memory");
     }
+    free(turned);
     json_bool(&j, "no_light", s.no_light);
     json_object(&j, "error");
     json_bool(&j, "measured", s.diffuse_error >= 0);
@@ -68,42 +81,43 @@ static void write_json(FILE *f, const envl_info *info, const envl_lights *ls)
 
 /* One row per light; every row also carries the set's diffuse error (a fraction, as in the
  * JSON; empty when not measured) and seconds, so the CSV states both as every export does. */
-static void write_csv(FILE *f, const envl_lights *ls)
+static void write_csv(FILE *f, const envl_lights *ls, int frame)
 {
     envl_lights_summary s;
     envl_lights_get_summary(ls, &s);
     char err[32] = "";
     if (s.diffuse_error >= 0)
         snprintf(err, sizeof err, "%.9g", s.diffuse_error);
-    fputs("x,y,z,r,g,b,solid_angle,angle,diffuse_error,seconds\n", f);
+    fputs("x,y,z,r,g,b,solid_angle,angle,diffuse_error,seconds,frame\n", f);
     for (int32_t i = 0; i < envl_lights_count(ls); i++) {
         envl_light l;
-        envl_lights_get(ls, i, &l);
-        fprintf(f, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%s,%.6g\n", l.direction[0],
+        light_in(ls, i, frame, &l);
+        fprintf(f, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%s,%.6g,%s\n", l.direction[0],
                 l.direction[1], l.direction[2], l.rgb[0], l.rgb[1], l.rgb[2], l.solid_angle,
-                l.angle, err, s.seconds);
+                l.angle, err, s.seconds, cli_frame_label(frame));
     }
 }
 
-static void write_table(FILE *f, const envl_info *info, const envl_lights *ls)
+static void write_table(FILE *f, const envl_info *info, const envl_lights *ls, int frame)
 {
     envl_lights_summary s;
     envl_lights_get_summary(ls, &s);
     char e[64];
-    fprintf(f, "%s: %d lights by %s %s%s, %s, %.3f s\n", info->file,
+    fprintf(f, "%s: %d lights by %s %s%s, %s, %.3f s, frame %s\n", info->file,
             (int)s.count, envl_method_name(s.method),
             s.method == ENVL_METHOD_SUN   ? "split (+ the residual map)"
             : s.method == ENVL_METHOD_FIT ? "least squares"
                                           : "cut",
             s.remainder_order >= 0 ? " + SH remainder" : "",
-            cli_error_text(e, sizeof e, "diffuse", s.diffuse_error), s.seconds);
+            cli_error_text(e, sizeof e, "diffuse", s.diffuse_error), s.seconds,
+            cli_frame_label(frame));
     if (s.no_light)
         fprintf(f, "no light: the environment is black\n");
     fprintf(f, "%4s  %8s %8s %8s  %11s %11s %11s  %9s %8s\n", "#", "x", "y", "z", "r", "g", "b",
             "omega sr", "angle deg");
     for (int32_t i = 0; i < s.count; i++) {
         envl_light l;
-        envl_lights_get(ls, i, &l);
+        light_in(ls, i, frame, &l);
         fprintf(f, "%4d  %8.4f %8.4f %8.4f  %11.5g %11.5g %11.5g  %9.3g %8.3f\n", (int)i,
                 l.direction[0], l.direction[1], l.direction[2], l.rgb[0], l.rgb[1], l.rgb[2],
                 l.solid_angle, l.angle * 180.0 / ENVL_PI);
@@ -118,7 +132,7 @@ int cli_lights(int argc, char **argv)
     cli_common c = {0};
     const char *file = NULL, *out = NULL, *residual = NULL;
     int method = ENVL_METHOD_FIT, count = 0, order = ENVL_DEFAULT_ORDER, no_error = 0, npos;
-    int format = 0; /* 0 table, 1 json, 2 csv */
+    int format = 0, frame = ENVL_FRAME_BLENDER; /* format: 0 table, 1 json, 2 csv */
     cli_option t[] = {
         CLI_OPTION("-n|--count", "N", CLI_INT, .min = 1, .max = 1 << 24, .value = &count,
                    .help = "number of lights (fit: default 4, at most 32; median, variance:\n"
@@ -133,6 +147,7 @@ int cli_lights(int argc, char **argv)
                    .value = &order,
                    .help = "fit: SH order of the low-frequency remainder (default 2; -1: none)"),
         CLI_NO_ERROR_OPTION(&no_error),
+        CLI_FRAME_OPTION(&frame),
         CLI_OPTION("--json", NULL, CLI_FLAG, .max = 1, .value = &format, .help = "JSON output"),
         CLI_OPTION("--csv", NULL, CLI_FLAG, .max = 2, .value = &format,
                    .help = "CSV output (default: a table)"),
@@ -173,11 +188,11 @@ int cli_lights(int argc, char **argv)
     cli_output o;
     if (rc == CLI_OK && (rc = cli_output_open(&o, out)) == CLI_OK) {
         if (format == 1)
-            write_json(o.f, &info, ls);
+            write_json(o.f, &info, ls, frame);
         else if (format == 2)
-            write_csv(o.f, ls);
+            write_csv(o.f, ls, frame);
         else
-            write_table(o.f, &info, ls);
+            write_table(o.f, &info, ls, frame);
         rc = cli_output_close(&o);
     }
     envl_lights_free(ls);

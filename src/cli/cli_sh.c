@@ -3,14 +3,16 @@
 #include "json.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 static const cli_command sh_command = {
     "sh",
     "Usage: envlight sh [FILE] [--order L] [--window none|hann|lanczos|auto] [--json]\n"
-    "                   [-o OUT] [input options]\n"
+    "                   [--frame blender|gltf] [-o OUT] [input options]\n"
     "Real SH (no Condon-Shortley phase; l <= 2 as Ramamoorthi & Hanrahan 2001), coefficient\n"
-    "order l = 0..L, m = -l..l, canonical frame (Blender, +Z up). Irradiance = A_l x radiance.\n",
+    "order l = 0..L, m = -l..l, canonical frame (Blender, +Z up; --frame gltf: +Y up).\n"
+    "Irradiance = A_l x radiance.\n",
     "Also reported: ambient + x/y/z deltas (E(n) ~ ambient + deltas . n) and the hemispheric\n"
     "sky/ground pair with its axis, in irradiance units (never negative: the best fit with\n"
     "sky, ground >= 0, said on stderr when that clamps); the diffuse error and seconds.\n"};
@@ -76,6 +78,7 @@ int cli_sh(int argc, char **argv)
     cli_common c = {0};
     const char *file = NULL, *out = NULL;
     int order = ENVL_DEFAULT_ORDER, window = ENVL_WINDOW_AUTO, json = 0, no_error = 0, npos;
+    int frame = ENVL_FRAME_BLENDER;
     cli_option t[] = {
         CLI_OPTION("--order", "L", CLI_INT, .min = 0, .max = 32, .value = &order,
                    .help = "0..32 (default 2)"),
@@ -86,6 +89,7 @@ int cli_sh(int argc, char **argv)
                            "when nothing rings), none (the plain truncated expansion: can go\n"
                            "negative, said on stderr), hann, lanczos"),
         CLI_NO_ERROR_OPTION(&no_error),
+        CLI_FRAME_OPTION(&frame),
         CLI_OPTION("--json", NULL, CLI_FLAG, .value = &json,
                    .help = "JSON on stdout (default: a table)"),
         CLI_OPTION("-o", "OUT", CLI_TEXT, .value = &out, .takes = "a file name",
@@ -110,6 +114,22 @@ int cli_sh(int argc, char **argv)
     envl_envmap_info(map, &info);
     int n = (s.order + 1) * (s.order + 1);
     report_negative(&c, sh, &s, info.file);
+    /* in the frame asked for: the coefficients turned, the deltas and the axis as vectors */
+    double *rad = malloc(sizeof(double) * 3 * n), *irr = malloc(sizeof(double) * 3 * n);
+    if (!rad || !irr || envl_sh_to_frame(frame, s.order, 3, envl_sh_radiance(sh), rad) ||
+        envl_sh_to_frame(frame, s.order, 3, envl_sh_irradiance(sh), irr)) {
+        free(rad), free(irr);
+        envl_sh_free(sh);
+        envl_envmap_free(map);
+        return cli_fail();
+    }
+    for (int ch = 0; ch < 3; ch++) {
+        double d[3] = {s.deltas[0][ch], s.deltas[1][ch], s.deltas[2][ch]};
+        envl_frame_vector(frame, d, d);
+        for (int a = 0; a < 3; a++)
+            s.deltas[a][ch] = d[a];
+    }
+    envl_frame_vector(frame, s.hemi_axis, s.hemi_axis);
     cli_output o;
     int rc = cli_output_open(&o, out);
     if (rc == CLI_OK) {
@@ -117,14 +137,14 @@ int cli_sh(int argc, char **argv)
             json_writer j;
             json_begin(&j, o.f);
             json_string(&j, "file", info.file);
-            json_string(&j, "frame", "blender-z-up");
+            json_string(&j, "frame", cli_frame_label(frame));
             json_int(&j, "order", s.order);
             json_string(&j, "window", envl_window_name(s.window));
             json_number(&j, "window_width", s.window_width);
             json_numbers(&j, "window_factors", envl_sh_window_factors(sh), s.order + 1);
             json_string(&j, "basis", "real, no Condon-Shortley phase");
-            coef_array(&j, "radiance", envl_sh_radiance(sh), n);
-            coef_array(&j, "irradiance", envl_sh_irradiance(sh), n);
+            coef_array(&j, "radiance", rad, n);
+            coef_array(&j, "irradiance", irr, n);
             json_number(&j, "min_irradiance", s.min_irradiance);
             json_object(&j, "ambient_deltas");
             json_numbers(&j, "ambient", s.ambient, 3);
@@ -158,9 +178,9 @@ int cli_sh(int argc, char **argv)
             if (s.window == ENVL_WINDOW_AUTO && s.window_width > 0)
                 fprintf(o.f, " (Hann width %.4g)", s.window_width);
             char e[64];
-            fprintf(o.f, ", %s, %.4f s\n", cli_error_text(e, sizeof e, "diffuse", s.diffuse_error),
-                    s.seconds);
-            const double *rad = envl_sh_radiance(sh), *irr = envl_sh_irradiance(sh);
+            fprintf(o.f, ", %s, %.4f s, frame %s\n",
+                    cli_error_text(e, sizeof e, "diffuse", s.diffuse_error), s.seconds,
+                    cli_frame_label(frame));
             for (int l = 0, i = 0; l <= s.order; l++)
                 for (int m = -l; m <= l; m++, i++)
                     fprintf(o.f, "L%d,%-3d radiance %12.6g %12.6g %12.6g  irradiance %12.6g %12.6g "
@@ -173,6 +193,7 @@ int cli_sh(int argc, char **argv)
         }
         rc = cli_output_close(&o);
     }
+    free(rad), free(irr);
     envl_sh_free(sh);
     envl_envmap_free(map);
     return rc;
