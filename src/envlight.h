@@ -602,6 +602,9 @@ ENVL_API int32_t envl_export_layout_from_name(const char *name);
 typedef struct envl_export_options {
     const char *format;       /* "exr" (default, float), "hdr", "pfm", "rgbm-png" */
     int32_t layout;           /* ENVL_EXPORT_*; default lat-long */
+    int32_t frame;            /* ENVL_FRAME_*; default Blender's. glTF: cube faces in OpenGL's
+                                 order and orientation, sun light directions turned; the cross
+                                 is Blender's only (ABI 4) */
 } envl_export_options;
 ENVL_API envl_result envl_products_export(const envl_products *products, const char *dir,
                                           const envl_export_options *options);

@@ -536,6 +536,13 @@ def test_prefilter_constant_map():
             os.makedirs(out, exist_ok=True)
             p.export(out, format="pfm")
             assert os.path.exists(os.path.join(out, "prefilter.json"))
+            gl = os.path.join(TMP, "prefilter_gl")
+            os.makedirs(gl, exist_ok=True)
+            p.export(gl, format="pfm", layout="cube", frame="gltf")
+            with open(os.path.join(gl, "prefilter.json")) as f:
+                assert json.load(f)["frame"] == "gltf-y-up"
+            with pytest.raises(ValueError, match="frame"):
+                p.export(gl, format="pfm", frame="unity")
         rgb, st = env.specular(0.25, 32)
         assert rgb.shape == (16, 32, 3) and st["width"] == 32
         assert np.allclose(rgb, L, rtol=1e-4)

@@ -816,13 +816,16 @@ class Products(_Handle):
         i = lib.envl_products_find_level(self._handle(), roughness)
         return self.levels[i] if i >= 0 else None
 
-    def export(self, directory, format="exr", layout="latlong"):
-        """Writes the products into `directory` (with prefilter.json), all-or-nothing."""
+    def export(self, directory, format="exr", layout="latlong", frame="blender"):
+        """Writes the products into `directory` (with prefilter.json), all-or-nothing. frame:
+        'blender' (+Z up) or 'gltf' (+Y up; cube faces in OpenGL's order and orientation)."""
         d = A.path(directory, "Products.export: directory")
         o = _lib.ExportOptions()
         o.format = A.text(format, "Products.export: format", None)
         o.layout = A.enum(layout, "Products.export: layout", lib.envl_export_layout_from_name,
                           lib.envl_export_layout_name)
+        o.frame = A.enum(frame, "Products.export: frame", lib.envl_frame_from_name,
+                         lib.envl_frame_name)
         _check(lib.envl_products_export(self._handle(), d, byref(o)))
 
 

@@ -246,6 +246,7 @@ class ExportOptions(Structure):
     _fields_ = [
         ("format", c_char_p),
         ("layout", c_int32),
+        ("frame", c_int32),
     ]
 
 
@@ -438,6 +439,10 @@ FUNCTIONS = {
     "envl_png_save_srgb": (_R, [c_char_p, _pf, c_int32, c_int32]),
     "envl_export_layout_name": (c_char_p, [c_int32]),
     "envl_export_layout_from_name": (c_int32, [c_char_p]),
+    "envl_frame_name": (c_char_p, [c_int32]),
+    "envl_frame_from_name": (c_int32, [c_char_p]),
+    "envl_frame_vector": (None, [c_int32, _pd, _pd]),
+    "envl_sh_to_frame": (_R, [c_int32, c_int32, c_int32, _pd, _pd]),
     "envl_products_export": (_R, [_prod, c_char_p, POINTER(ExportOptions)]),
     # FILE *notes: c_void_p (NULL from Python)
     "envl_preview_write": (_R, [_map, POINTER(PreviewOptions), c_char_p, c_void_p,

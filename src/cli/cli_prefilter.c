@@ -14,7 +14,7 @@ static const cli_command prefilter_command = {
     "Usage: envlight prefilter [FILE] -o DIR [--irradiance] [--specular] [--levels K]\n"
     "                          [--size S] [--samples M] [--format exr|hdr|pfm|rgbm-png]\n"
     "                          [--layout latlong|cube|cross|atlas] [--roughness LIST]\n"
-    "                          [--json] [input options]\n"
+    "                          [--frame blender|gltf] [--json] [input options]\n"
     "Prefiltered maps into DIR (created if missing), with a JSON sidecar DIR/prefilter.json\n"
     "giving the conventions (frame, roughness mapping, RGBM range, layout) and every file.\n",
     NULL};
@@ -135,6 +135,7 @@ int cli_prefilter(int argc, char **argv)
         CLI_OPTION("--brdf", NULL, CLI_FLAG, .value = &brdf,
                    .help = "also write the BRDF table (brdf_lut.EXT)"),
         CLI_NO_ERROR_OPTION(&no_error),
+        CLI_FRAME_OPTION(&eo.frame),
         CLI_OPTION("--json", NULL, CLI_FLAG, .value = &json,
                    .help = "print the sidecar to stdout instead of the summary"),
         CLI_OPTION("-o", "DIR", CLI_TEXT, .value = &dir, .takes = "a directory",
@@ -161,6 +162,9 @@ int cli_prefilter(int argc, char **argv)
     int cube = eo.layout == ENVL_EXPORT_CUBE || eo.layout == ENVL_EXPORT_CROSS;
     if (eo.layout == ENVL_EXPORT_ATLAS && !want_spec)
         return USAGE("--layout atlas needs specular levels");
+    if (eo.frame == ENVL_FRAME_GLTF && eo.layout == ENVL_EXPORT_CROSS)
+        return USAGE("--frame gltf writes cube faces (OpenGL's) or lat-long maps; the cross is "
+                     "drawn in Blender's frame only");
     /* Cube faces of size S come from lat-long maps 4 S wide. */
     q.prefilter.width = (int32_t)(size ? (cube ? 4 * size : size) : (cube ? 1024 : 512));
     if (min_size)

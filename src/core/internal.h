@@ -160,6 +160,9 @@ void envl__light_set_angle(envl_light *l);
 envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *options,
                                     const char *file, envl_envmap **out);
 
+/* Output only (envl__latlong_to_layout): OpenGL's six cube faces of the glTF frame side by
+ * side, +X -X +Y -Y +Z -Z, each as GL samples it (layout.c). */
+#define ENVL__LAYOUT_GL_STRIP ENVL_LAYOUT_COUNT
 /* out = the coefficients of f(R^T d) given those of f(d): R (row-major) turns f by R
  * (sh_rotate.c). */
 envl_result envl__sh_rotate(int32_t order, const double R[9], int32_t channels, const double *in,

@@ -82,7 +82,8 @@
 #define ENVL_LAYOUT_MAX_SUB 16
 
 /* ---- cube faces ---- */
-enum { F_FRONT, F_BACK, F_LEFT, F_RIGHT, F_TOP, F_BOTTOM, F_BACK_V, F_COUNT };
+enum { F_FRONT, F_BACK, F_LEFT, F_RIGHT, F_TOP, F_BOTTOM, F_BACK_V,
+       F_GL_PX, F_GL_NX, F_GL_PY, F_GL_NY, F_GL_PZ, F_GL_NZ, F_COUNT };
 
 /* centre, right, up */
 static const double face_frame[F_COUNT][3][3] = {
@@ -93,6 +94,14 @@ static const double face_frame[F_COUNT][3][3] = {
     [F_TOP] = {{0, 0, 1}, {0, -1, 0}, {-1, 0, 0}},
     [F_BOTTOM] = {{0, 0, -1}, {0, -1, 0}, {1, 0, 0}},
     [F_BACK_V] = {{-1, 0, 0}, {0, -1, 0}, {0, 0, -1}},
+    /* OpenGL's cube faces in the glTF frame (x, z, -y of ours): its table (sc, tc, ma) gives
+     * face +X: s = -z / x, t = -y / x, t growing down the rows; in our axes: */
+    [F_GL_PX] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}},     /* +X_gl: right -Z_gl = +Y, up +Y_gl */
+    [F_GL_NX] = {{-1, 0, 0}, {0, -1, 0}, {0, 0, 1}},   /* -X_gl: right +Z_gl = -Y */
+    [F_GL_PY] = {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}},     /* +Y_gl = up: right +X, up -Z_gl = +Y */
+    [F_GL_NY] = {{0, 0, -1}, {1, 0, 0}, {0, -1, 0}},   /* -Y_gl = down: up +Z_gl = -Y */
+    [F_GL_PZ] = {{0, -1, 0}, {1, 0, 0}, {0, 0, 1}},    /* +Z_gl = -Y: right +X, up +Z */
+    [F_GL_NZ] = {{0, 1, 0}, {-1, 0, 0}, {0, 0, 1}},    /* -Z_gl = +Y: right -X, up +Z */
 };
 
 #define NO_FACE (-1)
@@ -104,6 +113,7 @@ static const int8_t cells_cross_v[4][3] = {{NO_FACE, F_TOP, NO_FACE},
                                            {NO_FACE, F_BOTTOM, NO_FACE},
                                            {NO_FACE, F_BACK_V, NO_FACE}};
 static const int8_t strip_order[6] = {F_FRONT, F_BACK, F_LEFT, F_RIGHT, F_TOP, F_BOTTOM};
+static const int8_t gl_order[6] = {F_GL_PX, F_GL_NX, F_GL_PY, F_GL_NY, F_GL_PZ, F_GL_NZ};
 
 /* Geometry of an image in a layout. Continuous pixel coordinates: pixel (i, j) covers
  * [i, i+1) x [j, j+1), its centre is (i + 0.5, j + 0.5). */
@@ -139,6 +149,7 @@ static envl_result geom_init(geom *g, int32_t layout, int32_t w, int32_t h)
                 g->cell[r][c] = cells_cross_v[r][c];
         break;
     case ENVL_LAYOUT_STRIP_H:
+    case ENVL__LAYOUT_GL_STRIP:
         g->cols = 6, g->rows = 1;
         break;
     case ENVL_LAYOUT_STRIP_V:
@@ -168,10 +179,13 @@ static envl_result geom_init(geom *g, int32_t layout, int32_t w, int32_t h)
         return envl__fail(ENVL_ERR_FORMAT, "%s of %d x %d pixels: needs %d x %d faces of at "
                                            "least one pixel",
                           envl_layout_name(layout), (int)w, (int)h, (int)g->cols, (int)g->rows);
-    if (layout == ENVL_LAYOUT_STRIP_H || layout == ENVL_LAYOUT_STRIP_V)
+    if (layout == ENVL_LAYOUT_STRIP_H || layout == ENVL_LAYOUT_STRIP_V ||
+        layout == ENVL__LAYOUT_GL_STRIP)
         for (int k = 0; k < 6; k++) {
             if (layout == ENVL_LAYOUT_STRIP_H)
                 g->cell[0][k] = strip_order[k];
+            else if (layout == ENVL__LAYOUT_GL_STRIP)
+                g->cell[0][k] = gl_order[k];
             else
                 g->cell[k][0] = strip_order[k];
         }
@@ -730,7 +744,8 @@ envl_result envl__latlong_to_layout(const envl_image *latlong, int32_t layout, i
     case ENVL_LAYOUT_MIRRORBALL: w = h = size; break;
     case ENVL_LAYOUT_CROSS_V: w = 3 * size, h = 4 * size; break;
     case ENVL_LAYOUT_CROSS_H: w = 4 * size, h = 3 * size; break;
-    case ENVL_LAYOUT_STRIP_H: w = 6 * size, h = size; break;
+    case ENVL_LAYOUT_STRIP_H:
+    case ENVL__LAYOUT_GL_STRIP: w = 6 * size, h = size; break;
     case ENVL_LAYOUT_STRIP_V:
     case ENVL_LAYOUT_EXR_CUBE: w = size, h = 6 * size; break;
     default:

@@ -142,7 +142,8 @@ static envl_result put_image(exporter *x, const char *stem, const float *rgb, in
 }
 
 /* A lat-long map in the export layout (not atlas); lists its files in the JSON. */
-static envl_result put_map(exporter *x, int32_t layout, const char *stem, const float *rgb,
+static envl_result put_map(exporter *x, int32_t layout, int32_t frame, const char *stem,
+                           const float *rgb,
                            int32_t w, int32_t h)
 {
     char name[512];
@@ -158,8 +159,10 @@ static envl_result put_map(exporter *x, int32_t layout, const char *stem, const 
     envl_image src = {.width = w, .height = h, .px = (float *)rgb};
     envl_image img = {0};
     int32_t face = w / 4 > 0 ? w / 4 : 1;
-    envl_result rc = envl__latlong_to_layout(
-        &src, layout == ENVL_EXPORT_CUBE ? ENVL_LAYOUT_STRIP_H : ENVL_LAYOUT_CROSS_V, face, &img);
+    int32_t to = layout == ENVL_EXPORT_CROSS      ? ENVL_LAYOUT_CROSS_V
+                 : frame == ENVL_FRAME_GLTF ? ENVL__LAYOUT_GL_STRIP
+                                            : ENVL_LAYOUT_STRIP_H;
+    envl_result rc = envl__latlong_to_layout(&src, to, face, &img);
     if (rc)
         return rc;
     if (layout == ENVL_EXPORT_CROSS) {
@@ -173,7 +176,8 @@ static envl_result put_map(exporter *x, int32_t layout, const char *stem, const 
         envl__image_free(&img);
         return rc;
     }
-    /* Strip order (layout.c): front +X, back -X, left +Y, right -Y, top +Z, bottom -Z. */
+    /* Strip order (layout.c): front +X, back -X, left +Y, right -Y, top +Z, bottom -Z; the
+     * GL strip: +X -X +Y -Y +Z -Z of the glTF frame. */
     static const char *suffix[6] = {"px", "nx", "py", "ny", "pz", "nz"};
     float *f = malloc(sizeof(float) * 3 * (size_t)face * face);
     if (!f) {
@@ -315,6 +319,11 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
         return envl__fail(ENVL_ERR_ARGUMENT, "export: unknown layout %d", (int)o->layout);
     if (o->layout == ENVL_EXPORT_ATLAS && p->n_levels == 0)
         return envl__fail(ENVL_ERR_ARGUMENT, "export: the atlas needs specular levels");
+    if (!envl_frame_name(o->frame))
+        return envl__fail(ENVL_ERR_ARGUMENT, "export: unknown frame %d", (int)o->frame);
+    if (o->frame != ENVL_FRAME_BLENDER && o->layout == ENVL_EXPORT_CROSS)
+        return envl__fail(ENVL_ERR_ARGUMENT, "export: the cross is drawn in Blender's frame "
+                          "only; for the glTF frame write cube faces (OpenGL's) or lat-long");
     exporter x = {.dir = dir, .format = rgbm ? "png" : fmt, .rgbm = rgbm};
     x.json = open_memstream(&x.json_buf, &x.json_size);
     if (!x.json)
@@ -324,8 +333,13 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
     char text[512];
     json_begin(j, x.json);
     json_string(j, "source", p->file);
-    json_string(j, "frame", "blender-z-up");
-    json_string(j, "latlong", "column c, row r (0 = top) of W x H: u = (c+0.5)/W, v = (r+0.5)/H, "
+    int gltf = o->frame == ENVL_FRAME_GLTF;
+    json_string(j, "frame", gltf ? "gltf-y-up" : "blender-z-up");
+    json_string(j, "latlong", gltf ? "column c, row r (0 = top) of W x H: u = (c+0.5)/W, v = "
+                "(r+0.5)/H, phi = pi (1 - 2u), theta = pi (0.5 - v), d = (cos theta cos phi, "
+                "sin theta, -cos theta sin phi): u = 0.5 looks along +X, u = 0.75 along +Z "
+                "(three.js's equirect)"
+                : "column c, row r (0 = top) of W x H: u = (c+0.5)/W, v = (r+0.5)/H, "
                 "phi = pi (1 - 2u), theta = pi (0.5 - v), d = (cos theta cos phi, cos theta sin "
                 "phi, sin theta)");
     json_string(j, "format", fmt);
@@ -333,7 +347,13 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
     json_string(j, "units", "radiance as in the source (irradiance map: irradiance)");
     /* false: every error below is null (--no-error) */
     json_bool(j, "errors_measured", p->measured);
-    if (o->layout == ENVL_EXPORT_CUBE || o->layout == ENVL_EXPORT_CROSS)
+    if (o->layout == ENVL_EXPORT_CUBE && gltf)
+        json_string(j, "cube_faces", "OpenGL / Vulkan / KTX order and orientation in the glTF "
+                    "frame: px nx py ny pz nz = +X -X +Y -Y +Z -Z; texel (i, j) of an N x N face "
+                    "(row j = 0 first) is s = (i + 0.5) / N, t = (j + 0.5) / N of the OpenGL "
+                    "spec's table (+X: sc = -z, tc = -y; -X: z, -y; +Y: x, z; -Y: x, -z; "
+                    "+Z: x, -y; -Z: -x, -y; s = (sc / |ma| + 1) / 2, t = (tc / |ma| + 1) / 2)");
+    else if (o->layout == ENVL_EXPORT_CUBE || o->layout == ENVL_EXPORT_CROSS)
         json_string(j, "cube_faces", "seen from inside; px = +X (front): right -Y, up +Z; nx = "
                     "-X: right +Y, up +Z; py = +Y: right +X, up +Z; ny = -Y: right -X, up +Z; "
                     "pz = +Z: right -Y, up -X; nz = -Z: right -Y, up +X; the cross: top, left "
@@ -374,8 +394,10 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
         json_array(j, "lights");
         for (int32_t i = 0; i < p->n_sun; i++) {
             const envl_light *l = p->sun + i;
+            double d[3];
+            envl_frame_vector(o->frame, l->direction, d);
             json_object(j, NULL);
-            json_numbers(j, "direction", l->direction, 3);
+            json_numbers(j, "direction", d, 3);
             json_numbers(j, "rgb", l->rgb, 3);
             json_number(j, "solid_angle", l->solid_angle);
             json_number(j, "angle", l->angle);
@@ -395,7 +417,7 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
         json_number(j, "diffuse_error", p->irr.diffuse_error >= 0 ? p->irr.diffuse_error : NAN);
         json_number(j, "seconds", p->irr.seconds);
         rc = put_map(&x, o->layout == ENVL_EXPORT_ATLAS ? ENVL_EXPORT_LATLONG : o->layout,
-                     "irradiance", p->irr.rgb, p->irr.width, p->irr.height);
+                     o->frame, "irradiance", p->irr.rgb, p->irr.width, p->irr.height);
         json_object_end(j);
     }
     if (!rc && p->n_levels) {
@@ -415,7 +437,7 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
             if (o->layout != ENVL_EXPORT_ATLAS) {
                 char stem[32];
                 snprintf(stem, sizeof stem, "specular_%02d", (int)i);
-                rc = put_map(&x, o->layout, stem, l->rgb, l->width, l->height);
+                rc = put_map(&x, o->layout, o->frame, stem, l->rgb, l->width, l->height);
             }
             json_object_end(j);
         }
