@@ -1,5 +1,5 @@
-"""The Python wheel (issue 16): installed offline into a fresh venv, `import envlight` works with
-no environment variable, from a folder outside the source tree, loads the library inside the
+"""The Python wheel (issue 16): installed offline into a fresh venv, `import envlight` works
+with no environment variable, from a folder outside the source tree, loads the library inside the
 package, and gives the build's results (the built-in sky's SH and fitted lights, to the bit).
 
 Each install form in its own fresh venv (Debian's `python3 -m venv`: pip 23.0.1, setuptools 66,
@@ -7,8 +7,8 @@ no `wheel` package), with pip's --no-index: the wheel CMake writes (<build>/envl
 `pip install ./py_shim` (build isolation; the in-tree backend needs nothing) and the same with
 --no-build-isolation. Skipped (77) only when python3-venv is not installed (no ensurepip).
 
-ctest sets ENVL_BUILD_DIR, ENVL_SOURCE_DIR and ENVL_ADDON_LIBRARY; this process
-imports envlight from the source tree with ENVLIGHT_LIBRARY (the full build) for the reference."""
+ctest sets ENVL_BUILD_DIR, ENVL_SOURCE_DIR and ENVL_ADDON_LIBRARY; this process imports
+envlight from the source tree with ENVLIGHT_LIBRARY (the full build) for the reference."""
 import base64
 import glob
 import hashlib
@@ -153,6 +153,12 @@ def test_source_outside_the_repository_needs_the_library(venv):
     assert r.returncode != 0
     assert re.search(r"not inside the envlight repository: name the library with "
                      r"ENVLIGHT_WHEEL_LIBRARY=SO", r.stdout + r.stderr), r.stdout + r.stderr
+    # pip runs the backend in py_shim/: a relative path is refused, not read from there
+    r = subprocess.run([python, "-m", "pip", "install", "--no-index", copy], cwd=folder,
+                       env=clean_env(ENVLIGHT_WHEEL_LIBRARY="libenvlight.so"),
+                       capture_output=True, text=True)
+    assert r.returncode != 0
+    assert "libenvlight.so: give an absolute path" in r.stdout + r.stderr, r.stdout + r.stderr
     run([python, "-m", "pip", "install", "--no-index", copy], folder,
         clean_env(ENVLIGHT_WHEEL_LIBRARY=ADDON_LIBRARY))
     out = json.loads(run([python, "-c", CHILD], folder, clean_env()))

@@ -111,13 +111,23 @@ def cmake_build(build_dir):
     return os.path.join(build_dir, "addon-lib", "libenvlight.so")
 
 
+def absolute(path):
+    """pip runs the backend in py_shim/, not the user's folder: a relative path is refused."""
+    if path and not os.path.isabs(path):
+        raise RuntimeError("envlight_wheel: %s: give an absolute path (pip builds in %s)"
+                           % (path, SHIM))
+    return path
+
+
 def find_library(settings, tmp):
     """The library for the wheel (the module's docstring: 1., 2., 3.)."""
-    lib = settings.get("library") or os.environ.get("ENVLIGHT_WHEEL_LIBRARY")
+    lib = absolute(settings.get("library") or os.environ.get("ENVLIGHT_WHEEL_LIBRARY"))
     if lib:
+        if not os.path.isfile(lib):
+            raise RuntimeError("envlight_wheel: the library %s does not exist" % lib)
         return lib
     in_repo = os.path.exists(os.path.join(REPO, "src", "envlight.h"))
-    build = settings.get("build-dir") or os.environ.get("ENVLIGHT_BUILD_DIR") or (
+    build = absolute(settings.get("build-dir") or os.environ.get("ENVLIGHT_BUILD_DIR")) or (
         os.path.join(REPO, "build") if in_repo else None)
     if build and os.path.exists(os.path.join(build, "CMakeCache.txt")):
         log("the library from the CMake build " + build)
