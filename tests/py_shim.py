@@ -493,20 +493,26 @@ def test_pip_install_from_the_source_tree():
     shutil.rmtree(build_tmp, ignore_errors=True)
     shutil.copytree(os.path.join(SRC, "py_shim"), build_tmp,
                     ignore=shutil.ignore_patterns("__pycache__", "build", "*.egg-info"))
+    # a copy away from the repository: the in-tree backend is told which library to ship
+    # (tests/py_wheel.py: fresh venvs, the wheel and the source tree)
+    library = os.environ.get("ENVL_ADDON_LIBRARY") or envlight.library_path
     r = subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--no-index",
                         "--no-build-isolation", "--target", target, build_tmp],
+                       env=dict(os.environ, ENVLIGHT_WHEEL_LIBRARY=library),
                        capture_output=True, text=True)
     if r.returncode != 0 and "No module named pip" in r.stderr:
         pytest.skip("SKIP: pip is not installed")
     assert r.returncode == 0, r.stdout + r.stderr
     assert os.path.exists(os.path.join(target, "envlight", "__init__.py"))
     code = textwrap.dedent("""
-        import envlight, sys
+        import envlight, os, sys
         assert envlight.__file__.startswith(sys.argv[1]), envlight.__file__
+        assert envlight.library_path == os.path.join(sys.argv[1], "envlight", "libenvlight.so.1")
         with envlight.sky(width=64) as s:
             print(len(s.lights(2, method='median').lights))
     """)
     env = dict(os.environ, PYTHONPATH=target)
+    env.pop("ENVLIGHT_LIBRARY", None)  # the package's own copy
     out = subprocess.run([sys.executable, "-c", code, target], env=env, capture_output=True,
                          text=True)
     assert out.returncode == 0, out.stderr
