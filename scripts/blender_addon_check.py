@@ -423,6 +423,12 @@ def main():
                      "panel_recipe": s.result_recipe,
                      "panel_skipped": s.result_skipped})
     result["runs"] = runs
+    if spec.get("record_progress"):
+        # the operator's progress bar, as create_lights drives it: the values between 0.2 and
+        # 0.6 come from the library's own callback while it fits (issue 16)
+        values = []
+        core.create_lights(bpy.context, s, progress=values.append)
+        result["progress"] = values
     if spec.get("render_after"):
         result["approx_seconds"] = render_sphere(scene, spec["render_after"], spec)
     if spec.get("render_after_2"):  # another seed: the approximation's own render noise

@@ -53,13 +53,22 @@ typedef int32_t envl_result;
     X(ENVL_ERR_UNSUPPORTED, 4, "unsupported file variant")                                     \
     X(ENVL_ERR_LIMIT, 5, "exceeds a configured limit")                                         \
     X(ENVL_ERR_MEMORY, 6, "out of memory")                                                     \
-    X(ENVL_ERR_NONFINITE, 7, "non-finite, overflowing or negative values where none may be")
+    X(ENVL_ERR_NONFINITE, 7, "non-finite, overflowing or negative values where none may be") \
+    X(ENVL_ERR_CANCELLED, 8, "cancelled by the progress callback")
 #define ENVL_RESULT_ENUM_(name, value, text) name = value,
 enum { ENVL_RESULT_TABLE(ENVL_RESULT_ENUM_) };
 #undef ENVL_RESULT_ENUM_
 
 ENVL_API int32_t envl_abi_version(void);
 ENVL_API const char *envl_version_string(void);
+/* Progress of the long calls made from this thread (envl_compute, envl_lights_compute,
+ * envl_products_export, envl_envmap_to_layout): fn(user, fraction, stage) is called on the
+ * calling thread between steps, the fraction (0..1) rising to 1 at the end; a nonzero return
+ * cancels: the call frees what it made, writes nothing and fails with ENVL_ERR_CANCELLED.
+ * NULL: none (the default). Set per thread. */
+typedef int (*envl_progress_fn)(void *user, double fraction, const char *stage);
+ENVL_API void envl_set_progress(envl_progress_fn fn, void *user);
+
 /* "ENVL_ERR_FORMAT" for a code; "ENVL_UNKNOWN" for a value outside the table. */
 ENVL_API const char *envl_result_name(envl_result code);
 ENVL_API const char *envl_result_text(envl_result code);

@@ -230,7 +230,7 @@ def panorama_spot(path):
 @pytest.fixture(scope="module")
 def spot_run(request, addon_zip, spot_hdr):
     path, _, _ = spot_hdr
-    spec = {"hdr": path, "runs": 2, "remove": True,
+    spec = {"hdr": path, "runs": 2, "remove": True, "record_progress": True,
             "bad_file": os.path.join(TMP, "no-such-file.hdr"),
             "sun_threshold": USER_SUN_THRESHOLD,
             "settings": {"read_scene": False, "suns": False, "count": 4, "method": "fit", "world_mode": "RESIDUAL",
@@ -240,6 +240,15 @@ def spot_run(request, addon_zip, spot_hdr):
     report(request, "Blender %s decodes RGBE (.hdr) pixels as %s"
            % (res["blender"], rgbe_decode(res, path)[1]))
     return res
+
+
+def test_progress_bar_follows_the_library(spot_run):
+    """Create Lights' bar: its own steps (0.2, 0.6, 0.75, 1) and, between 0.2 and 0.6, the
+    library's progress callback while it fits, rising."""
+    v = spot_run["progress"]
+    assert v == sorted(v) and v[-1] == 1.0, v
+    inside = [x for x in v if 0.2 < x < 0.6]
+    assert inside, v
 
 
 def test_installed_from_the_zip_with_its_own_library(spot_run):

@@ -304,6 +304,30 @@ def test_error_measure_is_asked_for():
             env.sh(2, measure="yes")
 
 
+def test_progress_and_cancel():
+    """envlight.progress: the stages of a call, rising to 1; a true return cancels it
+    (ENVL_ERR_CANCELLED, nothing returned); outside the block nothing is called."""
+    seen = []
+    with envlight.sky(width=128) as env:
+        with envlight.progress(lambda f, s: seen.append((f, s))):
+            with env.lights(2) as res:
+                assert len(res.lights) >= 1
+        fractions = [f for f, _ in seen]
+        assert fractions == sorted(fractions) and fractions[-1] == 1.0
+        assert any("cones" in s for _, s in seen)
+        with envlight.progress(lambda f, s: "cones" in s):
+            with pytest.raises(envlight.Error) as e:
+                env.lights(2)
+        assert e.value.name == "ENVL_ERR_CANCELLED"
+        with envlight.progress(lambda f, s: 1 / 0):  # a failing callback cancels
+            with pytest.raises(envlight.Error):
+                env.lights(2)
+        n = len(seen)
+        with env.lights(2):
+            pass
+        assert len(seen) == n
+
+
 def test_residual_kept_only_when_asked():
     """residual=False (fit): the same lights and summary, and .residual says none was kept."""
     with envlight.sky(width=256) as env:

@@ -744,7 +744,9 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step):
     elif plan.ground_albedo is not None:
         used = rest.sky_hemisphere()
     try:
-        with used.lights(plan.count, method=method, order=order) as res:
+        # the library's own progress moves the bar from 0.2 to 0.6 while it fits (issue 16)
+        with pkg.progress(lambda f, stage: step(min(0.6, 0.2 + 0.4 * f))), \
+                used.lights(plan.count, method=method, order=order) as res:
             step(0.6)
             lights = list(res.lights)
             summary = dict(res.summary)

@@ -12,6 +12,7 @@ argtypes/restypes). Directions are in the canonical frame: Blender's world frame
 Arrays are numpy arrays when numpy can be imported, else lists of tuples. Handles are released
 by close() or at the end of a ``with`` block (and, as a fallback, by the garbage collector).
 """
+import contextlib
 import ctypes
 import math
 import numbers
@@ -31,7 +32,7 @@ except ImportError:  # pragma: no cover - numpy is optional
 __all__ = ["Error", "ArgumentError", "Envmap", "LightsResult", "SHResult", "Light", "load", "sky",
            "from_pixels", "save_image", "fibonacci_directions", "relative_rms_luminance",
            "sh_basis", "cosine_lobe", "brdf_lut", "brdf_eval", "Products", "version",
-           "ABI_VERSION", "library_path", "has_numpy"]
+           "ABI_VERSION", "library_path", "has_numpy", "progress"]
 
 __version__ = "0.1.0"
 has_numpy = _np is not None
@@ -43,6 +44,25 @@ SUN_ENERGY_MODES = ("max", "luminance")
 def version():
     """The library's version string."""
     return _str(lib.envl_version_string())
+
+
+@contextlib.contextmanager
+def progress(callback):
+    """Within the block, the library's long calls made from this thread (prefilter, lights,
+    export...) call callback(fraction, stage) between their steps, fraction rising from 0 to 1;
+    a true return (or an exception in the callback) cancels the call, which then raises
+    envlight.Error ENVL_ERR_CANCELLED having returned and written nothing. Not nested."""
+    def trampoline(_user, fraction, stage):
+        try:
+            return 1 if callback(fraction, _str(stage)) else 0
+        except Exception:  # noqa: BLE001 - a failing callback cancels the call
+            return 1
+    fn = _lib.PROGRESS_FN(trampoline)  # kept alive by this frame while the block runs
+    lib.envl_set_progress(fn, None)
+    try:
+        yield
+    finally:
+        lib.envl_set_progress(_lib.PROGRESS_FN(), None)
 
 
 # ---- small helpers -------------------------------------------------------------------------

@@ -7,8 +7,8 @@ library until this file is updated to match.
 import ctypes
 import glob
 import os
-from ctypes import (POINTER, Structure, c_char, c_char_p, c_double, c_float, c_int32,
-                    c_int64, c_size_t, c_uint8, c_void_p)
+from ctypes import (CFUNCTYPE, POINTER, Structure, c_char, c_char_p, c_double, c_float,
+                    c_int, c_int32, c_int64, c_size_t, c_uint8, c_void_p)
 
 #: ENVL_ABI_VERSION of the envlight.h these bindings mirror.
 ABI_VERSION = 4
@@ -342,6 +342,8 @@ STRUCTS = {
 
 # ---- the one table of functions: name -> (restype, argtypes) -------------------------------
 # envl_result is int32_t; functions returning it are checked by _check().
+#: envl_progress_fn: int (*)(void *user, double fraction, const char *stage)
+PROGRESS_FN = CFUNCTYPE(c_int, c_void_p, c_double, c_char_p)
 _R = c_int32
 _map = c_void_p      # envl_envmap *
 _lts = c_void_p      # envl_lights *
@@ -441,6 +443,7 @@ FUNCTIONS = {
     "envl_export_layout_from_name": (c_int32, [c_char_p]),
     "envl_frame_name": (c_char_p, [c_int32]),
     "envl_frame_from_name": (c_int32, [c_char_p]),
+    "envl_set_progress": (None, [PROGRESS_FN, c_void_p]),
     "envl_frame_vector": (None, [c_int32, _pd, _pd]),
     "envl_sh_to_frame": (_R, [c_int32, c_int32, c_int32, _pd, _pd]),
     "envl_products_export": (_R, [_prod, c_char_p, POINTER(ExportOptions)]),

@@ -7,6 +7,7 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 void cli_error(const char *fmt, ...)
 {
@@ -97,9 +98,24 @@ int cli_layout_evident(const envl_info *in)
     }
 }
 
+/* The library's progress on stderr, one line rewritten in place: only on a terminal (a pipe
+ * or a log gets nothing), cleared at the end. */
+static int show_progress(void *user, double fraction, const char *stage)
+{
+    (void)user;
+    if (fraction >= 1.0)
+        fprintf(stderr, "\r%60s\r", "");
+    else
+        fprintf(stderr, "\renvlight: %-45.45s %3d %%", stage, (int)(100 * fraction));
+    fflush(stderr);
+    return 0;
+}
+
 int cli_load(const char *file, const cli_common *c, envl_envmap **out)
 {
     envl_result rc;
+    if (!c->quiet && isatty(STDERR_FILENO))
+        envl_set_progress(show_progress, NULL);
     if (!file || !strcmp(file, "-")) {
         rc = envl_envmap_sky(&c->sky, out);
         if (rc == ENVL_OK && (c->load.rotate_degrees != 0.0 || c->load.width)) {

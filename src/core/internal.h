@@ -168,4 +168,8 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
 envl_result envl__sh_rotate(int32_t order, const double R[9], int32_t channels, const double *in,
                             double *out);
 
+/* Reports fraction (0..1) and stage to the calling thread's progress callback; its cancel as
+ * ENVL_ERR_CANCELLED (progress.c). */
+envl_result envl__progress(double fraction, const char *stage);
+
 #endif

@@ -406,8 +406,11 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
         json_array_end(j);
         json_object_end(j);
     }
-    envl_result rc = ENVL_OK;
-    if (p->has_irradiance) {
+    /* progress: a step per map written (the callback may cancel: nothing is then written) */
+    int32_t maps = (p->has_irradiance != 0) + (o->layout == ENVL_EXPORT_ATLAS ? 1 : p->n_levels);
+    double step = 1.0 / (maps > 0 ? maps : 1);
+    envl_result rc = envl__progress(0.0, "writing the irradiance map");
+    if (!rc && p->has_irradiance) {
         json_object(j, "irradiance");
         json_string(j, "method", envl_irradiance_method_name(p->irr.method));
         if (p->irr.method == ENVL_IRRADIANCE_SH)
@@ -437,7 +440,9 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
             if (o->layout != ENVL_EXPORT_ATLAS) {
                 char stem[32];
                 snprintf(stem, sizeof stem, "specular_%02d", (int)i);
-                rc = put_map(&x, o->layout, o->frame, stem, l->rgb, l->width, l->height);
+                rc = envl__progress(((p->has_irradiance != 0) + i) * step, "writing the levels");
+                if (!rc)
+                    rc = put_map(&x, o->layout, o->frame, stem, l->rgb, l->width, l->height);
             }
             json_object_end(j);
         }
@@ -457,6 +462,7 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
             envl__fail_as(rc, x.files[x.n - 1].final, tmp);
     }
     free(x.json_buf);
+    rc = rc ? rc : envl__progress(1.0, "done");
     rc = rc ? rc : put_in_place(&x);
     for (int32_t i = 0; i < x.n; i++) {
         if (rc)

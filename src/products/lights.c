@@ -138,7 +138,8 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
     }
     if (o->method == ENVL_METHOD_FIT) {
         /* the residual after the fit, whose own tables are freed by then (peak memory) */
-        rc = envl__fit_lights(m, n, order, ls);
+        if (!(rc = envl__progress(0.0, "fitting the lights")))
+            rc = envl__fit_lights(m, n, order, ls);
         ls->residual_skipped = options && options->skip_residual;
         if (rc == ENVL_OK && !ls->residual_skipped) {
             if ((ls->residual = malloc(sizeof(float) * npx)))
@@ -149,7 +150,8 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
         const envl_envmap *coarse = NULL;
         /* the fit's copy (cached) points the cones' search: one pass over 1024 columns, not
          * over the map */
-        if (rc == ENVL_OK && !(rc = envl__reference_copy(m, &coarse)))
+        if (rc == ENVL_OK && !(rc = envl__reference_copy(m, &coarse)) &&
+            !(rc = envl__progress(0.6, "the lights' cones")))
             rc = envl__take_cones(m, coarse != m ? coarse : NULL, ls);
     } else if (o->method == ENVL_METHOD_SUN) {
         rc = envl__sun_lights(m, n, ls);
@@ -181,12 +183,14 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
         s->residual_power[k] = s->power[k] - s->lights_power[k];
 
     s->diffuse_error = -1;
-    if (options && options->measure)
+    if (options && options->measure && !(rc = envl__progress(0.8, "the error measure")))
         rc = envl__lights_measure(m, ls);
     if (rc == ENVL_OK && !lights_finite(ls))
         rc = envl__fail(ENVL_ERR_NONFINITE, "%s: the lights overflow (a value is not finite; "
                         "the largest pixel value is %g)", m->info.file,
                         fmax(m->info.max[0], fmax(m->info.max[1], m->info.max[2])));
+    if (rc == ENVL_OK)
+        rc = envl__progress(1.0, "done");
     if (rc)
         goto fail;
     *out = ls;

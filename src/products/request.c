@@ -34,7 +34,14 @@ typedef struct plan {
     int need_mips;            /* a filtered level of roughness > 0 (needs the cell pyramid) */
     split sp;                 /* with sun lights: the bright pixels, split once, and the cells
                                  of the map less the lights (bright_lobes.c) */
+    int32_t done, steps;      /* progress: steps taken, of all (envl__progress) */
 } plan;
+
+/* The next step begins: progress done / steps, and the callback's cancel. */
+static envl_result step(plan *pl, const char *stage)
+{
+    return envl__progress((double)pl->done++ / (pl->steps > 0 ? pl->steps : 1), stage);
+}
 
 /* Adds a level of roughness r unless the plan has it. */
 static void add_level(plan *pl, const resolved *o, double r)
@@ -185,9 +192,14 @@ static envl_result compute_levels(envl_envmap *m, envl_products *p, plan *pl)
         s->seconds_pyramid += envl__seconds() - t;
     }
     for (int32_t i = 0; i < pl->n_want; i++) {
+        char stage[64];
+        snprintf(stage, sizeof stage, "specular level %d of %d", (int)i + 1, (int)pl->n_want);
+        envl_result rc = step(pl, stage);
+        if (rc)
+            return rc;
         double t = envl__seconds();
         envl_level *l = &p->levels[i];
-        envl_result rc = envl__specular_level(m, &p->opt, pl->want[i], 0, &pl->sp,
+        rc = envl__specular_level(m, &p->opt, pl->want[i], 0, &pl->sp,
                                               &p->level_px[i], l);
         if (!rc && !envl__floats_finite(p->level_px[i], 3 * (size_t)l->width * l->height))
             rc = envl__fail(ENVL_ERR_NONFINITE, "%s: the specular level of roughness %g "
@@ -277,7 +289,9 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
     envl_result rc = envl__prefilter_resolve(&q->prefilter, m, &p->opt);
     if (!rc)
         rc = plan_levels(q, p, &pl);
-    if (!rc && q->diffuse)
+    pl.steps = (q->diffuse != 0) + (q->irradiance_map != 0) + (q->shadows != 0) + pl.n_want +
+               (q->brdf_lut != 0) + (q->measure != 0);
+    if (!rc && q->diffuse && !(rc = step(&pl, "SH and lights")))
         rc = compute_diffuse(m, p, &pl);
     /* the bright pixels split once when they become lights (for the filtered levels and the
      * irradiance map) */
@@ -285,20 +299,22 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
         rc = envl__split_make(m, &pl.sp);
     if (!rc && p->opt.sun_lights)
         rc = envl__sun_split_lights(m, &pl.sp.sun, &p->sun, &p->n_sun);
-    if (!rc && q->irradiance_map)
+    if (!rc && q->irradiance_map && !(rc = step(&pl, "irradiance map")))
         rc = compute_irradiance(m, p, &pl);
-    if (!rc && q->shadows)
+    if (!rc && q->shadows && !(rc = step(&pl, "shadow lights")))
         rc = compute_shadows(m, q, p);
     if (!rc)
         rc = compute_levels(m, p, &pl);
     envl__split_free(&pl.sp);
     free(pl.want);
-    if (!rc && q->brdf_lut)
+    if (!rc && q->brdf_lut && !(rc = step(&pl, "BRDF table")))
         rc = compute_brdf(q, p);
     p->summary.seconds = envl__seconds() - t0;
-    if (!rc && q->measure)
+    if (!rc && q->measure && !(rc = step(&pl, "error measures")))
         rc = measure(m, p);
     p->measured = q->measure != 0;
+    if (!rc)
+        rc = envl__progress(1.0, "done");
     if (rc) {
         envl_products_free(p);
         return rc;
