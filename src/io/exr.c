@@ -10,8 +10,8 @@
  * are decoded into sample planes and upsampled bilinearly afterwards. Colours in another
  * primaries' space (the `chromaticities` attribute) are converted to linear Rec.709.
  *
- * Writing: one scanline part, channels B, G, R, ZIP, float or half, through the library's
- * encoder, to a file descriptor through a write_fn.
+ * Writing: one scanline part, channels B, G, R, ZIP, float or half, the `envmap` attribute when
+ * the pixels are an OpenEXR lat-long or cube map, through the library's encoder, to a file descriptor through a write_fn.
  *
  * Every library message goes to our error handler, which keeps the first detailed message
  * for our own error text; nothing is printed on stderr.
@@ -979,13 +979,16 @@ static exr_result_t compress_or_raw(exr_encode_pipeline_t *e)
 }
 
 envl_result envl__write_exr(const char *path, const float *rgb, int32_t w, int32_t h,
-                            int32_t pixel_type)
+                            int32_t pixel_type, int32_t envmap)
 {
     if (!path || !rgb || w <= 0 || h <= 0)
         return envl__fail(ENVL_ERR_ARGUMENT, "%s: write_exr: need pixels and a positive size",
                           path ? path : "(null)");
     if (pixel_type != ENVL_PIXEL_FLOAT && pixel_type != ENVL_PIXEL_HALF)
         return envl__fail(ENVL_ERR_ARGUMENT, "%s: unknown pixel type %d", path, (int)pixel_type);
+    if (envmap != 0 && envmap != ENVL_LAYOUT_EXR_LATLONG && envmap != ENVL_LAYOUT_EXR_CUBE)
+        return envl__fail(ENVL_ERR_ARGUMENT, "%s: envmap %d is not an OpenEXR envmap layout",
+                          path, (int)envmap);
     const bool half = pixel_type == ENVL_PIXEL_HALF;
     exr_stream s = {.fd = envl__io_fault() ? -1
                                            : open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC,
@@ -1023,6 +1026,11 @@ envl_result envl__write_exr(const char *path, const float *rgb, int32_t w, int32
         rc = exr_add_channel(ctxt, part, "G", type, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
     if (rc == EXR_ERR_SUCCESS)
         rc = exr_add_channel(ctxt, part, "R", type, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    /* Imf::Envmap (ImfEnvmap.h): ENVMAP_LATLONG = 0, ENVMAP_CUBE = 1; read back by read_part */
+    if (rc == EXR_ERR_SUCCESS && envmap)
+        rc = exr_attr_set_envmap(ctxt, part, "envmap", envmap == ENVL_LAYOUT_EXR_CUBE
+                                                           ? EXR_ENVMAP_CUBE
+                                                           : EXR_ENVMAP_LATLONG);
     if (rc == EXR_ERR_SUCCESS) {
         what = "cannot write the header";
         rc = exr_write_header(ctxt);
