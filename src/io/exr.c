@@ -610,7 +610,7 @@ static envl_result read_dwa(exr_reader *r, exr_storage_t storage)
                               ce->x_sampling, ce->y_sampling, r->dw.min.x, r->dw.min.y);
         names[n] = ce->name.str, xs[n] = ce->x_sampling, ys[n] = ce->y_sampling, slots[n] = k;
         nx[n] = (w + xs[n] - 1) / xs[n];
-        need += (size_t)nx[n] * (size_t)((band + ys[n] - 1) / ys[n]); /* >= sampled lines */
+        need += (size_t)nx[n] * (size_t)(((int64_t)band + ys[n] - 1) / ys[n]); /* >= lines */
         n++;
     }
     if (need > r->scratch_cap) {
@@ -625,7 +625,7 @@ static envl_result read_dwa(exr_reader *r, exr_storage_t storage)
     size_t off = 0;
     for (int k = 0; k < n; k++) {
         dst[k] = r->scratch + off;
-        off += (size_t)nx[k] * (size_t)((band + ys[k] - 1) / ys[k]);
+        off += (size_t)nx[k] * (size_t)(((int64_t)band + ys[k] - 1) / ys[k]);
     }
     char msg[512] = "";
     envl_exr_dwa *d = NULL;
