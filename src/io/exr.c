@@ -629,7 +629,8 @@ static envl_result read_dwa(exr_reader *r, exr_storage_t storage)
     }
     char msg[512] = "";
     envl_exr_dwa *d = NULL;
-    int dr = envl__exr_dwa_open(r->stream->data, r->stream->size, r->part, &d, msg, sizeof msg);
+    int dr = envl__exr_dwa_open(r->stream->data, r->stream->size, r->name, r->part, &d, msg,
+                                sizeof msg);
     if (dr != ENVL_DWA_OK)
         return envl__fail(dr == ENVL_DWA_MEMORY ? ENVL_ERR_MEMORY : ENVL_ERR_FORMAT,
                           "%s: the OpenEXR C++ library cannot open the DWA part: %s", r->name, msg);

@@ -21,8 +21,8 @@ namespace {
 // The whole file in memory, as OpenEXR's IStream (ImfIO.h): read() throws on a short read.
 class MemoryStream : public Imf::IStream {
   public:
-    MemoryStream(const uint8_t *data, size_t size)
-        : Imf::IStream("(memory)"), data_(data), size_(size), pos_(0)
+    MemoryStream(const uint8_t *data, size_t size, const char *name)
+        : Imf::IStream(name), data_(data), size_(size), pos_(0)
     {
     }
     bool read(char c[], int n) override
@@ -55,18 +55,18 @@ struct envl_exr_dwa {
     MemoryStream stream;
     Imf::MultiPartInputFile file;
     Imf::InputPart part;
-    envl_exr_dwa(const uint8_t *data, size_t size, int p)
-        : stream(data, size), file(stream, 0), part(file, p)  // 0: decoded on the caller's thread
+    envl_exr_dwa(const uint8_t *data, size_t size, const char *name, int p)
+        : stream(data, size, name), file(stream, 0), part(file, p)  // 0: decoded on the caller's thread
     {
     }
 };
 
-extern "C" int envl__exr_dwa_open(const uint8_t *data, size_t size, int part, envl_exr_dwa **out,
-                                  char *msg, size_t msg_cap)
+extern "C" int envl__exr_dwa_open(const uint8_t *data, size_t size, const char *name, int part,
+                                  envl_exr_dwa **out, char *msg, size_t msg_cap)
 {
     *out = nullptr;
     try {
-        *out = new envl_exr_dwa(data, size, part);
+        *out = new envl_exr_dwa(data, size, name ? name : "(memory)", part);
         return ENVL_DWA_OK;
     } catch (const std::bad_alloc &) {
         failed("out of memory", msg, msg_cap);

@@ -17,10 +17,10 @@ enum { ENVL_DWA_OK = 0, ENVL_DWA_FORMAT = 1, ENVL_DWA_MEMORY = 2 };
 
 typedef struct envl_exr_dwa envl_exr_dwa;
 
-/* Opens part `part` of the OpenEXR file in data[0 .. size) (kept, not copied, until close).
- * Returns ENVL_DWA_* and on failure the library's message in msg. */
-int envl__exr_dwa_open(const uint8_t *data, size_t size, int part, envl_exr_dwa **out,
-                       char *msg, size_t msg_cap);
+/* Opens part `part` of the OpenEXR file `name` in data[0 .. size) (kept, not copied, until
+ * close). Returns ENVL_DWA_* and on failure the library's message in msg. */
+int envl__exr_dwa_open(const uint8_t *data, size_t size, const char *name, int part,
+                       envl_exr_dwa **out, char *msg, size_t msg_cap);
 
 /* Decodes rows y0 .. y1 (file coordinates, inside the data window) of `n` channels (n <= 3):
  * channel names[k], sampled every xs[k] x ys[k] pixels, goes to dst[k] as floats, one row per
