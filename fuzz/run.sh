@@ -11,7 +11,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 mode=${1:-60}
 fz=${ENVL_FUZZ_BUILD:-build-fuzz}
-CC=clang cmake -S . -B "$fz" -DENVL_FUZZ=ON -DENVL_SANITIZE=ON -DENVL_TESTS=OFF \
+CC=clang CXX=clang++ cmake -S . -B "$fz" -DENVL_FUZZ=ON -DENVL_SANITIZE=ON -DENVL_TESTS=OFF \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build "$fz" -j"$(nproc)" >/dev/null
 corpus=$fz/corpus
@@ -27,6 +27,18 @@ if [ -x "$cli" ]; then
   "$cli" convert - "$corpus/exr/sky_half.exr" --sky-width 16 --half --quiet
   "$cli" convert - "$corpus/hdr/sky.hdr" --sky-width 64 --quiet
   "$cli" convert - "$corpus/any/cross.pfm" --sky-width 16 --layout-out cross --size 4 --quiet
+fi
+# DWAA / DWAB (decoded by the OpenEXR C++ library): the test files are over 200 KB, so small
+# cuts of them, re-encoded by oiiotool (the same library): scanlines and tiles; a fixed
+# DateTime and no Software attribute, so the same bytes every time
+dwa=$data/openexr/OpenEXRTest/comp_dwab_v1.exr
+if command -v oiiotool >/dev/null && [ -f "$dwa" ]; then
+  dwa_cut() { oiiotool --nosoftwareattrib "$dwa" --cut "$1" --attrib DateTime "2026:01:01 00:00:00" "${@:2}"; }
+  dwa_cut 24x20+300+300 --origin +0+0 --compression dwaa -o "$corpus/exr/dwaa.exr"
+  dwa_cut 24x20+300+300 --compression dwab -o "$corpus/exr/dwab.exr"
+  dwa_cut 40x20+300+300 --tile 16 16 --compression dwaa -o "$corpus/exr/dwaa_tiled.exr"
+else
+  echo "fuzz/run.sh: oiiotool or $dwa absent: no DWA seeds" >&2
 fi
 printf 'PF\n2 1\n-1.0\n%024d' 0 > "$corpus/pfm/tiny.pfm"
 for f in tests/fuzz_regressions/*; do   # inputs that once crashed (tests/test_fuzz_regressions.c)

@@ -192,6 +192,9 @@ ENVL_API envl_result envl_envmap_sky(const envl_sky_options *options, envl_envma
 typedef struct envl_save_options {
     int32_t pixel_type;       /* ENVL_PIXEL_*; EXR only */
     const char *format;       /* "hdr", "exr", "pfm"; default: from the file name's extension */
+    int32_t envmap;           /* EXR only: ENVL_LAYOUT_EXR_LATLONG or ENVL_LAYOUT_EXR_CUBE, written
+                                 as OpenEXR's `envmap` attribute (the pixels must be in that
+                                 layout: envl_envmap_to_layout); 0: no attribute */
 } envl_save_options;
 /* Writes RGB floats (width x height x 3, row 0 = top) atomically: a temporary file in the
  * same directory, renamed over the target only when complete. */

@@ -217,7 +217,7 @@ static void test_round_trip_float(void)
         int w = sizes[s][0], h = sizes[s][1];
         float *px = pattern(w, h, 17u + (unsigned)s);
         const char *path = tmp_path("rt_float.exr");
-        CHECK_OK(envl__write_exr(path, px, w, h, ENVL_PIXEL_FLOAT));
+        CHECK_OK(envl__write_exr(path, px, w, h, ENVL_PIXEL_FLOAT, 0));
         envl_image img;
         CHECK_OK(read_exr_file(path, NULL, &img));
         CHECK(img.width == w && img.height == h);
@@ -254,7 +254,7 @@ static void test_round_trip_half(void)
             px[5] = INFINITY;
         }
         const char *path = tmp_path("rt_half.exr");
-        CHECK_OK(envl__write_exr(path, px, w, h, ENVL_PIXEL_HALF));
+        CHECK_OK(envl__write_exr(path, px, w, h, ENVL_PIXEL_HALF, 0));
         envl_image img;
         CHECK_OK(read_exr_file(path, NULL, &img));
         CHECK(img.width == w && img.height == h);
@@ -297,7 +297,7 @@ static void test_round_trip_small_sizes(void)
                     px[i] = (float)((seed >> 20) % 24) * 0.25f; /* exact in half */
                 }
                 const char *path = tmp_path("small_rt.exr");
-                CHECK_OK(envl__write_exr(path, px, w, h, t ? ENVL_PIXEL_HALF : ENVL_PIXEL_FLOAT));
+                CHECK_OK(envl__write_exr(path, px, w, h, t ? ENVL_PIXEL_HALF : ENVL_PIXEL_FLOAT, 0));
                 envl_image img;
                 if (read_exr_file(path, NULL, &img) != ENVL_OK || !img.px ||
                     memcmp(img.px, px, n * sizeof(float)))
@@ -312,10 +312,42 @@ static void test_round_trip_small_sizes(void)
 static void test_write_errors(void)
 {
     float px[3] = {1, 2, 3};
-    CHECK_RC(envl__write_exr("/nonexistent-dir/x/out.exr", px, 1, 1, ENVL_PIXEL_FLOAT),
+    CHECK_RC(envl__write_exr("/nonexistent-dir/x/out.exr", px, 1, 1, ENVL_PIXEL_FLOAT, 0),
              ENVL_ERR_IO);
     CHECK(strstr(envl_last_error(), "/nonexistent-dir/x/out.exr") != NULL);
-    CHECK_RC(envl__write_exr(tmp_path("bad.exr"), px, 0, 1, ENVL_PIXEL_FLOAT), ENVL_ERR_ARGUMENT);
+    CHECK_RC(envl__write_exr(tmp_path("bad.exr"), px, 0, 1, ENVL_PIXEL_FLOAT, 0), ENVL_ERR_ARGUMENT);
+}
+
+/* The envmap attribute (Imf::Envmap: ENVMAP_LATLONG 0, ENVMAP_CUBE 1) as envl_image_save writes
+ * it: read back by the library (OpenEXRCore) as written, absent when not asked for; other
+ * values refused. */
+static void test_envmap_attribute(void)
+{
+    float *px = pattern(8, 48, 11);
+    const char *path = tmp_path("envmap.exr");
+    static const int32_t layouts[3] = {0, ENVL_LAYOUT_EXR_LATLONG, ENVL_LAYOUT_EXR_CUBE};
+    for (int i = 0; i < 3; i++) {
+        CHECK_OK(envl_image_save(path, px, 8, 48, &(envl_save_options){.envmap = layouts[i]}));
+        exr_context_t f = NULL;
+        exr_envmap_t env = EXR_ENVMAP_LAST_TYPE;
+        exr_result_t rc = exr_start_read(&f, path, NULL);
+        if (rc == EXR_ERR_SUCCESS)
+            rc = exr_attr_get_envmap(f, 0, "envmap", &env);
+        exr_finish(&f);
+        CHECK(i == 0 ? rc == EXR_ERR_NO_ATTR_BY_NAME
+                     : rc == EXR_ERR_SUCCESS && env == (i == 1 ? EXR_ENVMAP_LATLONG
+                                                                : EXR_ENVMAP_CUBE));
+        envl_image img;
+        CHECK_OK(read_exr_file(path, NULL, &img));
+        CHECK(img.meta.envmap_layout == layouts[i]);
+        CHECK(img.px && !memcmp(img.px, px, sizeof(float) * 8 * 48 * 3));
+        envl__image_free(&img);
+    }
+    CHECK_RC(envl_image_save(path, px, 8, 48, &(envl_save_options){.envmap = ENVL_LAYOUT_STRIP_V}),
+             ENVL_ERR_ARGUMENT);
+    CHECK(strstr(envl_last_error(), "envmap") != NULL);
+    CHECK_RC(envl__write_exr(path, px, 8, 48, ENVL_PIXEL_FLOAT, -1), ENVL_ERR_ARGUMENT);
+    free(px);
 }
 
 /* ---- variants written with the C API ------------------------------------------------------- */
@@ -468,7 +500,7 @@ static void test_float_range(void)
 {
     float px[6] = {1e6f, 3e38f, 1e-30f, -3e38f, bits_to_float(0x00000001u), 65505.0f};
     const char *path = tmp_path("range.exr");
-    CHECK_OK(envl__write_exr(path, px, 2, 1, ENVL_PIXEL_FLOAT));
+    CHECK_OK(envl__write_exr(path, px, 2, 1, ENVL_PIXEL_FLOAT, 0));
     envl_image img;
     CHECK_OK(read_exr_file(path, NULL, &img));
     CHECK(img.px && memcmp(img.px, px, sizeof px) == 0);
@@ -825,7 +857,7 @@ static void test_truncated(void)
 {
     float *px = pattern(33, 17, 5);
     const char *path = tmp_path("small.exr");
-    CHECK_OK(envl__write_exr(path, px, 33, 17, ENVL_PIXEL_HALF));
+    CHECK_OK(envl__write_exr(path, px, 33, 17, ENVL_PIXEL_HALF, 0));
     free(px);
     uint8_t *data;
     size_t size;
@@ -944,13 +976,7 @@ static void check_sample(const char *path)
         CHECK_RC(rc, ENVL_ERR_UNSUPPORTED); /* deep only */
         return;
     }
-    if (!strncmp(base, "comp_dwa", 8) && rc != ENVL_OK) {
-        /* OpenEXRCore 3.1 cannot decode DWAA / DWAB: refused, not misread */
-        CHECK_RC(rc, ENVL_ERR_UNSUPPORTED);
-        CHECK(strstr(envl_last_error(), "DWA") != NULL);
-        return;
-    }
-    CHECK_RC(rc, ENVL_OK);
+    CHECK_RC(rc, ENVL_OK); /* DWAA / DWAB too (the C++ library: test_exr_dwa.c) */
     if (rc) {
         fprintf(stderr, "  (%s)\n", path);
         return;
@@ -1106,16 +1132,22 @@ static void test_sample_comparisons(void)
     }
     envl__image_free(&a);
     envl__image_free(&b);
-    /* DWA: within a few percent of PIZ when the library can decode it */
+    /* DWA (lossy) against the PIZ original: means within 5 % (exactness: test_exr_dwa.c) */
     static const char *dwa[] = {"comp_dwaa_v1.exr", "comp_dwaa_v2.exr", "comp_dwab_v1.exr",
                                 "comp_dwab_v2.exr"};
     for (int i = 0; i < 4; i++) {
         char rel[128];
         snprintf(rel, sizeof rel, "openexr/OpenEXRTest/%s", dwa[i]);
         const char *pa = shared_data(rel), *pb = shared_data("openexr/OpenEXRTest/comp_piz.exr");
-        if (!pa || !pb || read_exr_file(pa, NULL, &a) != ENVL_OK)
-            continue; /* refusal checked in test_all_samples */
+        if (!pa || !pb)
+            continue;
+        CHECK_OK(read_exr_file(pa, NULL, &a));
         CHECK_OK(read_exr_file(pb, NULL, &b));
+        if (!a.px || !b.px) {
+            envl__image_free(&a);
+            envl__image_free(&b);
+            continue;
+        }
         double ma[3], mb[3];
         mean_rgb(&a, ma);
         mean_rgb(&b, mb);
@@ -1189,6 +1221,7 @@ int main(void)
     test_round_trip_half();
     test_round_trip_small_sizes();
     test_write_errors();
+    test_envmap_attribute();
     test_windows();
     test_tiled_mipmap();
     test_luminance_and_uint();

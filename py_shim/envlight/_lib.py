@@ -94,6 +94,7 @@ class SaveOptions(Structure):
     _fields_ = [
         ("pixel_type", c_int32),
         ("format", c_char_p),
+        ("envmap", c_int32),
     ]
 
 

@@ -152,6 +152,9 @@ int cli_convert(int argc, char **argv)
             size = layout_out == ENVL_LAYOUT_LATLONG || layout_out == ENVL_LAYOUT_EXR_LATLONG
                        ? envl_envmap_width(map)
                        : envl_envmap_width(map) / 4;
+        /* OpenEXR's own layouts say so in the file (the envmap attribute; EXR only) */
+        if (layout_out == ENVL_LAYOUT_EXR_LATLONG || layout_out == ENVL_LAYOUT_EXR_CUBE)
+            so.envmap = layout_out;
         rc = envl_envmap_to_layout(map, layout_out, (int32_t)size, &px, &w, &h);
         if (rc == ENVL_OK)
             rc = envl_image_save(out, px, w, h, &so);

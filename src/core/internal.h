@@ -90,8 +90,9 @@ envl_result envl__read_image_file(const char *path, const envl_limits *lim, envl
 /* ---- writers (rgb: w x h x 3 floats, row 0 = top); write straight to `path` — callers go
  * through envl_image_save, which writes a temporary file and renames it ---- */
 envl_result envl__write_hdr(const char *path, const float *rgb, int32_t w, int32_t h);
+/* envmap: ENVL_LAYOUT_EXR_LATLONG / _EXR_CUBE, written as the `envmap` attribute; 0: none */
 envl_result envl__write_exr(const char *path, const float *rgb, int32_t w, int32_t h,
-                            int32_t pixel_type);
+                            int32_t pixel_type, int32_t envmap);
 envl_result envl__write_pfm(const char *path, const float *rgb, int32_t w, int32_t h);
 
 /* ---- files (io.c) ---- */

@@ -4,18 +4,21 @@
  * stream (no file system, so a fuzzer can drive it). One part is chosen (by name, or the first
  * with colour channels), its level-0 chunks are decoded by the library's own decoder, straight
  * into the output (row 0 = top of the display window) when a chunk lies inside the display
- * window, through a per-chunk scratch buffer otherwise. Chroma-subsampled channels (Y/RY/BY)
+ * window, through a per-chunk scratch buffer otherwise. DWAA / DWAB parts, which OpenEXRCore 3.1
+ * cannot decode, are decoded by the OpenEXR C++ library (exr_dwa.cpp) in bands of one chunk's
+ * rows, placed the same way. Chroma-subsampled channels (Y/RY/BY)
  * are decoded into sample planes and upsampled bilinearly afterwards. Colours in another
  * primaries' space (the `chromaticities` attribute) are converted to linear Rec.709.
  *
- * Writing: one scanline part, channels B, G, R, ZIP, float or half, through the library's
- * encoder, to a file descriptor through a write_fn.
+ * Writing: one scanline part, channels B, G, R, ZIP, float or half, the `envmap` attribute when
+ * the pixels are an OpenEXR lat-long or cube map, through the library's encoder, to a file descriptor through a write_fn.
  *
  * Every library message goes to our error handler, which keeps the first detailed message
  * for our own error text; nothing is printed on stderr.
  */
 #include "internal.h"
 #include "color.h"
+#include "exr_dwa.h"
 
 #include <openexr.h>
 
@@ -321,6 +324,45 @@ static exr_result_t unpack_sampled(exr_decode_pipeline_t *d)
     return src == end ? EXR_ERR_SUCCESS : EXR_ERR_CORRUPT_CHUNK;
 }
 
+/* Puts the decoded samples of output slot `slot` of the chunk of columns [cx0, cx0 + cw) and
+ * rows [cy0, cy0 + ch) in place: src holds `lines` sampled lines of `nx` samples each (not
+ * subsampled: nx = cw, lines = ch). Into the output where displayed, else into the slot's
+ * sample plane. */
+static void place_samples(exr_reader *r, int slot, const float *src, int64_t nx, int64_t lines,
+                          int64_t cx0, int64_t cy0, int64_t cw, int64_t ch)
+{
+    envl_image *out = r->out;
+    if (!r->sampled) {
+        /* displayed part of the chunk */
+        int64_t x0 = cx0 > r->dx0 ? cx0 : r->dx0, x1 = cx0 + cw - 1 < r->dx1 ? cx0 + cw - 1 : r->dx1;
+        int64_t y0 = cy0 > r->dy0 ? cy0 : r->dy0, y1 = cy0 + ch - 1 < r->dy1 ? cy0 + ch - 1 : r->dy1;
+        for (int64_t y = y0; y <= y1; y++) {
+            const float *s = src + (size_t)(y - cy0) * (size_t)nx;
+            float *d = out->px + ((size_t)(y - r->dy0) * (size_t)out->width) * 3 + slot;
+            for (int64_t x = x0; x <= x1; x++)
+                d[(size_t)(x - r->dx0) * 3] = s[x - cx0];
+        }
+        return;
+    }
+    /* samples of this chunk: rows ky = ceil(cy0 / sy) + i, columns kx = ceil(cx0 / sx) + j */
+    sample_plane *pl = &r->plane[slot];
+    if (!pl->px)
+        return;
+    int64_t ky_first = ceil_div(cy0, pl->sy), kx_first = ceil_div(cx0, pl->sx);
+    for (int64_t i = 0; i < lines; i++) {
+        int64_t ky = ky_first + i;
+        if (ky < pl->ky0 || ky >= pl->ky0 + pl->nky)
+            continue;
+        for (int64_t j = 0; j < nx; j++) {
+            int64_t kx = kx_first + j;
+            if (kx < pl->kx0 || kx >= pl->kx0 + pl->nkx)
+                continue;
+            pl->px[(size_t)(ky - pl->ky0) * (size_t)pl->nkx + (size_t)(kx - pl->kx0)] =
+                src[(size_t)i * (size_t)nx + (size_t)j];
+        }
+    }
+}
+
 /* Decodes one chunk whose pixels are columns [cx0, cx0 + cw) and rows [cy0, cy0 + ch). */
 static envl_result decode_chunk(exr_reader *r, const exr_chunk_info_t *ci, int64_t cx0,
                                 int64_t cy0, int64_t cw, int64_t ch)
@@ -432,37 +474,8 @@ static envl_result decode_chunk(exr_reader *r, const exr_chunk_info_t *ci, int64
             continue;
         const float *src = r->scratch + off;
         off += (size_t)dc->width * (size_t)lines;
-        if (slot < 0)
-            continue;
-        if (!r->sampled) {
-            /* displayed part of the chunk */
-            int64_t x0 = cx0 > r->dx0 ? cx0 : r->dx0, x1 = cx0 + cw - 1 < r->dx1 ? cx0 + cw - 1 : r->dx1;
-            int64_t y0 = cy0 > r->dy0 ? cy0 : r->dy0, y1 = cy0 + ch - 1 < r->dy1 ? cy0 + ch - 1 : r->dy1;
-            for (int64_t y = y0; y <= y1; y++) {
-                const float *s = src + (size_t)(y - cy0) * (size_t)cw;
-                float *d = out->px + ((size_t)(y - r->dy0) * (size_t)out->width) * 3 + slot;
-                for (int64_t x = x0; x <= x1; x++)
-                    d[(size_t)(x - r->dx0) * 3] = s[x - cx0];
-            }
-        } else {
-            /* samples of this chunk: rows ky = ceil(cy0 / sy) + i, columns kx = ceil(cx0 / sx) + j */
-            sample_plane *pl = &r->plane[slot];
-            if (!pl->px)
-                continue;
-            int64_t ky_first = ceil_div(cy0, pl->sy), kx_first = ceil_div(cx0, pl->sx);
-            for (int64_t i = 0; i < lines; i++) {
-                int64_t ky = ky_first + i;
-                if (ky < pl->ky0 || ky >= pl->ky0 + pl->nky)
-                    continue;
-                for (int32_t j = 0; j < dc->width; j++) {
-                    int64_t kx = kx_first + j;
-                    if (kx < pl->kx0 || kx >= pl->kx0 + pl->nkx)
-                        continue;
-                    pl->px[(size_t)(ky - pl->ky0) * (size_t)pl->nkx + (size_t)(kx - pl->kx0)] =
-                        src[(size_t)i * (size_t)dc->width + (size_t)j];
-                }
-            }
-        }
+        if (slot >= 0)
+            place_samples(r, slot, src, dc->width, lines, cx0, cy0, cw, ch);
     }
     return ENVL_OK;
 }
@@ -559,6 +572,87 @@ static envl_result read_chunks(exr_reader *r, exr_storage_t storage)
         }
     }
     return ENVL_OK;
+}
+
+/* DWAA / DWAB parts: bands of rows (the part's scanlines per chunk, or one row of tiles) decoded
+ * by the OpenEXR C++ library into the scratch buffer, then placed as the chunks above. */
+static envl_result read_dwa(exr_reader *r, exr_storage_t storage)
+{
+    if (r->ix0 > r->ix1 || r->iy0 > r->iy1)
+        return ENVL_OK;
+    int32_t band = 0, tw = 0;
+    exr_result_t rc = storage == EXR_STORAGE_SCANLINE
+                          ? exr_get_scanlines_per_chunk(r->ctxt, r->part, &band)
+                          : exr_get_tile_sizes(r->ctxt, r->part, 0, 0, &tw, &band);
+    if (rc != EXR_ERR_SUCCESS || band <= 0)
+        return exr_fail(r->stream, ENVL_ERR_FORMAT, r->name, rc, "cannot read the chunk layout");
+    int64_t w = (int64_t)r->dw.max.x - r->dw.min.x + 1, h = (int64_t)r->dw.max.y - r->dw.min.y + 1;
+    if (band > h)
+        band = (int32_t)h;
+    if ((uint64_t)w * (uint64_t)band > (uint64_t)r->max_pixels)
+        return envl__fail(ENVL_ERR_LIMIT, "%s: a chunk of %lld x %d pixels exceeds the limit",
+                          r->name, (long long)w, (int)band);
+    /* the channels used: names, sampling, samples per line (nx) and lines per band */
+    const char *names[3];
+    int32_t xs[3], ys[3];
+    int slots[3], n = 0;
+    int64_t nx[3];
+    size_t need = 0;
+    for (int k = 0; k < 3; k++) {
+        int i = r->pick.idx[k];
+        if (i < 0)
+            continue;
+        const exr_attr_chlist_entry_t *ce = &r->channels->entries[i];
+        if (ce->x_sampling <= 0 || ce->y_sampling <= 0 || r->dw.min.x % ce->x_sampling ||
+            r->dw.min.y % ce->y_sampling)
+            return envl__fail(ENVL_ERR_FORMAT, "%s: channel %s: sampling %d x %d does not divide "
+                              "the data window's origin (%d, %d)", r->name, ce->name.str,
+                              ce->x_sampling, ce->y_sampling, r->dw.min.x, r->dw.min.y);
+        names[n] = ce->name.str, xs[n] = ce->x_sampling, ys[n] = ce->y_sampling, slots[n] = k;
+        nx[n] = (w + xs[n] - 1) / xs[n];
+        need += (size_t)nx[n] * (size_t)(((int64_t)band + ys[n] - 1) / ys[n]); /* >= lines */
+        n++;
+    }
+    if (need > r->scratch_cap) {
+        float *p = realloc(r->scratch, need * sizeof(float));
+        if (!p)
+            return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate a chunk of %zu values",
+                              r->name, need);
+        r->scratch = p;
+        r->scratch_cap = need;
+    }
+    float *dst[3];
+    size_t off = 0;
+    for (int k = 0; k < n; k++) {
+        dst[k] = r->scratch + off;
+        off += (size_t)nx[k] * (size_t)(((int64_t)band + ys[k] - 1) / ys[k]);
+    }
+    char msg[512] = "";
+    envl_exr_dwa *d = NULL;
+    int dr = envl__exr_dwa_open(r->stream->data, r->stream->size, r->name, r->part, &d, msg,
+                                sizeof msg);
+    if (dr != ENVL_DWA_OK)
+        return envl__fail(dr == ENVL_DWA_MEMORY ? ENVL_ERR_MEMORY : ENVL_ERR_FORMAT,
+                          "%s: the OpenEXR C++ library cannot open the DWA part: %s", r->name, msg);
+    envl_result e = ENVL_OK;
+    for (int64_t y = r->dw.min.y; y <= r->dw.max.y && !e; y += band) {
+        int64_t bh = r->dw.max.y - y + 1 < band ? r->dw.max.y - y + 1 : band;
+        if (y + bh - 1 < r->ny0 || y > r->ny1)
+            continue;
+        dr = envl__exr_dwa_read(d, n, names, dst, xs, ys, (int32_t)y, (int32_t)(y + bh - 1), msg,
+                                sizeof msg);
+        if (dr != ENVL_DWA_OK) {
+            e = envl__fail(dr == ENVL_DWA_MEMORY ? ENVL_ERR_MEMORY : ENVL_ERR_FORMAT,
+                           "%s: cannot decode the DWA rows %lld - %lld: %s", r->name,
+                           (long long)y, (long long)(y + bh - 1), msg);
+            break;
+        }
+        for (int k = 0; k < n; k++)
+            place_samples(r, slots[k], dst[k], nx[k], floor_div(y + bh - 1, ys[k]) -
+                          floor_div(y - 1, ys[k]), r->dw.min.x, y, w, bh);
+    }
+    envl__exr_dwa_close(d);
+    return e;
 }
 
 /* Picks the part: by name, or the first (not deep) with colour channels, else the first not
@@ -752,7 +846,14 @@ static envl_result read_part(exr_context_t ctxt, exr_stream *s, const char *name
         }
     }
 
-    e = read_chunks(&r, storage);
+    exr_compression_t comp = EXR_COMPRESSION_NONE;
+    if (exr_get_compression(ctxt, part, &comp) != EXR_ERR_SUCCESS)
+        comp = EXR_COMPRESSION_NONE; /* the chunk reads then report what is wrong */
+    s->msg[0] = '\0';
+    if (comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB)
+        e = read_dwa(&r, storage);
+    else
+        e = read_chunks(&r, storage);
     if (e)
         goto done;
 
@@ -879,13 +980,16 @@ static exr_result_t compress_or_raw(exr_encode_pipeline_t *e)
 }
 
 envl_result envl__write_exr(const char *path, const float *rgb, int32_t w, int32_t h,
-                            int32_t pixel_type)
+                            int32_t pixel_type, int32_t envmap)
 {
     if (!path || !rgb || w <= 0 || h <= 0)
         return envl__fail(ENVL_ERR_ARGUMENT, "%s: write_exr: need pixels and a positive size",
                           path ? path : "(null)");
     if (pixel_type != ENVL_PIXEL_FLOAT && pixel_type != ENVL_PIXEL_HALF)
         return envl__fail(ENVL_ERR_ARGUMENT, "%s: unknown pixel type %d", path, (int)pixel_type);
+    if (envmap != 0 && envmap != ENVL_LAYOUT_EXR_LATLONG && envmap != ENVL_LAYOUT_EXR_CUBE)
+        return envl__fail(ENVL_ERR_ARGUMENT, "%s: envmap %d is not an OpenEXR envmap layout",
+                          path, (int)envmap);
     const bool half = pixel_type == ENVL_PIXEL_HALF;
     exr_stream s = {.fd = envl__io_fault() ? -1
                                            : open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC,
@@ -923,6 +1027,11 @@ envl_result envl__write_exr(const char *path, const float *rgb, int32_t w, int32
         rc = exr_add_channel(ctxt, part, "G", type, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
     if (rc == EXR_ERR_SUCCESS)
         rc = exr_add_channel(ctxt, part, "R", type, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    /* Imf::Envmap (ImfEnvmap.h): ENVMAP_LATLONG = 0, ENVMAP_CUBE = 1; read back by read_part */
+    if (rc == EXR_ERR_SUCCESS && envmap)
+        rc = exr_attr_set_envmap(ctxt, part, "envmap", envmap == ENVL_LAYOUT_EXR_CUBE
+                                                           ? EXR_ENVMAP_CUBE
+                                                           : EXR_ENVMAP_LATLONG);
     if (rc == EXR_ERR_SUCCESS) {
         what = "cannot write the header";
         rc = exr_write_header(ctxt);

@@ -108,6 +108,11 @@ envl_result envl_image_save(const char *path, const float *rgb, int32_t width, i
                           path);
     if (strcmp(fmt, "hdr") && strcmp(fmt, "exr") && strcmp(fmt, "pfm"))
         return envl__fail(ENVL_ERR_ARGUMENT, "%s: unknown format '%s'", path, fmt);
+    int32_t envmap = options ? options->envmap : 0;
+    if (envmap != 0 && envmap != ENVL_LAYOUT_EXR_LATLONG && envmap != ENVL_LAYOUT_EXR_CUBE)
+        return envl__fail(ENVL_ERR_ARGUMENT, "%s: envmap %d is not an OpenEXR envmap layout "
+                          "(exr-latlong %d, exr-cube %d, or 0: none)", path, (int)envmap,
+                          ENVL_LAYOUT_EXR_LATLONG, ENVL_LAYOUT_EXR_CUBE);
     char *tmp;
     envl_result rc = envl__format_built(path, fmt);
     if (!rc && !strcmp(fmt, "hdr"))
@@ -121,7 +126,7 @@ envl_result envl_image_save(const char *path, const float *rgb, int32_t width, i
 #ifndef ENVL_NO_OPENEXR
     else if (!strcmp(fmt, "exr"))
         rc = envl__write_exr(tmp, rgb, width, height,
-                             options ? options->pixel_type : ENVL_PIXEL_FLOAT);
+                             options ? options->pixel_type : ENVL_PIXEL_FLOAT, envmap);
 #endif
     else
         rc = envl__write_pfm(tmp, rgb, width, height);
