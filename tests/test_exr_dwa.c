@@ -24,19 +24,12 @@ static int compared; /* files compared with oiiotool's decode */
  * worlds, every 4th prefix, no flipped bytes (test_damaged); the plain and ASan runs check all. */
 static int thin;
 
+/* The file through the loader's own reader (content detection, then envl__read_exr). */
 static envl_result read_exr_file(const char *path, const char *part, int64_t max_pixels,
                                  envl_image *img)
 {
-    uint8_t *data;
-    size_t size;
-    memset(img, 0, sizeof *img);
-    envl_result rc = envl__read_file(path, (size_t)1 << 32, &data, &size);
-    if (rc)
-        return rc;
     envl_limits lim = {max_pixels ? max_pixels : ENVL_DEFAULT_MAX_PIXELS, part, 0};
-    rc = envl__read_exr(data, size, path, &lim, img);
-    free(data);
-    return rc;
+    return envl__read_image_file(path, &lim, img);
 }
 
 static int have_oiiotool(void)

@@ -363,6 +363,20 @@ static void place_samples(exr_reader *r, int slot, const float *src, int64_t nx,
     }
 }
 
+/* The scratch buffer grown to at least `need` floats (a chunk's or a DWA band's samples). */
+static envl_result scratch_reserve(exr_reader *r, size_t need)
+{
+    if (need <= r->scratch_cap)
+        return ENVL_OK;
+    float *p = realloc(r->scratch, need * sizeof(float));
+    if (!p)
+        return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate a chunk of %zu values", r->name,
+                          need);
+    r->scratch = p;
+    r->scratch_cap = need;
+    return ENVL_OK;
+}
+
 /* Decodes one chunk whose pixels are columns [cx0, cx0 + cw) and rows [cy0, cy0 + ch). */
 static envl_result decode_chunk(exr_reader *r, const exr_chunk_info_t *ci, int64_t cx0,
                                 int64_t cy0, int64_t cw, int64_t ch)
@@ -413,14 +427,9 @@ static envl_result decode_chunk(exr_reader *r, const exr_chunk_info_t *ci, int64
         if (!direct || slot < 0)
             need += (size_t)dc->width * (size_t)sampled_lines(dc, cy0, ch);
     }
-    if (need > r->scratch_cap) {
-        float *p = realloc(r->scratch, need * sizeof(float));
-        if (!p)
-            return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate a chunk of %zu values",
-                              r->name, need);
-        r->scratch = p;
-        r->scratch_cap = need;
-    }
+    envl_result grown = scratch_reserve(r, need);
+    if (grown)
+        return grown;
     size_t off = 0;
     for (int c = 0; c < r->dec.channel_count; c++) {
         exr_coding_channel_info_t *dc = &r->dec.channels[c];
@@ -613,14 +622,9 @@ static envl_result read_dwa(exr_reader *r, exr_storage_t storage)
         need += (size_t)nx[n] * (size_t)(((int64_t)band + ys[n] - 1) / ys[n]); /* >= lines */
         n++;
     }
-    if (need > r->scratch_cap) {
-        float *p = realloc(r->scratch, need * sizeof(float));
-        if (!p)
-            return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate a chunk of %zu values",
-                              r->name, need);
-        r->scratch = p;
-        r->scratch_cap = need;
-    }
+    envl_result grown = scratch_reserve(r, need);
+    if (grown)
+        return grown;
     float *dst[3];
     size_t off = 0;
     for (int k = 0; k < n; k++) {

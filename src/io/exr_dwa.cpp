@@ -61,13 +61,12 @@ struct envl_exr_dwa {
     }
 };
 
-extern "C" int envl__exr_dwa_open(const uint8_t *data, size_t size, const char *name, int part,
-                                  envl_exr_dwa **out, char *msg, size_t msg_cap)
+/* Runs f (returning an ENVL_DWA_* code); every exception becomes a code and a message, so
+ * none crosses into C. */
+template <class F> static int guarded(F f, char *msg, size_t msg_cap)
 {
-    *out = nullptr;
     try {
-        *out = new envl_exr_dwa(data, size, name ? name : "(memory)", part);
-        return ENVL_DWA_OK;
+        return f();
     } catch (const std::bad_alloc &) {
         failed("out of memory", msg, msg_cap);
         return ENVL_DWA_MEMORY;
@@ -78,37 +77,46 @@ extern "C" int envl__exr_dwa_open(const uint8_t *data, size_t size, const char *
     }
 }
 
+extern "C" int envl__exr_dwa_open(const uint8_t *data, size_t size, const char *name, int part,
+                                  envl_exr_dwa **out, char *msg, size_t msg_cap)
+{
+    *out = nullptr;
+    return guarded(
+        [&]() -> int {
+            *out = new envl_exr_dwa(data, size, name ? name : "(memory)", part);
+            return ENVL_DWA_OK;
+        },
+        msg, msg_cap);
+}
+
 extern "C" int envl__exr_dwa_read(envl_exr_dwa *d, int n, const char *const *names,
                                   float *const *dst, const int32_t *xs, const int32_t *ys,
                                   int32_t y0, int32_t y1, char *msg, size_t msg_cap)
 {
-    try {
-        const Imath::Box2i &dw = d->part.header().dataWindow();
-        int64_t width = (int64_t)dw.max.x - dw.min.x + 1;
-        Imf::FrameBuffer fb;
-        for (int k = 0; k < n; k++) {
-            if (xs[k] <= 0 || ys[k] <= 0)
-                return failed("bad channel sampling", msg, msg_cap);
-            // first sampled line of the range: the origin of this channel's rows in dst[k]
-            int64_t rem = (int64_t)y0 % ys[k]; // C++: the sign of y0
-            int64_t first = rem == 0 ? y0 : rem > 0 ? (int64_t)y0 + ys[k] - rem : (int64_t)y0 - rem;
-            Imath::V2i origin(dw.min.x, (int)first);
-            size_t row = (size_t)((width + xs[k] - 1) / xs[k]) * sizeof(float);
-            fb.insert(names[k], Imf::Slice::Make(Imf::FLOAT, dst[k], origin, width,
-                                                 (int64_t)y1 - y0 + 1, sizeof(float), row,
-                                                 xs[k], ys[k]));
-        }
-        d->part.setFrameBuffer(fb);
-        d->part.readPixels(y0, y1);
-        return ENVL_DWA_OK;
-    } catch (const std::bad_alloc &) {
-        failed("out of memory", msg, msg_cap);
-        return ENVL_DWA_MEMORY;
-    } catch (const std::exception &e) {
-        return failed(e.what(), msg, msg_cap);
-    } catch (...) {
-        return failed(nullptr, msg, msg_cap);
-    }
+    return guarded(
+        [&]() -> int {
+            const Imath::Box2i &dw = d->part.header().dataWindow();
+            int64_t width = (int64_t)dw.max.x - dw.min.x + 1;
+            Imf::FrameBuffer fb;
+            for (int k = 0; k < n; k++) {
+                if (xs[k] <= 0 || ys[k] <= 0)
+                    return failed("bad channel sampling", msg, msg_cap);
+                // first sampled line of the range: the origin of this channel's rows in dst[k]
+                int64_t rem = (int64_t)y0 % ys[k]; // C++: the sign of y0
+                int64_t first = rem == 0  ? y0
+                                : rem > 0 ? (int64_t)y0 + ys[k] - rem
+                                          : (int64_t)y0 - rem;
+                Imath::V2i origin(dw.min.x, (int)first);
+                size_t row = (size_t)((width + xs[k] - 1) / xs[k]) * sizeof(float);
+                fb.insert(names[k], Imf::Slice::Make(Imf::FLOAT, dst[k], origin, width,
+                                                     (int64_t)y1 - y0 + 1, sizeof(float), row,
+                                                     xs[k], ys[k]));
+            }
+            d->part.setFrameBuffer(fb);
+            d->part.readPixels(y0, y1);
+            return ENVL_DWA_OK;
+        },
+        msg, msg_cap);
 }
 
 extern "C" void envl__exr_dwa_close(envl_exr_dwa *d)
