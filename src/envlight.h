@@ -593,6 +593,12 @@ ENVL_API envl_result envl_brdf_eval(double nov, double roughness, int32_t sample
 #define ENVL_RGBM_RANGE 6.0
 ENVL_API void envl_rgbm_encode(const float rgb[3], double range, uint8_t rgbm[4]);
 ENVL_API void envl_rgbm_decode(const uint8_t rgbm[4], double range, float rgb[3]);
+/* RGBD, Babylon.js's packing that EXT_lights_image_based names for its PNG faces (its shaders'
+ * toRGBD / fromRGBD): D = min(floor(max(255 / max(rgb), 1)), 255) / 255, rgbd.rgb =
+ * round(255 (rgb D)^(1 / 2.2)) / 255, rgbd.a = D; decode rgb = rgbd.rgb^2.2 / rgbd.a. Values
+ * above 255 clamp; below 1 the bytes are plain gamma 2.2 (D = 1). */
+ENVL_API void envl_rgbd_encode(const float rgb[3], uint8_t rgbd[4]);
+ENVL_API void envl_rgbd_decode(const uint8_t rgbd[4], float rgb[3]);
 /* PNG files (libpng), written atomically: RGBM RGBA8, or RGB8 sRGB-encoded (values clamped to
  * [0, 1], sRGB chunk). */
 ENVL_API envl_result envl_png_save_rgbm(const char *path, const float *rgb, int32_t width,
@@ -620,6 +626,48 @@ typedef struct envl_export_options {
 } envl_export_options;
 ENVL_API envl_result envl_products_export(const envl_products *products, const char *dir,
                                           const envl_export_options *options);
+
+/* ---- glTF 2.0 (gltf.c; docs/methods.md, "glTF") ----------------------------------------------
+ * One file, .glb (binary) or .gltf (JSON, images as data URIs), for an engine: the map's suns
+ * (lights.method, default ENVL_METHOD_SUN) as KHR_lights_punctual directional lights, and what
+ * they did not take (the residual, so nothing is lit twice) as the EXT_lights_image_based
+ * light of the scene: its SH irradiance of order 2 (irradianceCoefficients, 9 x RGB) and its
+ * GGX specular chain as cube faces, mip k of M the roughness k / (M - 1), face size
+ * face_size >> k, RGBD PNGs. Everything is in glTF's frame (+Y up; ENVL_FRAME_GLTF). Units:
+ * the map's radiance (taken as cd/m^2: the lights' intensity is then lux). */
+typedef struct envl_gltf_options {
+    int32_t face_size;        /* specularImageSize: a power of two, 16..4096; default 256 */
+    int32_t mips;             /* specular mips (roughness k / (mips - 1)), 2.. log2(face_size)
+                                 + 1; default: down to 16 x 16 (5 at 256) */
+    int32_t no_lights;        /* nonzero: no punctual light, the whole map is the IBL */
+    const envl_lights_options *lights; /* NULL: the suns (ENVL_METHOD_SUN, at most 4); any
+                                   method: the IBL is the map less what the lights took */
+    int32_t samples;          /* the specular levels' density (envl_prefilter_options) */
+    int32_t measure;          /* nonzero: measure the errors of the summary (default 0: -1) */
+    int32_t threads;          /* default: the map's */
+} envl_gltf_options;
+
+typedef struct envl_gltf_summary {
+    int32_t lights;           /* punctual lights written */
+    int32_t face_size, mips;
+    double intensity;         /* the IBL's intensity: the stored faces and coefficients are the
+                                 residual / intensity (its brightest texel stored as 255) */
+    double diffuse_error;     /* docs/design.md's diffuse error of the lights + the SH
+                                 irradiance against the whole map's exact irradiance; -1 when
+                                 not measured */
+    double glossy_error[16];  /* mip k's glossy error (its float lat-long level against the
+                                 residual's reference); -1 when not measured */
+    double rgbd_error;        /* largest relative RMS (luminance) over the mips of the decoded
+                                 RGBD faces against the float faces they encode */
+    int64_t clamped;          /* texels above 255 x intensity (none: the scale is the max) */
+    int64_t bytes;            /* of the file */
+    double seconds;           /* everything (the error measures excluded) */
+} envl_gltf_summary;
+
+/* Writes `path` (.glb or .gltf) atomically. summary (may be NULL) gets the figures above. */
+ENVL_API envl_result envl_gltf_export(envl_envmap *map, const char *path,
+                                      const envl_gltf_options *options,
+                                      envl_gltf_summary *summary);
 
 /* ---- the preview picture (docs/methods.md, "Preview") ----------------------------------------------- */
 /* One sRGB PNG: the lat-long map with the median cut regions and the median cut and fitted

@@ -120,6 +120,7 @@ int cli_bench(int argc, char **argv);
 int cli_sh(int argc, char **argv);
 int cli_pov(int argc, char **argv);
 int cli_prefilter(int argc, char **argv);
+int cli_gltf(int argc, char **argv);
 int cli_brdf_lut(int argc, char **argv);
 int cli_preview(int argc, char **argv);
 

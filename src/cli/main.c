@@ -19,6 +19,7 @@ static const command commands[] = {
     {"lights", cli_lights, "[FILE]", "directional lights: median cut, variance cut, fit + SH remainder"},
     {"sh", cli_sh, "[FILE]", "spherical harmonics of any order, windowed, artist forms"},
     {"pov", cli_pov, "[FILE] -o OUT.inc", "POV-Ray include: light_sources, ambient, sky"},
+    {"gltf", cli_gltf, "[FILE] -o OUT.glb", "glTF 2.0: the suns as lights + the rest as an IBL"},
     {"prefilter", cli_prefilter, "[FILE] -o DIR", "irradiance map, GGX specular chain, RGBM atlas"},
     {"brdf-lut", cli_brdf_lut, "-o FILE", "split-sum GGX BRDF table"},
     {"preview", cli_preview, "[FILE] -o OUT.png", "reference vs approximations on spheres, side by side"},

@@ -139,6 +139,10 @@ envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32
                                    int32_t out_h, double rotate_degrees, float **out);
 
 /* ---- prefiltering (prefilter.c, png.c) ---- */
+/* 8-bit RGB (channels 3) or RGBA (4) pixels as a PNG in memory (*out malloc'd); srgb: with the
+ * sRGB chunk. `what` names the output in messages. */
+envl_result envl__png_encode(const char *what, const uint8_t *px, int32_t w, int32_t h,
+                             int channels, int srgb, uint8_t **out, size_t *size);
 /* Reads an 8-bit RGB / RGBA PNG; *px gets w * h * channels bytes (caller frees). */
 envl_result envl__png_read(const char *path, int32_t *w, int32_t *h, int32_t *channels,
                            uint8_t **px);

@@ -40,8 +40,42 @@ void envl_rgbm_decode(const uint8_t in[4], double range, float rgb[3])
         rgb[k] = (float)(range * (in[k] / 255.0) * (in[3] / 255.0));
 }
 
+/* RGBD (Babylon.js's packing, which EXT_lights_image_based names for its PNG faces; its shader
+ * helperFunctions toRGBD / fromRGBD): D = clamp(floor(max(255 / max(r, g, b), 1)) / 255, 0, 1),
+ * rgb8 = round(255 (c D)^(1 / 2.2)), a8 = round(255 D); decode c = (rgb8 / 255)^2.2 / (a8 / 255).
+ * Values above 255 clamp; below 1, D = 1 and the bytes are plain gamma 2.2. */
+void envl_rgbd_encode(const float rgb[3], uint8_t out[4])
+{
+    double c[3], m = 0;
+    for (int k = 0; k < 3; k++) {
+        c[k] = isfinite(rgb[k]) && rgb[k] > 0 ? rgb[k] : 0.0;
+        m = fmax(m, c[k]);
+    }
+    double d = m > 0 ? floor(fmax(255.0 / m, 1.0)) : 255.0;
+    d = fmin(d, 255.0);
+    for (int k = 0; k < 3; k++) {
+        double v = floor(255.0 * pow(fmin(c[k] * d / 255.0, 1.0), 1.0 / 2.2) + 0.5);
+        out[k] = (uint8_t)(v > 255 ? 255 : v);
+    }
+    out[3] = (uint8_t)d;
+}
+
+void envl_rgbd_decode(const uint8_t in[4], float rgb[3])
+{
+    double d = (in[3] ? in[3] : 1) / 255.0;
+    for (int k = 0; k < 3; k++)
+        rgb[k] = (float)(pow(in[k] / 255.0, 2.2) / d);
+}
+
 #ifdef ENVL_NO_PNG
 /* Built without libpng: the encoders below refuse (envl__format_built says why). */
+envl_result envl__png_encode(const char *what, const uint8_t *px, int32_t w, int32_t h,
+                             int channels, int srgb, uint8_t **out, size_t *size)
+{
+    (void)px, (void)w, (void)h, (void)channels, (void)srgb, (void)out, (void)size;
+    return envl__format_built(what, "png");
+}
+
 static envl_result png_write(const char *path, const uint8_t *px, int32_t w, int32_t h,
                              int channels, int srgb)
 {
@@ -85,33 +119,34 @@ static void error_cb(png_structp png, png_const_charp msg)
 
 static void warning_cb(png_structp png, png_const_charp msg) { (void)png, (void)msg; }
 
-/* Encodes 8-bit pixels (channels 3 or 4) and writes the file atomically. */
-static envl_result png_write(const char *path, const uint8_t *px, int32_t w, int32_t h,
-                             int channels, int srgb)
+/* Encodes 8-bit pixels (channels 3 or 4) into memory (*out malloc'd); `what` names the output
+ * in messages. */
+envl_result envl__png_encode(const char *what, const uint8_t *px, int32_t w, int32_t h,
+                             int channels, int srgb, uint8_t **out, size_t *size)
 {
     membuf buf = {0};
     png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, error_cb, warning_cb);
     png_infop info = png ? png_create_info_struct(png) : NULL;
     if (!png || !info) {
         png_destroy_write_struct(&png, &info);
-        return envl__fail(ENVL_ERR_MEMORY, "%s: cannot start the PNG encoder", path);
+        return envl__fail(ENVL_ERR_MEMORY, "%s: cannot start the PNG encoder", what);
     }
     png_bytep *rows = malloc(sizeof(png_bytep) * (size_t)h);
     if (!rows) {
         png_destroy_write_struct(&png, &info);
-        return envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", path);
+        return envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", what);
     }
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
         free(rows);
         free(buf.data);
-        return envl__fail_prefix(ENVL_ERR_IO, path);
+        return envl__fail_prefix(ENVL_ERR_IO, what);
     }
     png_set_write_fn(png, &buf, write_cb, flush_cb);
     png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8,
                  channels == 4 ? PNG_COLOR_TYPE_RGBA : PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                  PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-    /* RGBM data carries no colour chunk: its bytes are code values, not display colour. */
+    /* RGBM / RGBD data carries no colour chunk: its bytes are code values, not display colour. */
     if (srgb)
         png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
     for (int32_t r = 0; r < h; r++)
@@ -123,10 +158,24 @@ static envl_result png_write(const char *path, const uint8_t *px, int32_t w, int
     free(rows);
     if (buf.failed) {
         free(buf.data);
-        return envl__fail(ENVL_ERR_MEMORY, "%s: out of memory while encoding", path);
+        return envl__fail(ENVL_ERR_MEMORY, "%s: out of memory while encoding", what);
     }
-    envl_result rc = envl_file_write_atomic(path, buf.data, buf.size);
-    free(buf.data);
+    *out = buf.data;
+    *size = buf.size;
+    return ENVL_OK;
+}
+
+/* Encodes and writes the file atomically. */
+static envl_result png_write(const char *path, const uint8_t *px, int32_t w, int32_t h,
+                             int channels, int srgb)
+{
+    uint8_t *data;
+    size_t size;
+    envl_result rc = envl__png_encode(path, px, w, h, channels, srgb, &data, &size);
+    if (rc)
+        return rc;
+    rc = envl_file_write_atomic(path, data, size);
+    free(data);
     return rc;
 }
 
