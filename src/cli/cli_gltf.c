@@ -52,6 +52,12 @@ int cli_gltf(int argc, char **argv)
         return cli_usage("gltf", "-o takes a file ending in .glb or .gltf, not '%s'", out);
     if (size & (size - 1))
         return cli_usage("gltf", "--size takes a power of two, not %d", size);
+    int face = size ? size : 256, most = 1;
+    while ((1 << (most - 1)) < face)
+        most++;
+    if (mips > most)
+        return cli_usage("gltf", "--mips takes 2..%d for %d-pixel faces (each mip halves the "
+                         "face), not %d", most, face, mips);
     envl_lights_options lo = {.method = method - 1, .count = count};
     if (method && !cli_light_count_ok("gltf", &lo))
         return CLI_USAGE;
