@@ -1,5 +1,8 @@
 /* envlight gltf: the map as a glTF 2.0 file an engine loads (envl_gltf_export). */
 #include "cli.h"
+#include "json.h"
+
+#include <math.h>
 
 #include <string.h>
 
@@ -17,12 +20,40 @@ static const cli_command gltf_command = {
     "irradiance, each mip's glossy error against the residual's reference, the RGBD error\n"
     "and the seconds it took. Conventions: docs/methods.md, \"glTF\".\n"};
 
+static void write_json(const envl_envmap *map, const char *out, const envl_gltf_summary *s)
+{
+    envl_info info;
+    envl_envmap_info(map, &info);
+    json_writer j;
+    json_begin(&j, stdout);
+    json_string(&j, "file", info.file);
+    json_string(&j, "out", out);
+    json_string(&j, "frame", cli_frame_label(ENVL_FRAME_GLTF));
+    json_int(&j, "bytes", s->bytes);
+    json_int(&j, "lights", s->lights);
+    json_int(&j, "face_size", s->face_size);
+    json_int(&j, "mips", s->mips);
+    json_number(&j, "intensity", s->intensity);
+    json_object(&j, "error");
+    json_bool(&j, "measured", s->diffuse_error >= 0);
+    json_number(&j, "diffuse", s->diffuse_error >= 0 ? s->diffuse_error : NAN);
+    double g[16];
+    for (int32_t k = 0; k < s->mips; k++)
+        g[k] = s->glossy_error[k] >= 0 ? s->glossy_error[k] : NAN;
+    json_numbers(&j, "glossy", g, s->mips);
+    json_number(&j, "rgbd", s->rgbd_error);
+    json_int(&j, "clamped", s->clamped);
+    json_object_end(&j);
+    json_number(&j, "seconds", s->seconds);
+    json_end(&j);
+}
+
 int cli_gltf(int argc, char **argv)
 {
     cli_common c = {0};
     const char *file = NULL, *out = NULL;
     int method = ENVL_METHOD_SUN + 1, count = 0, size = 0, mips = 0, samples = 0, no_error = 0;
-    int npos;
+    int npos, json = 0;
     cli_option t[] = {
         CLI_OPTION("-o", "OUT", CLI_TEXT, .value = &out, .takes = "a .glb or .gltf file name",
                    .help = "the glTF file: .glb (binary) or .gltf (JSON, images inline)"),
@@ -41,6 +72,8 @@ int cli_gltf(int argc, char **argv)
         CLI_OPTION("--samples", "M", CLI_INT, .min = 1, .max = 1 << 20, .value = &samples,
                    .help = "the levels' density (as `envlight prefilter --samples`)"),
         CLI_NO_ERROR_OPTION(&no_error),
+        CLI_OPTION("--json", NULL, CLI_FLAG, .value = &json,
+                   .help = "print the summary as JSON (default: a table)"),
     };
     int parsed = cli_parse(&gltf_command, t, CLI_COUNT(t), &c, argc, argv, &file, 1, &npos);
     if (parsed)
@@ -71,6 +104,9 @@ int cli_gltf(int argc, char **argv)
     int rc = CLI_OK;
     if (envl_gltf_export(map, out, &go, &s)) {
         rc = cli_fail();
+    } else if (json) {
+        write_json(map, out, &s);
+        rc = fflush(stdout) ? CLI_FAIL : CLI_OK;
     } else {
         envl_info info;
         envl_envmap_info(map, &info);

@@ -460,6 +460,7 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
     envl_envmap *residual = NULL;
     envl_products *p = NULL;
     face_images img = {0};
+    double measuring = 0;
     uint8_t *file = NULL;
     size_t size = 0;
     /* the suns, and the map less what they took */
@@ -488,7 +489,11 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         q.prefilter.min_width = 4 * (face >> (mips - 1));
         q.prefilter.samples = o->samples;
         q.prefilter.threads = o->threads;
+        double t1 = envl__seconds();
         rc = envl_compute(env, &q, &p);
+        envl_products_summary ps = {0};
+        if (!rc && !envl_products_get_summary(p, &ps))
+            measuring = envl__seconds() - t1 - ps.seconds; /* the products' error measures */
     }
     ibl b = {.face = face, .mips = mips, .roughness = roughness};
     if (!rc) {
@@ -523,7 +528,7 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
                                 "finite");
         s.lights = ls ? envl_lights_count(ls) : 0;
         s.intensity = b.intensity;
-        s.seconds = envl__seconds() - t0;
+        s.seconds = envl__seconds() - t0 - measuring;
         if (!rc && o->measure)
             rc = diffuse_error(map, ls, sh, &s.diffuse_error);
     }
