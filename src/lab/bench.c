@@ -351,9 +351,9 @@ static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_o
         q.prefilter.irradiance_order = i < 4 ? orders[i] : 0;
         double sec = 0;
         envl_irradiance_map irr;
-        if (bench_case("irradiance map %s %d: %s",
+        if (bench_case("irradiance map %s%s: %s",
                        envl_irradiance_method_name(q.prefilter.irradiance_method),
-                       (int)q.prefilter.irradiance_order, name) ||
+                       i < 4 ? (const char *[]){" 1", " 2", " 4", " 8"}[i] : "", name) ||
             bench_products(m, &q, o, &sec, NULL, &irr))
             return CLI_FAIL;
         printf(" %.3f (%.4f s) |", 100 * irr.diffuse_error, sec);
