@@ -61,11 +61,13 @@ enum { ENVL_RESULT_TABLE(ENVL_RESULT_ENUM_) };
 
 ENVL_API int32_t envl_abi_version(void);
 ENVL_API const char *envl_version_string(void);
-/* Progress of the long calls made from this thread (envl_compute, envl_lights_compute,
- * envl_products_export, envl_envmap_to_layout): fn(user, fraction, stage) is called on the
- * calling thread between steps, the fraction (0..1) rising to 1 at the end; a nonzero return
- * cancels: the call frees what it made, writes nothing and fails with ENVL_ERR_CANCELLED.
- * NULL: none (the default). Set per thread. */
+/* Progress of the long calls made from this thread: envl_compute (per product and level),
+ * envl_lights_compute (fit, cones, measure), envl_products_export (per map),
+ * envl_envmap_load (reading the file, the canonical frame) and envl_envmap_to_layout (the
+ * resampling). fn(user, fraction, stage) is called on the calling thread between steps, the
+ * fraction (0..1) rising to 1 at the end of each call; a nonzero return cancels: the call
+ * frees what it made, writes nothing and fails with ENVL_ERR_CANCELLED. Other calls (saving
+ * an image, SH) report nothing. NULL: none (the default). Set per thread. */
 typedef int (*envl_progress_fn)(void *user, double fraction, const char *stage);
 ENVL_API void envl_set_progress(envl_progress_fn fn, void *user);
 

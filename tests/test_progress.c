@@ -1,6 +1,7 @@
 /* The progress callback (envl_set_progress): fractions rising to 1 with named stages, and a
  * cancel at any step: ENVL_ERR_CANCELLED, nothing returned, nothing written (a file already
- * there kept as it was). */
+ * there kept as it was). envl_compute, envl_products_export, envl_lights_compute,
+ * envl_envmap_load, envl_envmap_to_layout. */
 #include "envlight.h"
 #include "check.h"
 
@@ -101,6 +102,42 @@ int main(void)
     CHECK_RC(envl_lights_compute(m, &(envl_lights_options){.measure = 1}, &ls),
              ENVL_ERR_CANCELLED);
     CHECK(ls == NULL && strstr(l.stages, "cones") != NULL);
+    /* load: reading, the canonical frame, done; a cancel at each: no map */
+    const char *file = ENVL_TEST_TMP "/progress_load.hdr";
+    envl_set_progress(NULL, NULL);
+    CHECK_OK(envl_envmap_save(m, file, NULL));
+    record ld = {.rising = 1};
+    envl_set_progress(on_progress, &ld);
+    envl_envmap *back = NULL;
+    CHECK_OK(envl_envmap_load(file, NULL, &back));
+    printf("envl_envmap_load: %d calls: %s\n", ld.calls, ld.stages);
+    CHECK(ld.rising && ld.last == 1.0 && ld.calls == 3);
+    CHECK(strstr(ld.stages, "reading the file") != NULL);
+    envl_envmap_free(back);
+    for (int at = 1; at <= 3; at++) {
+        record cc = {.rising = 1, .cancel_at = at};
+        envl_set_progress(on_progress, &cc);
+        back = m;
+        CHECK_RC(envl_envmap_load(file, NULL, &back), ENVL_ERR_CANCELLED);
+        CHECK(back == NULL && cc.calls == at);
+    }
+    /* to_layout: the resampling, done; a cancel at each: no pixels */
+    for (int layout = ENVL_LAYOUT_LATLONG; layout < ENVL_LAYOUT_COUNT; layout++) {
+        record t = {.rising = 1};
+        envl_set_progress(on_progress, &t);
+        float *px = NULL;
+        int32_t lw = 0, lh = 0;
+        CHECK_OK(envl_envmap_to_layout(m, layout, 16, &px, &lw, &lh));
+        CHECK(t.rising && t.last == 1.0 && t.calls == 2 && strstr(t.stages, "resampling to "));
+        envl_free(px);
+        for (int at = 1; at <= 2; at++) {
+            record cc = {.rising = 1, .cancel_at = at};
+            envl_set_progress(on_progress, &cc);
+            px = (float *)&cc;
+            CHECK_RC(envl_envmap_to_layout(m, layout, 16, &px, &lw, &lh), ENVL_ERR_CANCELLED);
+            CHECK(px == NULL && cc.calls == at);
+        }
+    }
     /* unset: the callback set before is called no more */
     record none = {.rising = 1};
     envl_set_progress(on_progress, &none);

@@ -111,11 +111,26 @@ static int show_progress(void *user, double fraction, const char *stage)
     return 0;
 }
 
+static int progress_shown; /* show_progress installed (cli_progress_start) */
+
+int cli_progress_start(const cli_common *c)
+{
+    if (!progress_shown && !c->quiet && isatty(STDERR_FILENO)) {
+        envl_set_progress(show_progress, NULL);
+        progress_shown = 1;
+    }
+    return progress_shown;
+}
+
+int cli_progress(double fraction, const char *stage)
+{
+    return progress_shown ? show_progress(NULL, fraction, stage) : 0;
+}
+
 int cli_load(const char *file, const cli_common *c, envl_envmap **out)
 {
     envl_result rc;
-    if (!c->quiet && isatty(STDERR_FILENO))
-        envl_set_progress(show_progress, NULL);
+    cli_progress_start(c);
     if (!file || !strcmp(file, "-")) {
         rc = envl_envmap_sky(&c->sky, out);
         if (rc == ENVL_OK && (c->load.rotate_degrees != 0.0 || c->load.width)) {

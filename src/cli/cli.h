@@ -97,6 +97,13 @@ const char *cli_error_text(char *buf, size_t size, const char *what, double erro
  * and says which layout auto-detection picked when that was a real guess (not evident from
  * the file's shape or metadata). Returns CLI_OK or CLI_FAIL; a message names FILE. */
 int cli_load(const char *file, const cli_common *c, envl_envmap **out);
+/* The progress display: one line on stderr rewritten in place, cleared at fraction 1, on a
+ * terminal only and not with --quiet (a pipe or a log gets nothing). cli_progress_start
+ * installs it as the library's progress callback (envl_set_progress; cli_load does) and says
+ * whether it is shown; cli_progress reports the command's own steps (writing a file, a
+ * bench case) to it: nonzero is a cancel. */
+int cli_progress_start(const cli_common *c);
+int cli_progress(double fraction, const char *stage);
 /* 1 if the layout `in` was read as is evident from its shape or metadata (a guess of it
  * needs no note), 0 if it was a real guess (a square image, or an unusual aspect). */
 int cli_layout_evident(const envl_info *in);

@@ -142,9 +142,14 @@ int cli_convert(int argc, char **argv)
     envl_envmap *map;
     if (cli_load(in, &c, &map))
         return CLI_FAIL;
-    envl_result rc;
+    /* progress (on a terminal): the library reports reading and resampling, this the writing */
+    char stage[80];
+    snprintf(stage, sizeof stage, "writing %s", out);
+    envl_result rc = ENVL_OK;
+    int cancelled = 0; /* the display's cancel before writing: nothing written */
     if (layout_out == ENVL_LAYOUT_LATLONG && !size) {
-        rc = envl_envmap_save(map, out, &so);
+        if (!(cancelled = cli_progress(0.0, stage)))
+            rc = envl_envmap_save(map, out, &so);
     } else {
         float *px = NULL;
         int32_t w, h;
@@ -156,10 +161,16 @@ int cli_convert(int argc, char **argv)
         if (layout_out == ENVL_LAYOUT_EXR_LATLONG || layout_out == ENVL_LAYOUT_EXR_CUBE)
             so.envmap = layout_out;
         rc = envl_envmap_to_layout(map, layout_out, (int32_t)size, &px, &w, &h);
-        if (rc == ENVL_OK)
+        if (rc == ENVL_OK && !(cancelled = cli_progress(0.0, stage)))
             rc = envl_image_save(out, px, w, h, &so);
         envl_free(px);
     }
     envl_envmap_free(map);
+    if (cancelled) {
+        cli_error("cancelled before %s: nothing written", stage);
+        return CLI_FAIL;
+    }
+    if (rc == ENVL_OK)
+        cli_progress(1.0, "done");
     return rc ? cli_fail() : CLI_OK;
 }

@@ -240,10 +240,22 @@ envl_result envl_envmap_load(const char *path, const envl_load_options *options,
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_load: no file name");
     envl_limits lim = limits_of(options);
     envl_image img = {0};
-    envl_result rc = envl__read_image_file(path, &lim, &img);
+    /* progress: reading and decoding, then the canonical frame (resampling, tables, stats) */
+    envl_result rc = envl__progress(0.0, "reading the file");
+    if (!rc)
+        rc = envl__read_image_file(path, &lim, &img);
     if (rc)
         return rc;
-    return envl__envmap_from_image(&img, options, path, out);
+    if ((rc = envl__progress(0.5, "to the canonical lat-long frame"))) {
+        envl__image_free(&img);
+        return rc;
+    }
+    rc = envl__envmap_from_image(&img, options, path, out);
+    if (!rc && (rc = envl__progress(1.0, "done"))) {
+        envl_envmap_free(*out);
+        *out = NULL;
+    }
+    return rc;
 }
 
 envl_result envl__envmap_resampled(const float *px, int32_t w, int32_t h, int32_t out_w,
@@ -368,20 +380,27 @@ envl_result envl_envmap_to_layout(const envl_envmap *m, int32_t layout, int32_t 
         layout >= ENVL_LAYOUT_COUNT)
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_to_layout: bad arguments");
     *pixels = NULL;
-    if (layout == ENVL_LAYOUT_LATLONG) {
-        int32_t h = size / 2 > 0 ? size / 2 : 1;
-        envl_result rc = envl__latlong_resample(m->px, m->width, m->height, size, h, 0.0, pixels);
-        if (rc)
-            return rc;
-        *width = size;
-        *height = h;
-        return ENVL_OK;
-    }
-    envl_image src = {.width = m->width, .height = m->height, .px = m->px};
-    envl_image out = {0};
-    envl_result rc = envl__latlong_to_layout(&src, layout, size, &out);
+    char stage[64];
+    snprintf(stage, sizeof stage, "resampling to %s", envl_layout_name(layout));
+    envl_result rc = envl__progress(0.0, stage);
     if (rc)
         return rc;
+    envl_image out = {0};
+    if (layout == ENVL_LAYOUT_LATLONG) {
+        out.width = size;
+        out.height = size / 2 > 0 ? size / 2 : 1;
+        rc = envl__latlong_resample(m->px, m->width, m->height, out.width, out.height, 0.0,
+                                    &out.px);
+    } else {
+        envl_image src = {.width = m->width, .height = m->height, .px = m->px};
+        rc = envl__latlong_to_layout(&src, layout, size, &out);
+    }
+    if (!rc)
+        rc = envl__progress(1.0, "done");
+    if (rc) {
+        envl__image_free(&out);
+        return rc;
+    }
     *pixels = out.px;
     *width = out.width;
     *height = out.height;

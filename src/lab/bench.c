@@ -8,6 +8,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <math.h>
+#include <stdarg.h>
 #include <spawn.h>
 #include <stdlib.h>
 #include <string.h>
@@ -96,6 +97,42 @@ static void record(const char *map, const char *kind, const char *series, int pa
     b->seconds = seconds;
 }
 
+/* ---- progress: on a terminal, as every command's (cli_progress) ------------------------------
+ * Each case (a table's cell, a map's loading, the speed, load and memory steps) is one step of
+ * the whole: fraction = cases begun before it / all cases, stage = its name. The library's own
+ * reports inside a case (envl_compute's levels, ...) move within the case's step under the
+ * case's name, so the line never runs backwards. A cancel (nonzero from the display) stops the
+ * bench with an error. Shown when stdout is not that terminal (the tables go to a file). */
+static struct {
+    int shown;        /* the display is on (cli_progress_start) */
+    int current, total; /* the current case's index (cases begun before it), of all */
+    char stage[96];
+} progress;
+
+static int inner_progress(void *user, double fraction, const char *stage)
+{
+    (void)user, (void)stage;
+    return cli_progress((progress.current + fraction) / progress.total, progress.stage);
+}
+
+/* The next case begins, named by the format; CLI_FAIL (the error printed) when cancelled. */
+static int __attribute__((format(printf, 1, 2))) bench_case(const char *fmt, ...)
+{
+    static int begun;
+    if (!progress.shown)
+        return CLI_OK;
+    progress.current = begun < progress.total ? begun++ : progress.total - 1;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(progress.stage, sizeof progress.stage, fmt, ap);
+    va_end(ap);
+    if (inner_progress(NULL, 0.0, NULL)) {
+        cli_error("bench cancelled during %s", progress.stage);
+        return CLI_FAIL;
+    }
+    return CLI_OK;
+}
+
 /* The Markdown rule under a table's header: lead + n columns. */
 static void table_rule(int lead, int n)
 {
@@ -127,9 +164,14 @@ static int bench_lights_one(envl_envmap *m, int method, int n, const bench_opts 
     return CLI_OK;
 }
 
+static const int light_counts[] = {1, 2, 4, 8, 16, 32, 64, 128, 256};
+
+/* A cell of the lights table is measured (fit stops at 16 lights). */
+static int lights_cell(int method, int n) { return !(method == ENVL_METHOD_FIT && n > 16); }
+
 static int bench_lights_table(const char *name, envl_envmap *m, const bench_opts *o)
 {
-    static const int counts[] = {1, 2, 4, 8, 16, 32, 64, 128, 256};
+    const int *counts = light_counts;
     int ncounts = o->quick ? 5 : 9;
     printf("\n#### Lights: %s (%d x %d)\n\n", name, envl_envmap_width(m),
            envl_envmap_height(m));
@@ -146,13 +188,14 @@ static int bench_lights_table(const char *name, envl_envmap *m, const bench_opts
         printf("| %s |", envl_method_name(method));
         for (int i = 0; i < ncounts; i++) {
             int n = counts[i];
-            if (method == ENVL_METHOD_FIT && n > 16) {
+            if (!lights_cell(method, n)) {
                 printf(" |");
                 continue;
             }
             double sec = 0, err = 0;
             int count = 0;
-            if (bench_lights_one(m, method, n, o, &sec, &err, &count))
+            if (bench_case("lights %s %d: %s", envl_method_name(method), n, name) ||
+                bench_lights_one(m, method, n, o, &sec, &err, &count))
                 return CLI_FAIL;
             if (method == ENVL_METHOD_FIT)
                 printf(" %.3f (%.3f s, %d) |", 100 * err, sec, count);
@@ -178,6 +221,8 @@ static int bench_sh_table(const char *name, envl_envmap *m, const bench_opts *o)
         printf("| %s |", envl_window_name(w));
         for (int l = 1; l <= maxorder; l++) {
             double t[16], err = 0;
+            if (bench_case("SH %s order %d: %s", envl_window_name(w), l, name))
+                return CLI_FAIL;
             for (int r = 0; r < o->runs; r++) {
                 envl_sh *sh;
                 envl_sh_options so = {.order = l, .window = w, .measure = 1};
@@ -256,7 +301,8 @@ static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_o
             q.prefilter.samples = samples[o->quick ? 1 + 2 * i : i];
             double sec;
             envl_level l;
-            if (bench_products(m, &q, o, &sec, &l, NULL))
+            if (bench_case("GGX %.2f, M = %d: %s", r, (int)q.prefilter.samples, name) ||
+                bench_products(m, &q, o, &sec, &l, NULL))
                 return CLI_FAIL;
             printf(" %.3f (%.3f s, %d) |", 100 * l.glossy_error, sec, (int)l.samples);
             fflush(stdout);
@@ -279,7 +325,8 @@ static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_o
             q.prefilter.width = widths[o->quick ? 1 + i : i];
             double sec;
             envl_level l;
-            if (bench_products(m, &q, o, &sec, &l, NULL))
+            if (bench_case("GGX %.2f, base %d: %s", r, (int)q.prefilter.width, name) ||
+                bench_products(m, &q, o, &sec, &l, NULL))
                 return CLI_FAIL;
             printf(" %.3f (%.3f s, %d wide) |", 100 * l.glossy_error, sec, l.width);
             fflush(stdout);
@@ -304,7 +351,10 @@ static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_o
         q.prefilter.irradiance_order = i < 4 ? orders[i] : 0;
         double sec = 0;
         envl_irradiance_map irr;
-        if (bench_products(m, &q, o, &sec, NULL, &irr))
+        if (bench_case("irradiance map %s%s: %s",
+                       envl_irradiance_method_name(q.prefilter.irradiance_method),
+                       i < 4 ? (const char *[]){" 1", " 2", " 4", " 8"}[i] : "", name) ||
+            bench_products(m, &q, o, &sec, NULL, &irr))
             return CLI_FAIL;
         printf(" %.3f (%.4f s) |", 100 * irr.diffuse_error, sec);
         fflush(stdout);
@@ -315,6 +365,18 @@ static int bench_prefilter_table(const char *name, envl_envmap *m, const bench_o
     }
     printf("\n");
     return CLI_OK;
+}
+
+/* The cases of one map's tables (as the three tables above run them), its loading the first. */
+static int map_cases(const bench_opts *o)
+{
+    int n = 1;
+    for (int method = 0; method < ENVL_METHOD_COUNT; method++)
+        for (int i = 0; i < (o->quick ? 5 : 9) && method != ENVL_METHOD_SUN; i++)
+            n += lights_cell(method, light_counts[i]);
+    n += ENVL_WINDOW_COUNT * (o->quick ? 4 : 8);
+    int nr = o->quick ? 1 : 2, ns = o->quick ? 2 : 4, nw = o->quick ? 2 : 4;
+    return n + nr * ns + nr * nw + 7;
 }
 
 static void plot_name(const char *map, char *out, size_t n)
@@ -803,18 +865,25 @@ int cli_bench(int argc, char **argv)
     }
     if (!only)
         only = TABLES | SPEED | LOAD | MEMORY;
+    progress.total = ((only & TABLES) ? nfiles * map_cases(&o) : 0) +
+                     (speed_width > 0 && (only & SPEED)) + (load_width > 0 && (only & LOAD)) +
+                     (memory_width > 0 && (only & MEMORY));
+    /* with the tables on the same terminal, their cells (printed as measured) are the progress:
+     * a progress line would be written into their rows */
+    if (progress.total > 0 && !isatty(STDOUT_FILENO) && (progress.shown = cli_progress_start(&c)))
+        envl_set_progress(inner_progress, NULL);
     printf("### envlight bench\n\nmedian of %d runs; error: relative RMS irradiance error over "
            "1024 normals against the exact integrator\n", o.runs);
     int rc = CLI_OK;
     for (int i = 0; i < nfiles && rc == CLI_OK && (only & TABLES); i++) {
         envl_envmap *m;
         c.quiet = 1;
-        if (cli_load(files[i], &c, &m)) {
+        const char *slash = strrchr(files[i], '/');
+        const char *name = !strcmp(files[i], "-") ? "built-in sky" : slash ? slash + 1 : files[i];
+        if (bench_case("loading %s", name) || cli_load(files[i], &c, &m)) {
             rc = CLI_FAIL;
             break;
         }
-        const char *slash = strrchr(files[i], '/');
-        const char *name = !strcmp(files[i], "-") ? "built-in sky" : slash ? slash + 1 : files[i];
         rc = bench_lights_table(name, m, &o);
         if (rc == CLI_OK)
             rc = bench_sh_table(name, m, &o);
@@ -823,16 +892,22 @@ int cli_bench(int argc, char **argv)
         envl_envmap_free(m);
     }
     if (rc == CLI_OK && speed_width > 0 && (only & SPEED))
-        rc = bench_speed((int)speed_width, &o);
+        rc = bench_case("speed on a %d-wide map", speed_width)
+                 ? CLI_FAIL
+                 : bench_speed((int)speed_width, &o);
     if (rc == CLI_OK && load_width > 0 && (only & LOAD)) {
         const char *real = NULL;
         for (int i = 0; i < nfiles && !real; i++)
             if (strcmp(files[i], "-"))
                 real = files[i];
-        rc = bench_load((int)load_width, real, &o);
+        rc = bench_case("loading a %d-wide .hdr", load_width)
+                 ? CLI_FAIL
+                 : bench_load((int)load_width, real, &o);
     }
     if (rc == CLI_OK && memory_width > 0 && (only & MEMORY))
-        rc = bench_memory((int)memory_width);
+        rc = bench_case("peak memory on a %d-wide map", memory_width)
+                 ? CLI_FAIL
+                 : bench_memory((int)memory_width);
     if (rc == CLI_OK && csv_path) {
         cli_output co;
         if (cli_output_open(&co, csv_path))
@@ -849,5 +924,7 @@ int cli_bench(int argc, char **argv)
         rc = write_plots(plots);
     }
     free(points);
+    if (rc == CLI_OK)
+        cli_progress(1.0, "done");
     return rc;
 }
