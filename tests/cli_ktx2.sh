@@ -180,7 +180,7 @@ PY
 # compare KTXDIR EXRDIR [float]
 compare() { checks=$((checks + 1)); python3 compare.py "$@" || fail "texels of $1 against $2"; }
 
-rm -rf a_ktx a_exr a_ll rs2 rs3 b_ktx b_exr b_flt lin imp1 imp2 r1 r2 r3 r4 r5
+rm -rf big a_ktx a_exr a_ll rs2 rs3 b_ktx b_exr b_flt lin imp1 imp2 r1 r2 r3 r4 r5
 # The issue's command (levels 2 and 3 are clamped by the default --min-size 64, i.e. wider
 # than their mip level), and the same chain unclamped (--min-size 16).
 run "$ENVLIGHT" prefilter - -o a_ktx --format ktx2 --layout cube --size 32 --levels 4
@@ -335,6 +335,27 @@ for k in range(n):  # Fibonacci directions in the glTF frame
 print("KTX2 cube faces: worst difference %.2f of the tolerance inside, %.2f at the edges" %
       tuple(worst))
 assert max(worst) <= 1, worst
+PY
+
+# Beyond the half range: a uniform map of 1e5 (above 65504) is written as 65504 everywhere,
+# never inf, and prefilter.json counts every such value: 3 x 6 x (4^2 + 2^2 + 1) in the chain,
+# 3 x 6 x 4^2 in the irradiance map (pi 1e5).
+python3 -c 'import struct,sys; sys.stdout.buffer.write(b"PF\n16 8\n-1.0\n" + struct.pack("<384f", *[1e5] * 384))' > big.pfm
+run "$ENVLIGHT" prefilter big.pfm -o big --format ktx2 --size 4 --levels 3 --irradiance-size 4 \
+    --min-size 2 --no-error
+consumer big/specular.ktx2 97 4 3
+consumer big/irradiance.ktx2 97 4 1
+checks=$((checks + 1))
+python3 - <<'PY' || fail "values above the half range"
+import json, struct
+m = json.load(open("big/prefilter.json"))
+assert m["specular_ktx2"]["clamped_values"] == 3 * 6 * (16 + 4 + 1), m["specular_ktx2"]
+assert m["irradiance"]["clamped_values"] == 3 * 6 * 16, m["irradiance"]
+for f, n in (("specular", 3), ("irradiance", 1)):
+    for k in range(n):
+        d = open("big/%s.ktx2.level%d.bin" % (f, k), "rb").read()
+        v = struct.unpack("<%dH" % (len(d) // 2), d)
+        assert all(h == (0x3C00 if i % 4 == 3 else 0x7BFF) for i, h in enumerate(v)), (f, k)
 PY
 
 # The format alone implies --layout cube --frame gltf: the same files as with them.
