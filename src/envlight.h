@@ -620,7 +620,10 @@ ENVL_API envl_result envl_png_save_srgb(const char *path, const float *rgb, int3
 ENVL_API const char *envl_export_layout_name(int32_t layout); /* "latlong", "cube", ... */
 ENVL_API int32_t envl_export_layout_from_name(const char *name);
 typedef struct envl_export_options {
-    const char *format;       /* "exr" (default, float), "hdr", "pfm", "rgbm-png" */
+    const char *format;       /* "exr" (default, float), "hdr", "pfm", "rgbm-png", "ktx2" (one
+                                 KTX 2.0 cube map per map, RGBA half float, the specular levels
+                                 as mip levels; needs layout ENVL_EXPORT_CUBE and frame
+                                 ENVL_FRAME_GLTF), "ktx2-float" (the same, 32-bit float) */
     int32_t layout;           /* ENVL_EXPORT_*; default lat-long */
     int32_t frame;            /* ENVL_FRAME_*; default Blender's. glTF: cube faces in OpenGL's
                                  order and orientation, sun light directions turned; the cross

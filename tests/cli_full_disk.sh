@@ -29,6 +29,8 @@ expect 0 "brdf-lut png + json" -- "$ENVLIGHT" brdf-lut -o "$full/b.png" --size 1
 expect 0 "prefilter exr" -- "$ENVLIGHT" prefilter - -o "$full/pre" "${pre[@]}" "${sky[@]}"
 expect 0 "prefilter rgbm-png" -- "$ENVLIGHT" prefilter - -o "$full/prepng" --format rgbm-png \
   "${pre[@]}" "${sky[@]}"
+expect 0 "prefilter ktx2" -- "$ENVLIGHT" prefilter - -o "$full/prektx" --format ktx2 \
+  "${pre[@]}" "${sky[@]}"
 expect 0 "lights --residual" -- "$ENVLIGHT" lights - --residual "$full/res.exr" "${sky[@]}"
 expect 0 "lights json" -- "$ENVLIGHT" lights - --json -o "$full/l.json" "${sky[@]}"
 expect 0 "sh json" -- "$ENVLIGHT" sh - --json -o "$full/sh.json" "${sky[@]}"
@@ -74,6 +76,8 @@ on_full "prefilter exr" "$full/pre/" -- "$ENVLIGHT" prefilter - -o "$full/pre" "
   "${r[@]}"
 on_full "prefilter rgbm-png" "$full/prepng/" -- "$ENVLIGHT" prefilter - -o "$full/prepng" \
   --format rgbm-png "${pre[@]}" "${r[@]}"
+on_full "prefilter ktx2" "$full/prektx/" -- "$ENVLIGHT" prefilter - -o "$full/prektx" \
+  --format ktx2 "${pre[@]}" "${r[@]}"
 on_full "lights --residual" "$full/res.exr" -- "$ENVLIGHT" lights - --residual "$full/res.exr" \
   "${r[@]}"
 on_full "lights json" "$full/l.json" -- "$ENVLIGHT" lights - --json -o "$full/l.json" "${r[@]}"

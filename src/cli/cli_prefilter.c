@@ -12,11 +12,14 @@
 static const cli_command prefilter_command = {
     "prefilter",
     "Usage: envlight prefilter [FILE] -o DIR [--irradiance] [--specular] [--levels K]\n"
-    "                          [--size S] [--samples M] [--format exr|hdr|pfm|rgbm-png]\n"
+    "                          [--size S] [--samples M]\n"
+    "                          [--format exr|hdr|pfm|rgbm-png|ktx2|ktx2-float]\n"
     "                          [--layout latlong|cube|cross|atlas] [--roughness LIST]\n"
     "                          [--frame blender|gltf] [--json] [input options]\n"
     "Prefiltered maps into DIR (created if missing), with a JSON sidecar DIR/prefilter.json\n"
-    "giving the conventions (frame, roughness mapping, RGBM range, layout) and every file.\n",
+    "giving the conventions (frame, roughness mapping, RGBM range, layout) and every file.\n"
+    "--format ktx2: specular.ktx2, one cube map with the chain as its mip levels, and\n"
+    "irradiance.ktx2 (OpenGL's faces in the glTF frame: implies --layout cube --frame gltf).\n",
     NULL};
 
 static const cli_command brdf_command = {
@@ -125,13 +128,16 @@ int cli_prefilter(int argc, char **argv)
         CLI_OPTION("--irradiance-size", "S", CLI_INT, .min = 2, .max = 16384, .value = &irr_size,
                    .help = "lat-long width (default 64; cube face 32)"),
         CLI_OPTION("--format", "F", CLI_TEXT, .value = &eo.format,
-                   .takes = "exr, hdr, pfm or rgbm-png",
-                   .help = "exr (float, default), hdr, pfm, rgbm-png (RGBA8, rgb = 6 rgb.a)"),
+                   .takes = "exr, hdr, pfm, rgbm-png, ktx2 or ktx2-float",
+                   .help = "exr (float, default), hdr, pfm, rgbm-png (RGBA8, rgb = 6 rgb.a),\n"
+                           "ktx2 (KTX 2.0 cube maps, RGBA half float, the chain as mip levels;\n"
+                           "values above 65504 clamp), ktx2-float (the same in 32-bit float)"),
         CLI_OPTION("--layout", "L", CLI_CHOICE, .value = &eo.layout,
                    .choices = "latlong|cube|cross|atlas", .lookup = envl_export_layout_from_name,
-                   .help = "latlong (default), cube (6 files per map), cross (vertical), atlas\n"
-                           "(the levels stacked in one image; needs the 6-level chain or a list;\n"
-                           "with rgbm-png also writes brdf_lut.png, sRGB)"),
+                   .help = "latlong (default), cube (6 files per map; with ktx2: one file),\n"
+                           "cross (vertical), atlas (the levels stacked in one image; needs the\n"
+                           "6-level chain or a list; with rgbm-png also writes brdf_lut.png,\n"
+                           "sRGB)"),
         CLI_OPTION("--brdf", NULL, CLI_FLAG, .value = &brdf,
                    .help = "also write the BRDF table (brdf_lut.EXT)"),
         CLI_NO_ERROR_OPTION(&no_error),
@@ -146,8 +152,21 @@ int cli_prefilter(int argc, char **argv)
     if (parsed)
         return parsed == CLI_HELP ? CLI_OK : parsed;
     if (eo.format && strcmp(eo.format, "exr") && strcmp(eo.format, "hdr") &&
-        strcmp(eo.format, "pfm") && strcmp(eo.format, "rgbm-png"))
-        return USAGE("--format takes exr, hdr, pfm or rgbm-png, not '%s'", eo.format);
+        strcmp(eo.format, "pfm") && strcmp(eo.format, "rgbm-png") &&
+        strcmp(eo.format, "ktx2") && strcmp(eo.format, "ktx2-float"))
+        return USAGE("--format takes exr, hdr, pfm, rgbm-png, ktx2 or ktx2-float, not '%s'",
+                     eo.format);
+    /* KTX2 holds cube maps in OpenGL's faces, i.e. the glTF frame: the format implies both */
+    if (eo.format && !strncmp(eo.format, "ktx2", 4)) {
+        if (cli_seen(t, CLI_COUNT(t), "--layout") && eo.layout != ENVL_EXPORT_CUBE)
+            return USAGE("--format %s writes cube maps (OpenGL's faces, the chain as mip "
+                         "levels): leave out --layout or give --layout cube", eo.format);
+        if (cli_seen(t, CLI_COUNT(t), "--frame") && eo.frame != ENVL_FRAME_GLTF)
+            return USAGE("--format %s writes OpenGL's cube faces, which are in the glTF frame: "
+                         "leave out --frame or give --frame gltf", eo.format);
+        eo.layout = ENVL_EXPORT_CUBE;
+        eo.frame = ENVL_FRAME_GLTF;
+    }
     if (roughness && parse_list(roughness, &list, &nlist))
         return USAGE("--roughness takes a comma-separated list of values in [0, 1], not '%s'",
                      roughness);
@@ -167,6 +186,19 @@ int cli_prefilter(int argc, char **argv)
                      "drawn in Blender's frame only");
     /* Cube faces of size S come from lat-long maps 4 S wide. */
     q.prefilter.width = (int32_t)(size ? (cube ? 4 * size : size) : (cube ? 1024 : 512));
+    if (eo.format && !strncmp(eo.format, "ktx2", 4) && want_spec) {
+        int32_t face = q.prefilter.width / 4, most = 1, levels = nlist ? nlist
+                                                               : q.prefilter.levels
+                                                                   ? q.prefilter.levels
+                                                                   : ENVL_DEFAULT_LEVELS;
+        while (face >> most)
+            most++; /* floor(log2(face)) + 1: KTX2's level k is face >> k texels */
+        if (levels > most)
+            return USAGE("--format %s: %d specular levels do not fit the mip chain of %d-texel "
+                         "cube faces (at most %d: log2(%d) + 1); give --levels %d or less, or "
+                         "a larger --size", eo.format, (int)levels, (int)face, (int)most,
+                         (int)face, (int)most);
+    }
     if (min_size)
         q.prefilter.min_width = (int32_t)min_size;
     q.prefilter.irradiance_width = (int32_t)(irr_size ? (cube ? 4 * irr_size : irr_size)

@@ -1,7 +1,9 @@
 /* The prefiltered products as files: EXR / HDR / PFM / RGBM PNG; lat-long, cube faces,
- * vertical cross or RGBM atlas; and the prefilter.json sidecar that describes them. */
+ * vertical cross or RGBM atlas; KTX2 cube maps with the chain as mip levels; and the
+ * prefilter.json sidecar that describes them. */
 #include "prefilter_impl.h"
 #include "json.h"
+#include "ktx2.h"
 
 #include <errno.h>
 #include <math.h>
@@ -29,15 +31,19 @@ int32_t envl_export_layout_from_name(const char *name)
  * Files in DIR: irradiance.EXT, specular_NN.EXT (NN = index of the level in the products),
  * brdf_lut.EXT (float RG, blue 0; .png: sRGB); layout cube: NAME_px.EXT ... NAME_nz.EXT (faces
  * seen from inside, canonical axes, orientation as layout.c's strips); cross: NAME.EXT as a
- * vertical cross; atlas: specular_atlas.EXT. prefilter.json describes them all. */
+ * vertical cross; atlas: specular_atlas.EXT; ktx2 / ktx2-float (cube layout, glTF frame only):
+ * irradiance.ktx2 (one level), specular.ktx2 (level k of the products = mip level k, faces of
+ * F >> k texels, F = level 0's width / 4), brdf_lut.ktx2 (2D). prefilter.json describes them
+ * all. */
 
 typedef struct pending {
     char *tmp, *final;
 } pending;
 
 typedef struct exporter {
-    const char *dir, *format; /* format: exr hdr pfm png */
+    const char *dir, *format; /* format: exr hdr pfm png ktx2 (the files' extension) */
     int rgbm;
+    int32_t vk_format;        /* ktx2: ENVL__VK_FORMAT_*; else 0 */
     pending *files;
     int32_t n, cap;
     FILE *json;               /* the sidecar being written (memory stream) */
@@ -203,6 +209,130 @@ static envl_result put_map(exporter *x, int32_t layout, int32_t frame, const cha
     return rc;
 }
 
+/* ---- KTX2 ---- */
+
+/* Mip levels a KTX2 cube of `face` texels can hold: floor(log2(face)) + 1. */
+static int32_t ktx2_max_levels(int32_t face)
+{
+    int32_t n = 1;
+    while (face >> n)
+        n++;
+    return n;
+}
+
+/* A lat-long map (w x h) as the six faces of OpenGL's cube (+X -X +Y -Y +Z -Z of the glTF
+ * frame, layout.c's GL strip), `face` texels square, one face after another (KTX2's order).
+ * A map that is not 4 face wide is first area-resampled to 4 face x 2 face (the chain's
+ * levels clamped by min_width are wider than their mip level). *resampled: that happened. */
+static envl_result gl_faces(const float *rgb, int32_t w, int32_t h, int32_t face,
+                            int *resampled, float **out)
+{
+    *out = NULL;
+    float *small = NULL;
+    envl_image src = {.width = w, .height = h, .px = (float *)rgb}, img = {0};
+    envl_result rc = ENVL_OK;
+    *resampled = w != 4 * face;
+    if (*resampled) {
+        rc = envl__latlong_resample(rgb, w, h, 4 * face, 2 * face, 0.0, &small);
+        src = (envl_image){.width = 4 * face, .height = 2 * face, .px = small};
+    }
+    if (!rc)
+        rc = envl__latlong_to_layout(&src, ENVL__LAYOUT_GL_STRIP, face, &img);
+    free(small);
+    if (rc)
+        return rc;
+    size_t n = (size_t)face * face;
+    float *f = malloc(sizeof(float) * 3 * 6 * n);
+    if (!f) {
+        envl__image_free(&img);
+        return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    }
+    for (int k = 0; k < 6; k++)
+        for (int32_t r = 0; r < face; r++)
+            memcpy(f + 3 * (k * n + (size_t)r * face),
+                   img.px + 3 * ((size_t)r * img.width + (size_t)k * face),
+                   sizeof(float) * 3 * face);
+    envl__image_free(&img);
+    *out = f;
+    return ENVL_OK;
+}
+
+/* Writes NAME.ktx2 (pending) from n images of rgb[k] (faces one after another, or one 2D
+ * image: faces 1), level 0 `size` texels square; states the file's facts in the JSON. */
+static envl_result put_ktx2(exporter *x, const char *stem, int32_t faces, int32_t size,
+                            int32_t n, const float *const *rgb)
+{
+    char name[512], *tmp, writer[64];
+    snprintf(name, sizeof name, "%s.ktx2", stem);
+    snprintf(writer, sizeof writer, "envlight %s", envl_version_string());
+    envl_result rc = add_pending(x, name, &tmp);
+    envl__ktx2_report rep = {0};
+    if (!rc && (rc = envl__write_ktx2(tmp, &(envl__ktx2_desc){.vk_format = x->vk_format,
+                                                               .size = size, .faces = faces,
+                                                               .levels = n, .rgb = rgb,
+                                                               .writer = writer},
+                                      &rep)))
+        envl__fail_as(rc, x->files[x->n - 1].final, tmp);
+    json_writer *j = &x->jw;
+    json_string(j, "file", name);
+    json_int(j, "vk_format", x->vk_format);
+    json_int(j, faces == 6 ? "face_size" : "size", size);
+    json_int(j, "levels", n);
+    json_int(j, "clamped_values", rep.clamped); /* above 65504 (half): written as 65504 */
+    return rc;
+}
+
+/* The irradiance map as a one-level KTX2 cube (the "irradiance" object's fields). */
+static envl_result put_ktx2_irradiance(exporter *x, const envl_products *p)
+{
+    int32_t face = p->irr.width / 4 > 0 ? p->irr.width / 4 : 1;
+    float *f;
+    int resampled;
+    envl_result rc = gl_faces(p->irr.rgb, p->irr.width, p->irr.height, face, &resampled, &f);
+    if (rc)
+        return rc;
+    json_string(&x->jw, "layout", "cube");
+    rc = put_ktx2(x, "irradiance", 6, face, 1, (const float *const *)&f);
+    free(f);
+    return rc;
+}
+
+/* The specular levels as one KTX2 cube, level k of the products = mip level k (faces of
+ * F >> k texels, F = level 0's width / 4): the "specular_ktx2" object. */
+static envl_result put_ktx2_specular(exporter *x, const envl_products *p)
+{
+    int32_t n = p->n_levels, face = p->levels[0].width / 4 > 0 ? p->levels[0].width / 4 : 1;
+    float **f = calloc((size_t)n, sizeof *f);
+    int *resampled = calloc((size_t)n, sizeof *resampled);
+    envl_result rc = f && resampled ? ENVL_OK
+                                    : envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    for (int32_t k = 0; k < n && !rc; k++) {
+        const envl_level *l = &p->levels[k];
+        rc = gl_faces(l->rgb, l->width, l->height, face >> k, &resampled[k], &f[k]);
+    }
+    json_writer *j = &x->jw;
+    json_object(j, "specular_ktx2");
+    json_string(j, "mip_levels", "mip level k = specular[k]: faces of face_size >> k texels, "
+                "from its lat-long map (area-resampled to 4 x 2 faces first where wider)");
+    json_array(j, "roughness");
+    for (int32_t k = 0; k < n; k++)
+        json_number(j, NULL, p->levels[k].roughness);
+    json_array_end(j);
+    json_array(j, "resampled_levels");
+    for (int32_t k = 0; k < n && resampled; k++)
+        if (resampled[k])
+            json_int(j, NULL, k);
+    json_array_end(j);
+    if (!rc)
+        rc = put_ktx2(x, "specular", 6, face, n, (const float *const *)f);
+    json_object_end(j);
+    for (int32_t k = 0; f && k < n; k++)
+        free(f[k]);
+    free(f);
+    free(resampled);
+    return rc;
+}
+
 static int cmp_level(const void *a, const void *b)
 {
     const envl_level *x = *(const envl_level *const *)a, *y = *(const envl_level *const *)b;
@@ -275,23 +405,35 @@ static envl_result put_brdf(exporter *x, const envl_products *p, const char *fmt
     snprintf(name, sizeof name, "brdf_lut.%s", x->format);
     json_writer *j = &x->jw;
     json_object(j, "brdf_lut");
-    json_string(j, "file", name);
+    if (!x->vk_format)
+        json_string(j, "file", name);
     json_int(j, "size", s);
     json_int(j, "samples", p->brdf_samples);
     json_bool(j, "multiscatter", p->brdf_multiscatter);
-    json_string(j, "encoding", x->rgbm ? "sRGB 8-bit" : "float, blue = 0");
+    json_string(j, "encoding", x->rgbm        ? "sRGB 8-bit"
+                               : x->vk_format ? "float, blue = 0, alpha = 1 (a 2D KTX2 image, "
+                                                "first row = row j = 0)"
+                                              : "float, blue = 0");
     json_string(j, "axes", "column i: NoV = (i + 0.5) / S; row j from the top: roughness = "
                 "(j + 0.5) / S");
     json_string(j, "channels", p->brdf_multiscatter
                                    ? "R = B, G = A + B: specular = mix(R, G, F0) * (1 + F0 (1 "
                                      "/ G - 1))"
                                    : "R = A (scale), G = B (bias): specular = F0 A + B");
-    json_object_end(j);
     float *rgb = malloc(sizeof(float) * 3 * (size_t)s * s);
-    if (!rgb)
+    if (!rgb) {
+        json_object_end(j);
         return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    }
     for (size_t i = 0; i < (size_t)s * s; i++)
         rgb[3 * i] = p->brdf[2 * i], rgb[3 * i + 1] = p->brdf[2 * i + 1], rgb[3 * i + 2] = 0;
+    if (x->vk_format) {
+        envl_result rc = put_ktx2(x, "brdf_lut", 1, s, 1, (const float *const *)&rgb);
+        json_object_end(j);
+        free(rgb);
+        return rc;
+    }
+    json_object_end(j);
     envl_result rc = add_pending(x, name, &tmp);
     if (!rc && (rc = x->rgbm ? envl_png_save_srgb(tmp, rgb, s, s)
                              : envl_image_save(tmp, rgb, s, s,
@@ -310,10 +452,14 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
         return envl__fail(ENVL_ERR_ARGUMENT, "export: need products and a directory");
     const char *fmt = o->format ? o->format : "exr";
     int rgbm = !strcmp(fmt, "rgbm-png");
-    if (!rgbm && strcmp(fmt, "exr") && strcmp(fmt, "hdr") && strcmp(fmt, "pfm"))
+    int32_t vk = !strcmp(fmt, "ktx2")         ? ENVL__VK_FORMAT_R16G16B16A16_SFLOAT
+                 : !strcmp(fmt, "ktx2-float") ? ENVL__VK_FORMAT_R32G32B32A32_SFLOAT
+                                              : 0;
+    if (!rgbm && !vk && strcmp(fmt, "exr") && strcmp(fmt, "hdr") && strcmp(fmt, "pfm"))
         return envl__fail(ENVL_ERR_ARGUMENT, "export: unknown format '%s' (exr, hdr, pfm, "
-                          "rgbm-png)", fmt);
-    if (envl__format_built(dir, rgbm ? "png" : fmt)) /* refused before anything is written */
+                          "rgbm-png, ktx2, ktx2-float)", fmt);
+    if (!vk && envl__format_built(dir, rgbm ? "png" : fmt)) /* refused before anything is
+                                                                written */
         return ENVL_ERR_UNSUPPORTED;
     if (o->layout < 0 || o->layout >= ENVL_EXPORT_COUNT)
         return envl__fail(ENVL_ERR_ARGUMENT, "export: unknown layout %d", (int)o->layout);
@@ -324,7 +470,19 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
     if (o->frame != ENVL_FRAME_BLENDER && o->layout == ENVL_EXPORT_CROSS)
         return envl__fail(ENVL_ERR_ARGUMENT, "export: the cross is drawn in Blender's frame "
                           "only; for the glTF frame write cube faces (OpenGL's) or lat-long");
-    exporter x = {.dir = dir, .format = rgbm ? "png" : fmt, .rgbm = rgbm};
+    if (vk && (o->layout != ENVL_EXPORT_CUBE || o->frame != ENVL_FRAME_GLTF))
+        return envl__fail(ENVL_ERR_ARGUMENT, "export: %s writes cube maps in OpenGL's face order "
+                          "of the glTF frame: it needs the cube layout and the glTF frame", fmt);
+    if (vk && p->n_levels) {
+        int32_t face = p->levels[0].width / 4 > 0 ? p->levels[0].width / 4 : 1;
+        if (p->n_levels > ktx2_max_levels(face))
+            return envl__fail(ENVL_ERR_ARGUMENT, "export: %d specular levels do not fit the mip "
+                              "chain of a KTX2 cube of %d-texel faces (at most %d levels: "
+                              "log2(%d) + 1); ask for fewer levels or larger faces",
+                              (int)p->n_levels, (int)face, (int)ktx2_max_levels(face), (int)face);
+    }
+    exporter x = {.dir = dir, .format = rgbm ? "png" : vk ? "ktx2" : fmt, .rgbm = rgbm,
+                  .vk_format = vk};
     x.json = open_memstream(&x.json_buf, &x.json_size);
     if (!x.json)
         return envl__fail(ENVL_ERR_MEMORY, "export: cannot buffer the sidecar");
@@ -347,6 +505,22 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
     json_string(j, "units", "radiance as in the source (irradiance map: irradiance)");
     /* false: every error below is null (--no-error) */
     json_bool(j, "errors_measured", p->measured);
+    if (vk) {
+        json_object(j, "ktx2");
+        json_int(j, "vk_format", vk);
+        json_string(j, "vk_format_name", vk == ENVL__VK_FORMAT_R16G16B16A16_SFLOAT
+                                             ? "VK_FORMAT_R16G16B16A16_SFLOAT"
+                                             : "VK_FORMAT_R32G32B32A32_SFLOAT");
+        json_string(j, "texels", "linear RGB, alpha 1; cube maps: faceCount 6 in the order and "
+                    "orientation of cube_faces, the first row of a face is its row j = 0");
+        json_string(j, "conversion", vk == ENVL__VK_FORMAT_R16G16B16A16_SFLOAT
+                                         ? "binary16 rounded to nearest even; values above "
+                                           "65504 are written as 65504 (each file's "
+                                           "clamped_values counts them); never inf or NaN"
+                                         : "binary32 as computed");
+        json_string(j, "container", "KTX 2.0, no supercompression, key KTXwriter");
+        json_object_end(j);
+    }
     if (o->layout == ENVL_EXPORT_CUBE && gltf)
         json_string(j, "cube_faces", "OpenGL / Vulkan / KTX order and orientation in the glTF "
                     "frame: px nx py ny pz nz = +X -X +Y -Y +Z -Z; texel (i, j) of an N x N face "
@@ -419,8 +593,11 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
         json_int(j, "height", p->irr.height);
         json_number(j, "diffuse_error", p->irr.diffuse_error >= 0 ? p->irr.diffuse_error : NAN);
         json_number(j, "seconds", p->irr.seconds);
-        rc = put_map(&x, o->layout == ENVL_EXPORT_ATLAS ? ENVL_EXPORT_LATLONG : o->layout,
-                     o->frame, "irradiance", p->irr.rgb, p->irr.width, p->irr.height);
+        if (vk)
+            rc = put_ktx2_irradiance(&x, p);
+        else
+            rc = put_map(&x, o->layout == ENVL_EXPORT_ATLAS ? ENVL_EXPORT_LATLONG : o->layout,
+                         o->frame, "irradiance", p->irr.rgb, p->irr.width, p->irr.height);
         json_object_end(j);
     }
     if (!rc && p->n_levels) {
@@ -437,7 +614,11 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
             json_number(j, "energy_scale", l->energy_scale);
             json_number(j, "glossy_error", l->glossy_error >= 0 ? l->glossy_error : NAN);
             json_number(j, "seconds", l->seconds);
-            if (o->layout != ENVL_EXPORT_ATLAS) {
+            if (vk) {
+                json_int(j, "mip_level", i);
+                json_int(j, "face_size", (p->levels[0].width / 4 > 0 ? p->levels[0].width / 4
+                                                                     : 1) >> i);
+            } else if (o->layout != ENVL_EXPORT_ATLAS) {
                 char stem[32];
                 snprintf(stem, sizeof stem, "specular_%02d", (int)i);
                 rc = envl__progress(((p->has_irradiance != 0) + i) * step, "writing the levels");
@@ -449,6 +630,8 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
         json_array_end(j);
         if (!rc && o->layout == ENVL_EXPORT_ATLAS)
             rc = put_atlas(&x, p);
+        if (!rc && vk)
+            rc = put_ktx2_specular(&x, p);
     }
     if (!rc && p->brdf)
         rc = put_brdf(&x, p, fmt);
