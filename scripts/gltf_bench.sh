@@ -58,7 +58,13 @@ if [ -n "$docs" ]; then
     echo "order 2) against the whole map's exact irradiance, docs/design.md's relative RMS over 1024 normals."
     echo "Glossy error: each mip's float level against the reference of the map it filters (the residual,"
     echo "or the whole map), docs/design.md's measure; the RGBD error is the decoded PNG faces against"
-    echo "those floats. Seconds: the export without the error measures (CPU wall time, shared machine)."
+    echo "those floats. Seconds: the export without the error measures (wall time, shared machine)."
+    echo
+    echo "Mip 0 (roughness 0, the mirror) is the map itself at 1024 x 512; its glossy error reads that"
+    echo "level bilinearly at 1024 directions against the map's nearest pixel, so on maps with lamps a"
+    echo "few pixels wide (studio_small_03, empty_warehouse_01, st_fagans_interior) it measures the"
+    echo "lamps' edges between two reads of the same pixels (bilinear against nearest), not a loss in"
+    echo "the export: mip 0 is the map resampled into 256 x 256 faces (4 x 256 = 1024 around)."
     echo
     echo "$out"
   } >"$docs/gltf_bench.md"
