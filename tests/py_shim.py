@@ -733,3 +733,33 @@ def test_pov_include_warnings_and_errors():
         assert res["no_light"] and res["count"] == 0
         assert res["warnings"] == ["memory: no light: the environment is black"]
         assert '#declare EnvLight_Source = "memory";' in res["text"]
+
+
+# ---- glTF (envl_gltf_export; the file itself is checked by tests/py_gltf.py) ----------------
+
+def test_gltf_export_matches_the_command_line():
+    """Env.gltf writes what `envlight gltf` writes for the same options: the same figures
+    (computed the same way, deterministic) and the same document but for asset.extras' seconds."""
+    import json
+    import struct
+    a, b = os.path.join(TMP, "shim.glb"), os.path.join(TMP, "cli.glb")
+    with envlight.sky() as env:
+        s = env.gltf(a, size=16, mips=2)
+        assert env.gltf(os.path.join(TMP, "none.glb"), size=16, mips=2, lights=None)["lights"] == 0
+        with pytest.raises(envlight.Error, match=r"x\.obj: the glTF file must end in \.glb"):
+            env.gltf(os.path.join(TMP, "x.obj"))
+    cli = json.loads(subprocess.run([CLI, "gltf", "-", "-o", b, "--size", "16", "--mips", "2",
+                                     "--json"], check=True, capture_output=True, text=True).stdout)
+    assert s["lights"] == cli["lights"] == 1 and s["mips"] == 2 and s["face_size"] == 16
+    assert s["diffuse_error"] == pytest.approx(cli["error"]["diffuse"], rel=1e-8)
+    assert s["glossy_error"] == pytest.approx(cli["error"]["glossy"], rel=1e-8)
+    assert s["intensity"] == pytest.approx(cli["intensity"], rel=1e-8)
+    assert s["bytes"] == os.path.getsize(a)
+
+    def doc(p):
+        data = open(p, "rb").read()
+        n = struct.unpack_from("<I", data, 12)[0]
+        d = json.loads(data[20:20 + n])
+        d["asset"]["extras"].pop("seconds")
+        return d, data[20 + n:]
+    assert doc(a) == doc(b)

@@ -16,7 +16,7 @@ import contextlib
 import ctypes
 import math
 import numbers
-from ctypes import byref, c_double, c_float, c_int32, c_void_p
+from ctypes import byref, c_double, c_float, c_int32, c_void_p, pointer
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
@@ -539,6 +539,34 @@ class Envmap(_Handle):
         # the residual has the map's size (the lights object does not export it)
         return LightsResult(h, lib.envl_envmap_width(m), lib.envl_envmap_height(m),
                             kept=not o.skip_residual)
+
+    def gltf(self, path, size=256, mips=None, lights="sun", n=None, measure=True):
+        """Writes a glTF 2.0 file (.glb or .gltf), as `envlight gltf`: the suns (lights: 'sun',
+        or 'fit', 'median', 'variance', None for none) as KHR_lights_punctual directional
+        lights and the rest as the scene's EXT_lights_image_based light (SH irradiance, GGX
+        mips as RGBD cube faces of size >> k, a power of two; mips None: down to 16 x 16).
+        Returns the summary as a dict (errors None when measure is False)."""
+        p = A.path(path, "Envmap.gltf: path")
+        o = _lib.GltfOptions()
+        o.face_size = A.integer(size, "Envmap.gltf: size", 16, 4096)
+        o.mips = 0 if mips is None else A.integer(mips, "Envmap.gltf: mips", 2, 13)
+        lo = _lib.LightsOptions()
+        if lights is None:
+            o.no_lights = 1
+        else:
+            lo.method = _method(lights, "Envmap.gltf: lights")
+            lo.count = _count(n, lo.method, "Envmap.gltf: n")
+        o.lights = pointer(lo)
+        o.measure = 1 if A.flag(measure, "Envmap.gltf: measure") else 0
+        s = _lib.GltfSummary()
+        _check(lib.envl_gltf_export(self._handle(), p, byref(o), byref(s)))
+        measured = s.diffuse_error >= 0
+        return {"lights": s.lights, "face_size": s.face_size, "mips": s.mips,
+                "intensity": s.intensity,
+                "diffuse_error": s.diffuse_error if measured else None,
+                "glossy_error": [e if e >= 0 else None for e in s.glossy_error[:s.mips]],
+                "rgbd_error": s.rgbd_error, "clamped": s.clamped, "bytes": s.bytes,
+                "seconds": s.seconds}
 
     def sh(self, order=2, window="auto", measure=True):
         """Real SH projection of the map (order 0..32; window 'auto', the default as in

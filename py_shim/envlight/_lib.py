@@ -251,6 +251,33 @@ class ExportOptions(Structure):
     ]
 
 
+class GltfOptions(Structure):
+    _fields_ = [
+        ("face_size", c_int32),
+        ("mips", c_int32),
+        ("no_lights", c_int32),
+        ("lights", POINTER(LightsOptions)),
+        ("samples", c_int32),
+        ("measure", c_int32),
+        ("threads", c_int32),
+    ]
+
+
+class GltfSummary(Structure):
+    _fields_ = [
+        ("lights", c_int32),
+        ("face_size", c_int32),
+        ("mips", c_int32),
+        ("intensity", c_double),
+        ("diffuse_error", c_double),
+        ("glossy_error", c_double * 16),
+        ("rgbd_error", c_double),
+        ("clamped", c_int64),
+        ("bytes", c_int64),
+        ("seconds", c_double),
+    ]
+
+
 class PreviewOptions(Structure):
     _fields_ = [
         ("median_count", c_int32),
@@ -336,6 +363,8 @@ STRUCTS = {
     "envl_request": Request,
     "envl_products_summary": ProductsSummary,
     "envl_export_options": ExportOptions,
+    "envl_gltf_options": GltfOptions,
+    "envl_gltf_summary": GltfSummary,
     "envl_preview_options": PreviewOptions,
     "envl_pov_options": PovOptions,
     "envl_pov_result": PovResult,
@@ -438,6 +467,9 @@ FUNCTIONS = {
     "envl_brdf_eval": (_R, [c_double, c_double, c_int32, _pd]),
     "envl_rgbm_encode": (None, [_pf, c_double, POINTER(c_uint8)]),
     "envl_rgbm_decode": (None, [POINTER(c_uint8), c_double, _pf]),
+    "envl_rgbd_encode": (None, [_pf, POINTER(c_uint8)]),
+    "envl_rgbd_decode": (None, [POINTER(c_uint8), _pf]),
+    "envl_gltf_export": (_R, [_map, c_char_p, POINTER(GltfOptions), POINTER(GltfSummary)]),
     "envl_png_save_rgbm": (_R, [c_char_p, _pf, c_int32, c_int32, c_double]),
     "envl_png_save_srgb": (_R, [c_char_p, _pf, c_int32, c_int32]),
     "envl_export_layout_name": (c_char_p, [c_int32]),
