@@ -148,17 +148,12 @@ typedef struct ibl {
     const double *roughness;
 } ibl;
 
-/* The glTF document. glb: images in the binary chunk at *offsets; else data URIs. */
-static envl_result write_document(FILE *f, const envl_envmap *map, const envl_lights *ls,
-                                  const ibl *b, const face_images *img, int glb,
-                                  const size_t *offsets, size_t bin_size,
-                                  const envl_gltf_summary *s)
+/* asset: the version, the generator, and in extras every convention and figure. */
+static void write_asset(json_writer *j, const envl_envmap *map, const ibl *b,
+                        const envl_gltf_summary *s)
 {
-    json_writer jw, *j = &jw;
-    int32_t nl = ls ? envl_lights_count(ls) : 0;
     envl_info info;
     envl_envmap_info(map, &info);
-    json_begin(j, f);
     json_object(j, "asset");
     json_string(j, "version", "2.0");
     char gen[64];
@@ -188,38 +183,40 @@ static envl_result write_document(FILE *f, const envl_envmap *map, const envl_li
     json_number(j, "seconds", s->seconds);
     json_object_end(j);
     json_object_end(j);
-    json_array(j, "extensionsUsed");
-    if (nl)
-        json_string(j, NULL, "KHR_lights_punctual");
-    json_string(j, NULL, "EXT_lights_image_based");
-    json_array_end(j);
-    json_object(j, "extensions");
-    if (nl) {
-        json_object(j, "KHR_lights_punctual");
-        json_array(j, "lights");
-        for (int32_t i = 0; i < nl; i++) {
-            envl_light l;
-            envl_lights_get(ls, i, &l);
-            double m = fmax(l.rgb[0], fmax(l.rgb[1], l.rgb[2]));
-            double color[3] = {1, 1, 1};
-            for (int k = 0; m > 0 && k < 3; k++)
-                color[k] = l.rgb[k] / m;
-            char name[32];
-            snprintf(name, sizeof name, "sun_%d", (int)i);
-            json_object(j, NULL);
-            json_string(j, "name", name);
-            json_string(j, "type", "directional");
-            json_numbers(j, "color", color, 3);
-            json_number(j, "intensity", m);
-            json_object(j, "extras");
-            json_number(j, "angular_diameter", l.angle);
-            json_number(j, "solid_angle", l.solid_angle);
-            json_object_end(j);
-            json_object_end(j);
-        }
-        json_array_end(j);
+}
+
+/* KHR_lights_punctual's lights: intensity = max(rgb), color = rgb / intensity. */
+static void write_punctual(json_writer *j, const envl_lights *ls, int32_t nl)
+{
+    json_object(j, "KHR_lights_punctual");
+    json_array(j, "lights");
+    for (int32_t i = 0; i < nl; i++) {
+        envl_light l;
+        envl_lights_get(ls, i, &l);
+        double m = fmax(l.rgb[0], fmax(l.rgb[1], l.rgb[2]));
+        double color[3] = {1, 1, 1};
+        for (int k = 0; m > 0 && k < 3; k++)
+            color[k] = l.rgb[k] / m;
+        char name[32];
+        snprintf(name, sizeof name, "sun_%d", (int)i);
+        json_object(j, NULL);
+        json_string(j, "name", name);
+        json_string(j, "type", "directional");
+        json_numbers(j, "color", color, 3);
+        json_number(j, "intensity", m);
+        json_object(j, "extras");
+        json_number(j, "angular_diameter", l.angle);
+        json_number(j, "solid_angle", l.solid_angle);
+        json_object_end(j);
         json_object_end(j);
     }
+    json_array_end(j);
+    json_object_end(j);
+}
+
+/* EXT_lights_image_based's one light: images 6 k .. 6 k + 5 are mip k's faces. */
+static void write_image_based(json_writer *j, const ibl *b)
+{
     json_object(j, "EXT_lights_image_based");
     json_array(j, "lights");
     json_object(j, NULL);
@@ -242,7 +239,11 @@ static envl_result write_document(FILE *f, const envl_envmap *map, const envl_li
     json_object_end(j);
     json_array_end(j);
     json_object_end(j);
-    json_object_end(j);
+}
+
+/* The scene (its image-based light) and one node per punctual light. */
+static void write_scene(json_writer *j, const envl_lights *ls, int32_t nl)
+{
     json_int(j, "scene", 0);
     json_array(j, "scenes");
     json_object(j, NULL);
@@ -258,30 +259,36 @@ static envl_result write_document(FILE *f, const envl_envmap *map, const envl_li
     json_object_end(j);
     json_object_end(j);
     json_array_end(j);
-    if (nl) {
-        json_array(j, "nodes");
-        for (int32_t i = 0; i < nl; i++) {
-            envl_light l;
-            envl_lights_get(ls, i, &l);
-            double d[3], q[4];
-            envl_frame_vector(ENVL_FRAME_GLTF, l.direction, d);
-            light_rotation(d, q);
-            char name[32];
-            snprintf(name, sizeof name, "sun_%d", (int)i);
-            json_object(j, NULL);
-            json_string(j, "name", name);
-            json_numbers(j, "rotation", q, 4);
-            json_object(j, "extensions");
-            json_object(j, "KHR_lights_punctual");
-            json_int(j, "light", i);
-            json_object_end(j);
-            json_object_end(j);
-            json_object_end(j);
-        }
-        json_array_end(j);
+    if (!nl)
+        return;
+    json_array(j, "nodes");
+    for (int32_t i = 0; i < nl; i++) {
+        envl_light l;
+        envl_lights_get(ls, i, &l);
+        double d[3], q[4];
+        envl_frame_vector(ENVL_FRAME_GLTF, l.direction, d);
+        light_rotation(d, q);
+        char name[32];
+        snprintf(name, sizeof name, "sun_%d", (int)i);
+        json_object(j, NULL);
+        json_string(j, "name", name);
+        json_numbers(j, "rotation", q, 4);
+        json_object(j, "extensions");
+        json_object(j, "KHR_lights_punctual");
+        json_int(j, "light", i);
+        json_object_end(j);
+        json_object_end(j);
+        json_object_end(j);
     }
-    json_array(j, "images");
+    json_array_end(j);
+}
+
+/* images, and for .glb their buffer views into the one buffer (the BIN chunk). */
+static envl_result write_images(json_writer *j, const face_images *img, int glb,
+                                const size_t *offsets, size_t bin_size)
+{
     envl_result rc = ENVL_OK;
+    json_array(j, "images");
     for (int32_t i = 0; i < img->n; i++) {
         json_object(j, NULL);
         if (glb) {
@@ -298,23 +305,48 @@ static envl_result write_document(FILE *f, const envl_envmap *map, const envl_li
         json_object_end(j);
     }
     json_array_end(j);
-    if (glb) {
-        json_array(j, "bufferViews");
-        for (int32_t i = 0; i < img->n; i++) {
-            json_object(j, NULL);
-            json_int(j, "buffer", 0);
-            json_int(j, "byteOffset", (int64_t)offsets[i]);
-            json_int(j, "byteLength", (int64_t)img->size[i]);
-            json_object_end(j);
-        }
-        json_array_end(j);
-        json_array(j, "buffers");
+    if (!glb)
+        return rc;
+    json_array(j, "bufferViews");
+    for (int32_t i = 0; i < img->n; i++) {
         json_object(j, NULL);
-        json_int(j, "byteLength", (int64_t)bin_size);
+        json_int(j, "buffer", 0);
+        json_int(j, "byteOffset", (int64_t)offsets[i]);
+        json_int(j, "byteLength", (int64_t)img->size[i]);
         json_object_end(j);
-        json_array_end(j);
     }
-    json_end(j);
+    json_array_end(j);
+    json_array(j, "buffers");
+    json_object(j, NULL);
+    json_int(j, "byteLength", (int64_t)bin_size);
+    json_object_end(j);
+    json_array_end(j);
+    return rc;
+}
+
+/* The glTF document. glb: images in the binary chunk at offsets; else data URIs. */
+static envl_result write_document(FILE *f, const envl_envmap *map, const envl_lights *ls,
+                                  const ibl *b, const face_images *img, int glb,
+                                  const size_t *offsets, size_t bin_size,
+                                  const envl_gltf_summary *s)
+{
+    json_writer j;
+    int32_t nl = ls ? envl_lights_count(ls) : 0;
+    json_begin(&j, f);
+    write_asset(&j, map, b, s);
+    json_array(&j, "extensionsUsed");
+    if (nl)
+        json_string(&j, NULL, "KHR_lights_punctual");
+    json_string(&j, NULL, "EXT_lights_image_based");
+    json_array_end(&j);
+    json_object(&j, "extensions");
+    if (nl)
+        write_punctual(&j, ls, nl);
+    write_image_based(&j, b);
+    json_object_end(&j);
+    write_scene(&j, ls, nl);
+    envl_result rc = write_images(&j, img, glb, offsets, bin_size);
+    json_end(&j);
     return rc;
 }
 
