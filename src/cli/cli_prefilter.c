@@ -76,6 +76,86 @@ static int print_file(const char *path)
     return fflush(stdout) == 0 ? CLI_OK : CLI_FAIL;
 }
 
+/* KTX2 holds cube maps in OpenGL's faces, i.e. the glTF frame: the format implies both.
+ * Nonzero (the usage error printed) when --layout or --frame asked for something else. */
+static int ktx2_layout(const cli_option *t, int n, envl_export_options *eo)
+{
+    if (cli_seen(t, n, "--layout") && eo->layout != ENVL_EXPORT_CUBE) {
+        cli_usage("prefilter", "--format %s writes cube maps (OpenGL's faces, the chain as mip "
+                  "levels): leave out --layout or give --layout cube", eo->format);
+        return 1;
+    }
+    if (cli_seen(t, n, "--frame") && eo->frame != ENVL_FRAME_GLTF) {
+        cli_usage("prefilter", "--format %s writes OpenGL's cube faces, which are in the glTF "
+                  "frame: leave out --frame or give --frame gltf", eo->format);
+        return 1;
+    }
+    eo->layout = ENVL_EXPORT_CUBE;
+    eo->frame = ENVL_FRAME_GLTF;
+    return 0;
+}
+
+/* KTX2's level k is face >> k texels: at most floor(log2(face)) + 1 levels. Nonzero (the
+ * usage error printed) when `levels` do not fit. */
+static int ktx2_levels_fit(const char *format, int32_t face, int32_t levels)
+{
+    int32_t most = 1;
+    while (face >> most)
+        most++;
+    if (levels <= most)
+        return 0;
+    cli_usage("prefilter", "--format %s: %d specular levels do not fit the mip chain of "
+              "%d-texel cube faces (at most %d: log2(%d) + 1); give --levels %d or less, or a "
+              "larger --size", format, (int)levels, (int)face, (int)most, (int)face, (int)most);
+    return 1;
+}
+
+/* The table of what was written: the products, their errors and seconds. */
+static int print_summary(const envl_envmap *map, const envl_products *p, const char *dir,
+                         const envl_export_options *eo)
+{
+    envl_info info;
+    envl_envmap_info(map, &info);
+    envl_products_summary s;
+    envl_products_get_summary(p, &s);
+    printf("%s: %d x %d -> %s (%s, %s), %.3f s", info.file, (int)info.width, (int)info.height,
+           dir, eo->format ? eo->format : "exr", envl_export_layout_name(eo->layout), s.seconds);
+    if (s.specular_levels)
+        printf("; cell pyramid %.3f s", s.seconds_pyramid);
+    printf("\n");
+    envl_irradiance_map irr;
+    if (envl_products_irradiance(p, &irr) == ENVL_OK) {
+        printf("irradiance   %-9s %5d x %-5d", envl_irradiance_method_name(irr.method),
+               (int)irr.width, (int)irr.height);
+        char e[64];
+        printf("  %s  %.3f s\n", cli_error_text(e, sizeof e, "diffuse", irr.diffuse_error),
+               irr.seconds);
+    }
+    for (int32_t i = 0; i < envl_products_level_count(p); i++) {
+        envl_level l;
+        envl_products_level(p, i, &l);
+        printf("specular_%02d  r %.3f alpha %.4f %5d x %-5d samples %4d%s", (int)i, l.roughness,
+               l.alpha, (int)l.width, (int)l.height, (int)l.samples,
+               l.samples ? (l.filtered ? " filtered" : " plain") : " (resampled)");
+        char e[64];
+        printf("  %s  %.3f s\n", cli_error_text(e, sizeof e, "glossy", l.glossy_error),
+               l.seconds);
+    }
+    int32_t nsun;
+    const envl_light *sun = envl_products_sun_lights(p, &nsun);
+    for (int32_t i = 0; i < nsun; i++) {
+        double d[3]; /* in the output's frame, as prefilter.json gives it */
+        envl_frame_vector(eo->frame, sun[i].direction, d);
+        printf("sun_light_%02d direction %.4f %.4f %.4f  rgb %.5g %.5g %.5g  angle %.3f deg\n",
+               (int)i, d[0], d[1], d[2], sun[i].rgb[0], sun[i].rgb[1], sun[i].rgb[2],
+               sun[i].angle * 180 / ENVL_PI);
+    }
+    int32_t bs;
+    if (envl_products_brdf(p, &bs, NULL))
+        printf("brdf_lut     %d x %d  %.3f s\n", (int)bs, (int)bs, s.seconds_brdf);
+    return fflush(stdout) == 0 ? CLI_OK : CLI_FAIL;
+}
+
 int cli_prefilter(int argc, char **argv)
 {
     cli_common c = {0};
@@ -156,17 +236,9 @@ int cli_prefilter(int argc, char **argv)
         strcmp(eo.format, "ktx2") && strcmp(eo.format, "ktx2-float"))
         return USAGE("--format takes exr, hdr, pfm, rgbm-png, ktx2 or ktx2-float, not '%s'",
                      eo.format);
-    /* KTX2 holds cube maps in OpenGL's faces, i.e. the glTF frame: the format implies both */
-    if (eo.format && !strncmp(eo.format, "ktx2", 4)) {
-        if (cli_seen(t, CLI_COUNT(t), "--layout") && eo.layout != ENVL_EXPORT_CUBE)
-            return USAGE("--format %s writes cube maps (OpenGL's faces, the chain as mip "
-                         "levels): leave out --layout or give --layout cube", eo.format);
-        if (cli_seen(t, CLI_COUNT(t), "--frame") && eo.frame != ENVL_FRAME_GLTF)
-            return USAGE("--format %s writes OpenGL's cube faces, which are in the glTF frame: "
-                         "leave out --frame or give --frame gltf", eo.format);
-        eo.layout = ENVL_EXPORT_CUBE;
-        eo.frame = ENVL_FRAME_GLTF;
-    }
+    int ktx2 = eo.format && !strncmp(eo.format, "ktx2", 4);
+    if (ktx2 && ktx2_layout(t, CLI_COUNT(t), &eo))
+        return CLI_USAGE; /* before --roughness is parsed: no list yet */
     if (roughness && parse_list(roughness, &list, &nlist))
         return USAGE("--roughness takes a comma-separated list of values in [0, 1], not '%s'",
                      roughness);
@@ -186,18 +258,12 @@ int cli_prefilter(int argc, char **argv)
                      "drawn in Blender's frame only");
     /* Cube faces of size S come from lat-long maps 4 S wide. */
     q.prefilter.width = (int32_t)(size ? (cube ? 4 * size : size) : (cube ? 1024 : 512));
-    if (eo.format && !strncmp(eo.format, "ktx2", 4) && want_spec) {
-        int32_t face = q.prefilter.width / 4, most = 1, levels = nlist ? nlist
-                                                               : q.prefilter.levels
-                                                                   ? q.prefilter.levels
-                                                                   : ENVL_DEFAULT_LEVELS;
-        while (face >> most)
-            most++; /* floor(log2(face)) + 1: KTX2's level k is face >> k texels */
-        if (levels > most)
-            return USAGE("--format %s: %d specular levels do not fit the mip chain of %d-texel "
-                         "cube faces (at most %d: log2(%d) + 1); give --levels %d or less, or "
-                         "a larger --size", eo.format, (int)levels, (int)face, (int)most,
-                         (int)face, (int)most);
+    if (ktx2 && want_spec &&
+        ktx2_levels_fit(eo.format, q.prefilter.width / 4,
+                        nlist ? nlist : q.prefilter.levels ? q.prefilter.levels
+                                                           : ENVL_DEFAULT_LEVELS)) {
+        free(list);
+        return CLI_USAGE;
     }
     if (min_size)
         q.prefilter.min_width = (int32_t)min_size;
@@ -245,44 +311,7 @@ int cli_prefilter(int argc, char **argv)
         rc = print_file(path);
         goto done;
     }
-    envl_info info;
-    envl_envmap_info(map, &info);
-    envl_products_summary s;
-    envl_products_get_summary(p, &s);
-    printf("%s: %d x %d -> %s (%s, %s), %.3f s", info.file, (int)info.width, (int)info.height,
-           dir, eo.format ? eo.format : "exr", envl_export_layout_name(eo.layout), s.seconds);
-    if (s.specular_levels)
-        printf("; cell pyramid %.3f s", s.seconds_pyramid);
-    printf("\n");
-    envl_irradiance_map irr;
-    if (envl_products_irradiance(p, &irr) == ENVL_OK) {
-        printf("irradiance   %-9s %5d x %-5d", envl_irradiance_method_name(irr.method),
-               (int)irr.width, (int)irr.height);
-        char e[64];
-        printf("  %s  %.3f s\n", cli_error_text(e, sizeof e, "diffuse", irr.diffuse_error),
-               irr.seconds);
-    }
-    for (int32_t i = 0; i < envl_products_level_count(p); i++) {
-        envl_level l;
-        envl_products_level(p, i, &l);
-        printf("specular_%02d  r %.3f alpha %.4f %5d x %-5d samples %4d%s", (int)i, l.roughness,
-               l.alpha, (int)l.width, (int)l.height, (int)l.samples,
-               l.samples ? (l.filtered ? " filtered" : " plain") : " (resampled)");
-        char e[64];
-        printf("  %s  %.3f s\n", cli_error_text(e, sizeof e, "glossy", l.glossy_error),
-               l.seconds);
-    }
-    int32_t nsun;
-    const envl_light *sun = envl_products_sun_lights(p, &nsun);
-    for (int32_t i = 0; i < nsun; i++)
-        printf("sun_light_%02d direction %.4f %.4f %.4f  rgb %.5g %.5g %.5g  angle %.3f deg\n",
-               (int)i, sun[i].direction[0], sun[i].direction[1], sun[i].direction[2],
-               sun[i].rgb[0], sun[i].rgb[1], sun[i].rgb[2], sun[i].angle * 180 / ENVL_PI);
-    int32_t bs;
-    if (envl_products_brdf(p, &bs, NULL))
-        printf("brdf_lut     %d x %d  %.3f s\n", (int)bs, (int)bs, s.seconds_brdf);
-    if (fflush(stdout))
-        rc = CLI_FAIL;
+    rc = print_summary(map, p, dir, &eo);
 done:
     envl_products_free(p);
     envl_envmap_free(map);
