@@ -8,8 +8,10 @@ Expectations and their tolerances:
     EXT_lights_image_based and so sees the images that extension references as unused;
   * the faces: specularImages[k][f], decoded (rgb = (png.rgb / 255)^2.2 / (png.a / 255), times
     the light's intensity), equals `envlight prefilter --frame gltf --layout cube --format pfm`'s
-    face f of level k of the same residual map, mirrored left to right (the extension's "flipped
-    about its vertical axis"), within RGBD's quantisation: a byte y = round(255 (v D)^(1/2.2))
+    face SLOT[f] of level k of the same residual map (+Y and -Y swapped) turned half a turn:
+    OpenGL's face f of the frame (x, -y, z), mirrored left to right (the extension's "flipped
+    about its vertical axis"), which is what Babylon.js renders right in its default
+    left-handed scene (tests/py_gltf_babylon.py), within RGBD's quantisation: a byte y = round(255 (v D)^(1/2.2))
     is within 0.5 / 255 of its value, so the decoded v is within 2.2 (y + 0.5/255)^1.2 (0.5/255)
     / D (the derivative of y^2.2), plus float32 rounding (2^-22 relative);
   * the SH: Babylon's result pi x (E / pi) equals `envlight sh --order 2 --frame gltf` of the
@@ -42,6 +44,7 @@ pytestmark = pytest.mark.skipif(
            "Babylon.js from npm)")
 
 SIZE, MIPS = 32, 3  # faces 32, 16, 8: small and quick
+SLOT = [0, 1, 3, 2, 4, 5]  # specularImages[k][f] comes from prefilter's GL face SLOT[f]
 
 
 def run(*args, check=True):
@@ -207,7 +210,8 @@ def test_the_faces_decode_to_the_prefiltered_chain(sky):
             assert level["roughness"] == pytest.approx(k / (MIPS - 1), abs=1e-12)
             assert doc["asset"]["extras"]["mip_roughness"][k] == pytest.approx(level["roughness"])
             for f in range(6):
-                want = read_pfm(os.path.join(folder, level["files"][f]))[:, ::-1]
+                # glTF's GL face f turned half a turn, +Y and -Y swapped (Babylon's frame)
+                want = read_pfm(os.path.join(folder, level["files"][SLOT[f]]))[::-1, ::-1]
                 px = decode_png_rgba8(image_bytes(doc, binary, light["specularImages"][k][f]))
                 n = SIZE >> k
                 assert want.shape == (n, n, 3) and px.shape == (n, n, 4)

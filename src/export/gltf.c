@@ -51,10 +51,13 @@ static double levels_max(const envl_products *p)
     return m;
 }
 
-/* Mip `level` as six RGBD PNGs of `face` pixels: OpenGL's faces of the glTF frame
- * (layout.c's GL strip), each mirrored left to right ("each saved image must be flipped about
- * its vertical axis", EXT_lights_image_based). The stored value is the radiance / scale;
- * *error: relative RMS (luminance) of the decoded texels against the floats they encode. */
+/* Mip `level` as six RGBD PNGs of `face` pixels, as Babylon.js (the extension's reference
+ * implementation) renders them in its default left-handed scene (tests/py_gltf_babylon.py):
+ * slot f holds OpenGL's face f of the glTF frame (layout.c's GL strip) turned half a turn
+ * (mirrored left to right and top to bottom), with the +Y and -Y slots swapped; that is
+ * OpenGL's face f of the frame (x, -y, z), mirrored left to right, the extension's "flipped
+ * about its vertical axis". The stored value is the radiance / scale; *error: relative RMS
+ * (luminance) of the decoded texels against the floats they encode. */
 static envl_result encode_mip(const envl_level *l, int32_t face, double scale, face_images *out,
                               double *error, int64_t *clamped)
 {
@@ -69,10 +72,11 @@ static envl_result encode_mip(const envl_level *l, int32_t face, double scale, f
     if (!px || !want || !got)
         rc = envl__fail(ENVL_ERR_MEMORY, "gltf: out of memory");
     for (int32_t f = 0; f < 6 && !rc; f++) {
+        int32_t g = f == 2 ? 3 : f == 3 ? 2 : f; /* +Y and -Y swapped */
         for (int32_t r = 0; r < face; r++)
             for (int32_t i = 0; i < face; i++) {
-                const float *c = strip.px + 3 * ((size_t)r * strip.width + (size_t)f * face +
-                                                 (size_t)(face - 1 - i));
+                const float *c = strip.px + 3 * ((size_t)(face - 1 - r) * strip.width +
+                                                 (size_t)g * face + (size_t)(face - 1 - i));
                 float v[3], back[3];
                 size_t t = (size_t)r * face + i, k = f * n + t;
                 for (int ch = 0; ch < 3; ch++) {
@@ -166,10 +170,13 @@ static void write_asset(json_writer *j, const envl_envmap *map, const ibl *b,
     json_string(j, "units", "the source's radiance, taken as cd/m^2: light intensity in lux, "
                 "the IBL's faces and coefficients x intensity in the source's units");
     json_string(j, "nothing_twice", "the IBL is the map less what the punctual lights took");
-    json_string(j, "cube_faces", "specularImages[k] = +X -X +Y -Y +Z -Z of the glTF frame, each "
-                "the OpenGL face mirrored left to right: texel (i, j) of an N x N face (row j = "
-                "0 first) is s = 1 - (i + 0.5) / N, t = (j + 0.5) / N of the OpenGL spec's "
-                "cube face table; RGBD PNG (rgb = (png.rgb)^2.2 / png.a, times intensity)");
+    json_string(j, "cube_faces", "specularImages[k][f] = OpenGL's cube face f (+X -X +Y -Y +Z "
+                "-Z) of the frame (x, -y, z) of glTF's, mirrored left to right, as Babylon.js "
+                "renders them in a left-handed scene: texel (i, j) of an N x N face (row j = 0 "
+                "first) is s = 1 - (i + 0.5) / N, t = (j + 0.5) / N of the OpenGL spec's cube "
+                "face table, the direction's y negated (so slot f is glTF's face f turned half "
+                "a turn, +Y and -Y swapped); RGBD PNG (rgb = (png.rgb)^2.2 / png.a, times "
+                "intensity)");
     json_numbers(j, "mip_roughness", b->roughness, b->mips);
     json_string(j, "ggx", "prefiltered radiance P(R) = sum L D(h) max(R.l, 0) dw / sum D(h) "
                 "max(R.l, 0) dw, alpha = roughness^2");
