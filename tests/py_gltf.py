@@ -14,9 +14,10 @@ Expectations and their tolerances:
     left-handed scene (tests/py_gltf_babylon.py), within RGBD's quantisation: a byte y = round(255 (v D)^(1/2.2))
     is within 0.5 / 255 of its value, so the decoded v is within 2.2 (y + 0.5/255)^1.2 (0.5/255)
     / D (the derivative of y^2.2), plus float32 rounding (2^-22 relative);
-  * the SH: Babylon's result pi x (E / pi) equals `envlight sh --order 2 --frame gltf` of the
-    same residual, evaluated here in docs/design.md's basis, to 1e-8 of the terms' magnitudes
-    (the file's 9 significant digits);
+  * the SH: Babylon's result pi x (E / pi) at its world normal n equals `envlight sh --order 2
+    --frame gltf` of the same residual, evaluated here in docs/design.md's basis at glTF's
+    (-n_x, n_y, n_z) (its default left-handed scene's frame; tests/py_gltf_babylon.py renders
+    it), to 1e-8 of the terms' magnitudes (the file's 9 significant digits);
   * the lights: each node's rotation takes -Z (where a glTF directional light shines) to -d, d
     the sun's direction from `envlight lights --method sun --frame gltf`, to 1e-8; colour x
     intensity = its rgb.
@@ -254,7 +255,8 @@ def check_sh_through_babylon(glb, reference_map):
         "directions": dirs}))
     assert "vSphericalL1_1*(normal.y)" in got["expression"]
     for d, lambert in zip(dirs, got["radiance"]):
-        e, magnitude = sh_irradiance(ref["irradiance"], d)
+        # d is Babylon's world normal: glTF's (-x, y, z) in its default left-handed scene
+        e, magnitude = sh_irradiance(ref["irradiance"], [-d[0], d[1], d[2]])
         assert np.all(np.abs(math.pi * np.array(lambert) - e) <= 1e-8 * magnitude + 1e-300), d
 
 

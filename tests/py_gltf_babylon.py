@@ -17,8 +17,10 @@ In a right-handed scene (scene.useRightHandedSystem) Babylon's loader leaves glT
 is, but its shaders negate z of every cube lookup (REFLECTIONMAP_OPPOSITEZ): the environment
 shows turned half a turn about +Y, the sun at (-x, y, -z) of the light's; this test records
 that (Babylon's behaviour, not the file's: no file is right in both scenes).
-The SH irradiance (a white diffuse sphere lit by env.glb alone, its centre pixel seen from the
-sun's side and from that side mirrored in x, y, z) is recorded too: see docs/methods.md.
+The SH irradiance: a white diffuse sphere lit by env.glb alone, its centre pixel seen from the
+sun's side, is brighter than seen from that side mirrored in x, in y or in z (left-handed); in
+the right-handed scene the brightest of those five views is the sun's turned half a turn about
++Y, as the sky.
 """
 import http.server
 import json
@@ -162,6 +164,16 @@ def test_right_handed_babylon_turns_the_environment_half_a_turn_about_y(seen):
     assert angle(s["skybox"]["direction"], sun * [-1, 1, -1]) < 1, (s["skybox"], sun)
     # the glint then lies near the sphere's rim, where the reflection turns fast: 5 degrees
     assert angle(s["mirror"]["reflected"], sun * [-1, 1, -1]) < 5, (s["mirror"], sun)
+
+
+def test_left_handed_the_diffuse_sphere_is_brightest_facing_the_sun(seen):
+    d = seen["lh"]["diffuse"]
+    assert all(d["sun"] > d[k] for k in ("mirror_x", "mirror_y", "mirror_z", "turned_y")), d
+
+
+def test_right_handed_the_diffuse_sphere_turns_with_the_sky(seen):
+    d = seen["rh"]["diffuse"]
+    assert all(d["turned_y"] > d[k] for k in ("sun", "mirror_x", "mirror_y", "mirror_z")), d
 
 
 def test_it_is_quick(seen):

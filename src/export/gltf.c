@@ -119,8 +119,12 @@ static void light_rotation(const double d[3], double q[4])
 }
 
 /* Babylon.js's SH basis (SphericalHarmonics: SH3ylmBasisConstants) carries the Condon-Shortley
- * sign on m = +-1: its coefficients there are the negated ones of docs/design.md's basis. */
-static const double babylon_sign[9] = {1, -1, 1, -1, 1, -1, 1, -1, 1};
+ * sign on m = +-1 (indices 1, 3, 5, 7): its coefficients there are the negated ones of
+ * docs/design.md's basis. And Babylon evaluates them at its world normal, which in its default
+ * left-handed scene is glTF's (-x, y, z) (the loader's __root__ node maps glTF into it; the
+ * environment is not under that node): written in that frame, the functions odd in x (x, xy,
+ * xz: indices 3, 4, 7) change sign too. Rendered and checked: tests/py_gltf_babylon.py. */
+static const double babylon_sign[9] = {1, -1, 1, 1, -1, -1, 1, 1, 1};
 
 static const char *b64 = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
 
@@ -183,7 +187,8 @@ static void write_asset(json_writer *j, const envl_envmap *map, const ibl *b,
     json_string(j, "irradiance_coefficients", "E(n) = intensity sum_lm c_lm K_lm T_lm(n) in "
                 "Babylon.js's basis (SphericalHarmonics: K = 0.282095, -0.488603, 0.488603, "
                 "-0.488603, 1.092548, -1.092548, 0.315392, -1.092548, 0.546274; T = 1, y, z, x, "
-                "xy, yz, 3z^2 - 1, xz, x^2 - y^2), n in the glTF frame; c = A_l L_lm (irradiance)");
+                "xy, yz, 3z^2 - 1, xz, x^2 - y^2), n = (-x, y, z) for glTF's (x, y, z) (Babylon's "
+                "left-handed world, as its loader puts glTF in it); c = A_l L_lm (irradiance)");
     json_number(j, "diffuse_error", s->diffuse_error >= 0 ? s->diffuse_error : NAN);
     json_numbers(j, "glossy_error", s->glossy_error, b->mips);
     json_number(j, "rgbd_error", s->rgbd_error);
