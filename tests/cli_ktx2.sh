@@ -20,7 +20,8 @@
 #   built-in sky's sun found where the glTF frame puts it.
 # And the refusals (--frame blender, a layout other than cube, more levels than the mip chain
 # holds), and that the format alone implies --layout cube --frame gltf.
-. "$(dirname "$0")/clitest.sh"
+here=$(cd "$(dirname "$0")" && pwd) # tests/: gl_cube.py
+. "$here/clitest.sh"
 
 mods=${ENVL_NODE_MODULES:-}
 if [ -z "$mods" ] || [ ! -f "$mods/ktx-parse/package.json" ]; then
@@ -281,57 +282,20 @@ PY
 
 # OpenGL's cube sampling of a linear map (cli_gl_cube.sh's map and tolerance; plus the half
 # rounding, 2^-11 of the value).
-python3 - <<'PY'
-import math, struct
-W, H = 256, 128
-with open("linear.pfm", "wb") as f:  # PFM: bottom row first, little-endian (scale -1)
-    f.write(b"PF\n%d %d\n-1.0\n" % (W, H))
-    for r in range(H - 1, -1, -1):
-        th = math.pi * (0.5 - (r + 0.5) / H)
-        for c in range(W):
-            ph = math.pi * (1 - 2 * (c + 0.5) / W)
-            x, y, z = math.cos(th) * math.cos(ph), math.cos(th) * math.sin(ph), math.sin(th)
-            f.write(struct.pack("<3f", *[1 + 0.5 * z + 0.3 * x + 0.2 * y] * 3))
-PY
+PYTHONPATH="$here" python3 -c 'import gl_cube; gl_cube.write_linear_pfm("linear.pfm")'
 run "$ENVLIGHT" prefilter linear.pfm -o lin --specular --roughness 0 --format ktx2 --size 32 \
     --no-error
 consumer lin/specular.ktx2 97 32 1
 checks=$((checks + 1))
-python3 - <<'PY' || fail "the KTX2 cube faces sampled as OpenGL does"
-import math, struct
+PYTHONPATH="$here" python3 - <<'PY' || fail "the KTX2 cube faces sampled as OpenGL does"
+import struct
+import gl_cube
 N = 32
 data = open("lin/specular.ktx2.level0.bin", "rb").read()
 v = struct.unpack("<%de" % (len(data) // 2), data)
-faces = {n: [[v[4 * ((f * N + j) * N + i)] for i in range(N)] for j in range(N)]
-         for f, n in enumerate(("px", "nx", "py", "ny", "pz", "nz"))}
-def gl_sample(d):  # OpenGL 4.6 spec, table 8.19: face and (sc, tc, ma)
-    x, y, z = d
-    ax, ay, az = abs(x), abs(y), abs(z)
-    if ax >= ay and ax >= az:
-        n, sc, tc, ma = ("px", -z, -y, ax) if x > 0 else ("nx", z, -y, ax)
-    elif ay >= az:
-        n, sc, tc, ma = ("py", x, z, ay) if y > 0 else ("ny", x, -z, ay)
-    else:
-        n, sc, tc, ma = ("pz", x, -y, az) if z > 0 else ("nz", -x, -y, az)
-    s, t = (sc / ma + 1) / 2, (tc / ma + 1) / 2
-    img = faces[n]
-    gx, gy = s * N - 0.5, t * N - 0.5
-    edge = not (0 <= gx <= N - 1 and 0 <= gy <= N - 1)
-    fx, fy = min(max(gx, 0), N - 1), min(max(gy, 0), N - 1)
-    i0, j0 = min(int(fx), N - 2), min(int(fy), N - 2)
-    a, b = fx - i0, fy - j0
-    return edge, ((1 - a) * (1 - b) * img[j0][i0] + a * (1 - b) * img[j0][i0 + 1] +
-                  (1 - a) * b * img[j0 + 1][i0] + a * b * img[j0 + 1][i0 + 1])
-worst = [0, 0]
-n = 600
-for k in range(n):  # Fibonacci directions in the glTF frame
-    y = 1 - (2 * k + 1) / n
-    r, ph = math.sqrt(1 - y * y), k * math.pi * (3 - math.sqrt(5))
-    d = (r * math.cos(ph), y, r * math.sin(ph))
-    want = 1 + 0.5 * d[1] - 0.2 * d[2] + 0.3 * d[0]
-    edge, got = gl_sample(d)
-    allowed = 5e-3 * want + 2.0 ** -11 * abs(got) + (0.62 / 32 if edge else 0)
-    worst[edge] = max(worst[edge], abs(got - want) / allowed)
+faces = {n: (N, [[v[4 * ((f * N + j) * N + i)] for i in range(N)] for j in range(N)])
+         for f, n in enumerate(gl_cube.FACES)}
+worst = gl_cube.worst_linear(faces, rounding=2.0 ** -11)
 print("KTX2 cube faces: worst difference %.2f of the tolerance inside, %.2f at the edges" %
       tuple(worst))
 assert max(worst) <= 1, worst
