@@ -443,22 +443,21 @@ static envl_result put_brdf(exporter *x, const envl_products *p, const char *fmt
     return rc;
 }
 
-envl_result envl_products_export(const envl_products *p, const char *dir,
-                                 const envl_export_options *options)
+/* The options against the products, before anything is written: *rgbm, *vk_out (the KTX2
+ * vkFormat, or 0) say what the format is. */
+static envl_result check_export(const envl_products *p, const char *dir,
+                                const envl_export_options *o, const char *fmt, int *rgbm,
+                                int32_t *vk_out)
 {
-    static const envl_export_options defaults;
-    const envl_export_options *o = options ? options : &defaults;
-    if (!p || !dir || !*dir)
-        return envl__fail(ENVL_ERR_ARGUMENT, "export: need products and a directory");
-    const char *fmt = o->format ? o->format : "exr";
-    int rgbm = !strcmp(fmt, "rgbm-png");
+    *rgbm = !strcmp(fmt, "rgbm-png");
     int32_t vk = !strcmp(fmt, "ktx2")         ? ENVL__VK_FORMAT_R16G16B16A16_SFLOAT
                  : !strcmp(fmt, "ktx2-float") ? ENVL__VK_FORMAT_R32G32B32A32_SFLOAT
                                               : 0;
-    if (!rgbm && !vk && strcmp(fmt, "exr") && strcmp(fmt, "hdr") && strcmp(fmt, "pfm"))
+    *vk_out = vk;
+    if (!*rgbm && !vk && strcmp(fmt, "exr") && strcmp(fmt, "hdr") && strcmp(fmt, "pfm"))
         return envl__fail(ENVL_ERR_ARGUMENT, "export: unknown format '%s' (exr, hdr, pfm, "
                           "rgbm-png, ktx2, ktx2-float)", fmt);
-    if (!vk && envl__format_built(dir, rgbm ? "png" : fmt)) /* refused before anything is
+    if (!vk && envl__format_built(dir, *rgbm ? "png" : fmt)) /* refused before anything is
                                                                 written */
         return ENVL_ERR_UNSUPPORTED;
     if (o->layout < 0 || o->layout >= ENVL_EXPORT_COUNT)
@@ -481,15 +480,17 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
                               "log2(%d) + 1); ask for fewer levels or larger faces",
                               (int)p->n_levels, (int)face, (int)ktx2_max_levels(face), (int)face);
     }
-    exporter x = {.dir = dir, .format = rgbm ? "png" : vk ? "ktx2" : fmt, .rgbm = rgbm,
-                  .vk_format = vk};
-    x.json = open_memstream(&x.json_buf, &x.json_size);
-    if (!x.json)
-        return envl__fail(ENVL_ERR_MEMORY, "export: cannot buffer the sidecar");
-    json_writer *j = &x.jw;
+    return ENVL_OK;
+}
+
+/* The sidecar's conventions: frame, lat-long formula, format and layout, KTX2, cube faces,
+ * RGBM, GGX and the roughness mapping, sun lights. */
+static void write_conventions(json_writer *j, const envl_products *p,
+                              const envl_export_options *o, const char *fmt, int rgbm,
+                              int32_t vk)
+{
     const resolved *r = &p->opt;
     char text[512];
-    json_begin(j, x.json);
     json_string(j, "source", p->file);
     int gltf = o->frame == ENVL_FRAME_GLTF;
     json_string(j, "frame", gltf ? "gltf-y-up" : "blender-z-up");
@@ -580,10 +581,34 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
         json_array_end(j);
         json_object_end(j);
     }
+}
+
+envl_result envl_products_export(const envl_products *p, const char *dir,
+                                 const envl_export_options *options)
+{
+    static const envl_export_options defaults;
+    const envl_export_options *o = options ? options : &defaults;
+    if (!p || !dir || !*dir)
+        return envl__fail(ENVL_ERR_ARGUMENT, "export: need products and a directory");
+    const char *fmt = o->format ? o->format : "exr";
+    int rgbm;
+    int32_t vk;
+    envl_result rc = check_export(p, dir, o, fmt, &rgbm, &vk);
+    if (rc)
+        return rc;
+    exporter x = {.dir = dir, .format = rgbm ? "png" : vk ? "ktx2" : fmt, .rgbm = rgbm,
+                  .vk_format = vk};
+    x.json = open_memstream(&x.json_buf, &x.json_size);
+    if (!x.json)
+        return envl__fail(ENVL_ERR_MEMORY, "export: cannot buffer the sidecar");
+    json_writer *j = &x.jw;
+    const resolved *r = &p->opt;
+    json_begin(j, x.json);
+    write_conventions(j, p, o, fmt, rgbm, vk);
     /* progress: a step per map written (the callback may cancel: nothing is then written) */
     int32_t maps = (p->has_irradiance != 0) + (o->layout == ENVL_EXPORT_ATLAS ? 1 : p->n_levels);
     double step = 1.0 / (maps > 0 ? maps : 1);
-    envl_result rc = envl__progress(0.0, "writing the irradiance map");
+    rc = envl__progress(0.0, "writing the irradiance map");
     if (!rc && p->has_irradiance) {
         json_object(j, "irradiance");
         json_string(j, "method", envl_irradiance_method_name(p->irr.method));
