@@ -4,6 +4,7 @@
 #include "escape.h"
 
 #include <errno.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
@@ -100,31 +101,55 @@ int cli_layout_evident(const envl_info *in)
 
 /* The library's progress on stderr, one line rewritten in place: only on a terminal (a pipe
  * or a log gets nothing), cleared at the end. */
-static int show_progress(void *user, double fraction, const char *stage)
+static void show_progress(double fraction, const char *stage)
 {
-    (void)user;
     if (fraction >= 1.0)
         fprintf(stderr, "\r%60s\r", "");
     else
         fprintf(stderr, "\renvlight: %-45.45s %3d %%", stage, (int)(100 * fraction));
     fflush(stderr);
-    return 0;
 }
 
-static int progress_shown; /* show_progress installed (cli_progress_start) */
+static int progress_installed, progress_shown;
+static volatile sig_atomic_t interrupted; /* the signal that asked to stop, or 0 */
+
+/* Ctrl-C (SIGINT) or SIGTERM: the next progress step cancels the work (the library then
+ * writes nothing and removes its temporaries); a second one ends the process at once. */
+static void on_interrupt(int sig)
+{
+    interrupted = sig;
+    signal(sig, SIG_DFL);
+}
+
+/* The library's progress callback: shows the step, and cancels once interrupted. */
+static int progress(void *user, double fraction, const char *stage)
+{
+    (void)user;
+    if (progress_shown)
+        show_progress(interrupted ? 1.0 : fraction, stage);
+    return interrupted != 0;
+}
 
 int cli_progress_start(const cli_common *c)
 {
-    if (!progress_shown && !c->quiet && isatty(STDERR_FILENO)) {
-        envl_set_progress(show_progress, NULL);
-        progress_shown = 1;
+    if (!progress_installed) {
+        progress_installed = 1;
+        progress_shown = !c->quiet && isatty(STDERR_FILENO);
+        envl_set_progress(progress, NULL);
+        signal(SIGINT, on_interrupt);
+        signal(SIGTERM, on_interrupt);
     }
     return progress_shown;
 }
 
 int cli_progress(double fraction, const char *stage)
 {
-    return progress_shown ? show_progress(NULL, fraction, stage) : 0;
+    return progress_installed ? progress(NULL, fraction, stage) : 0;
+}
+
+int cli_interrupted(void)
+{
+    return interrupted;
 }
 
 int cli_load(const char *file, const cli_common *c, envl_envmap **out)

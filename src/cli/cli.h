@@ -99,11 +99,13 @@ const char *cli_error_text(char *buf, size_t size, const char *what, double erro
 int cli_load(const char *file, const cli_common *c, envl_envmap **out);
 /* The progress display: one line on stderr rewritten in place, cleared at fraction 1, on a
  * terminal only and not with --quiet (a pipe or a log gets nothing). cli_progress_start
- * installs it as the library's progress callback (envl_set_progress; cli_load does) and says
- * whether it is shown; cli_progress reports the command's own steps (writing a file, a
- * bench case) to it: nonzero is a cancel. */
+ * installs the library's progress callback (envl_set_progress; cli_load does) and handlers
+ * of SIGINT and SIGTERM that make it cancel at the next step, and says whether the display is
+ * shown; cli_progress reports the command's own steps (writing a file, a bench case) to it:
+ * nonzero is a cancel. cli_interrupted: the signal that asked to stop, or 0. */
 int cli_progress_start(const cli_common *c);
 int cli_progress(double fraction, const char *stage);
+int cli_interrupted(void);
 /* 1 if the layout `in` was read as is evident from its shape or metadata (a guess of it
  * needs no note), 0 if it was a real guess (a square image, or an unusual aspect). */
 int cli_layout_evident(const envl_info *in);

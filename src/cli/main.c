@@ -2,6 +2,7 @@
  * harness in src/lab/); the options they share are in cli.c. */
 #include "cli.h"
 
+#include <signal.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -61,8 +62,17 @@ int main(int argc, char **argv)
         return CLI_OK;
     }
     for (int i = 0; i < COMMANDS; i++)
-        if (!strcmp(cmd, commands[i].name))
-            return commands[i].run(argc - 1, argv + 1);
+        if (!strcmp(cmd, commands[i].name)) {
+            int rc = commands[i].run(argc - 1, argv + 1);
+            int sig = cli_interrupted();
+            if (sig && rc != CLI_OK) { /* cancelled (nothing written): end as the signal asked */
+                fprintf(stderr, "envlight: %s: %s stopped at its next step; no output file was "
+                        "written or changed\n", sig == SIGINT ? "interrupted" : "terminated", cmd);
+                signal(sig, SIG_DFL);
+                raise(sig);
+            }
+            return rc;
+        }
     fprintf(stderr, "envlight: unknown command '%s'\n\n", cmd);
     help(stderr);
     return CLI_USAGE;
