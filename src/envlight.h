@@ -663,8 +663,8 @@ typedef struct envl_gltf_summary {
     double glossy_error[16];  /* mip k's glossy error (its float lat-long level against the
                                  residual's reference); -1 when not measured */
     double rgbd_error;        /* largest relative RMS (luminance) over the mips of the decoded
-                                 RGBD faces against the float faces they encode */
-    int64_t clamped;          /* texels above 255 x intensity (none: the scale is the max) */
+                                 RGBD faces against the float faces they encode (none clamps:
+                                 intensity is the chain's largest value / 255) */
     int64_t bytes;            /* of the file */
     double seconds;           /* everything (the error measures excluded) */
 } envl_gltf_summary;

@@ -565,7 +565,7 @@ class Envmap(_Handle):
                 "intensity": s.intensity,
                 "diffuse_error": s.diffuse_error if measured else None,
                 "glossy_error": [e if e >= 0 else None for e in s.glossy_error[:s.mips]],
-                "rgbd_error": s.rgbd_error, "clamped": s.clamped, "bytes": s.bytes,
+                "rgbd_error": s.rgbd_error, "bytes": s.bytes,
                 "seconds": s.seconds}
 
     def sh(self, order=2, window="auto", measure=True):

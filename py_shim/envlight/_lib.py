@@ -272,7 +272,6 @@ class GltfSummary(Structure):
         ("diffuse_error", c_double),
         ("glossy_error", c_double * 16),
         ("rgbd_error", c_double),
-        ("clamped", c_int64),
         ("bytes", c_int64),
         ("seconds", c_double),
     ]

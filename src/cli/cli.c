@@ -70,10 +70,6 @@ int cli_light_count_ok(const char *command, const envl_lights_options *lo)
     return 0;
 }
 
-/* The layout guess (layout.c: metadata, then the aspect ratio) is evident when the file has
- * the shape of the layout it was read as: OpenEXR's envmap attribute, 2:1 lat-long, 3:4 / 4:3
- * crosses, 6:1 / 1:6 strips. A square is a guess (an angular probe or a mirror ball?), and so
- * is a lat-long of any other aspect (no layout has that shape). */
 const char *cli_frame_label(int frame)
 {
     return frame == ENVL_FRAME_GLTF ? "gltf-y-up" : "blender-z-up";
@@ -88,6 +84,10 @@ const char *cli_error_text(char *buf, size_t size, const char *what, double erro
     return buf;
 }
 
+/* The layout guess (layout.c: metadata, then the aspect ratio) is evident when the file has
+ * the shape of the layout it was read as: OpenEXR's envmap attribute, 2:1 lat-long, 3:4 / 4:3
+ * crosses, 6:1 / 1:6 strips. A square is a guess (an angular probe or a mirror ball?), and so
+ * is a lat-long of any other aspect (no layout has that shape). */
 int cli_layout_evident(const envl_info *in)
 {
     int64_t w = in->source_width, h = in->source_height;

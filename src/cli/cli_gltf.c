@@ -42,7 +42,6 @@ static void write_json(const envl_envmap *map, const char *out, const envl_gltf_
         g[k] = s->glossy_error[k] >= 0 ? s->glossy_error[k] : NAN;
     json_numbers(&j, "glossy", g, s->mips);
     json_number(&j, "rgbd", s->rgbd_error);
-    json_int(&j, "clamped", s->clamped);
     json_object_end(&j);
     json_number(&j, "seconds", s->seconds);
     json_end(&j);
@@ -123,8 +122,8 @@ int cli_gltf(int argc, char **argv)
         for (int32_t k = 0; k < s.mips; k++)
             printf("mip %-2d       r %.3f  %s\n", (int)k, s.mips > 1 ? (double)k / (s.mips - 1) : 0,
                    cli_error_text(e, sizeof e, "glossy", s.glossy_error[k]));
-        printf("rgbd         error %.3f %% (decoded faces against their floats), %lld texels "
-               "clamped\n", 100 * s.rgbd_error, (long long)s.clamped);
+        printf("rgbd         error %.3f %% (decoded faces against their floats)\n",
+               100 * s.rgbd_error);
         if (fflush(stdout))
             rc = CLI_FAIL;
     }

@@ -124,6 +124,11 @@ envl_result envl__layout_to_latlong(const envl_image *src, int32_t layout, int32
  * `layout` with face size / probe diameter `size`. */
 envl_result envl__latlong_to_layout(const envl_image *latlong, int32_t layout, int32_t size,
                                     envl_image *out);
+/* The six faces of a horizontal strip (ENVL_LAYOUT_STRIP_H, or ENVL__LAYOUT_GL_STRIP: OpenGL's
+ * faces of the glTF frame) rendered from a lat-long image: *out (malloc'd) holds them one after
+ * another in the strip's order, each `face` x `face` RGB texels, row 0 first. */
+envl_result envl__latlong_to_faces(const envl_image *latlong, int32_t strip, int32_t face,
+                                   float **out);
 /* Default lat-long width for an image read in `layout`. */
 int32_t envl__default_latlong_width(const envl_image *src, int32_t layout);
 

@@ -385,16 +385,8 @@ envl_result envl_envmap_to_layout(const envl_envmap *m, int32_t layout, int32_t 
     envl_result rc = envl__progress(0.0, stage);
     if (rc)
         return rc;
-    envl_image out = {0};
-    if (layout == ENVL_LAYOUT_LATLONG) {
-        out.width = size;
-        out.height = size / 2 > 0 ? size / 2 : 1;
-        rc = envl__latlong_resample(m->px, m->width, m->height, out.width, out.height, 0.0,
-                                    &out.px);
-    } else {
-        envl_image src = {.width = m->width, .height = m->height, .px = m->px};
-        rc = envl__latlong_to_layout(&src, layout, size, &out);
-    }
+    envl_image src = {.width = m->width, .height = m->height, .px = m->px}, out = {0};
+    rc = envl__latlong_to_layout(&src, layout, size, &out); /* lat-long too: area-resampled */
     if (!rc)
         rc = envl__progress(1.0, "done");
     if (rc) {

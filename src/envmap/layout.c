@@ -812,6 +812,33 @@ envl_result envl__latlong_to_layout(const envl_image *latlong, int32_t layout, i
     return ENVL_OK;
 }
 
+envl_result envl__latlong_to_faces(const envl_image *latlong, int32_t strip, int32_t face,
+                                   float **out)
+{
+    *out = NULL;
+    if (strip != ENVL_LAYOUT_STRIP_H && strip != ENVL__LAYOUT_GL_STRIP)
+        return envl__fail(ENVL_ERR_ARGUMENT, "cube faces: layout %d is not a horizontal strip",
+                          (int)strip);
+    envl_image img = {0};
+    envl_result rc = envl__latlong_to_layout(latlong, strip, face, &img);
+    if (rc)
+        return rc;
+    size_t n = (size_t)face * face;
+    float *f = malloc(sizeof(float) * 3 * 6 * n);
+    if (!f) {
+        envl__image_free(&img);
+        return envl__fail(ENVL_ERR_MEMORY, "cube faces: out of memory");
+    }
+    for (int k = 0; k < 6; k++)
+        for (int32_t r = 0; r < face; r++)
+            memcpy(f + 3 * (k * n + (size_t)r * face),
+                   img.px + 3 * ((size_t)r * img.width + (size_t)k * face),
+                   sizeof(float) * 3 * face);
+    envl__image_free(&img);
+    *out = f;
+    return ENVL_OK;
+}
+
 const char *envl_layout_name(int32_t layout)
 {
     static const char *names[ENVL_LAYOUT_COUNT] = {

@@ -59,11 +59,11 @@ static double levels_max(const envl_products *p)
  * about its vertical axis". The stored value is the radiance / scale; *error: relative RMS
  * (luminance) of the decoded texels against the floats they encode. */
 static envl_result encode_mip(const envl_level *l, int32_t face, double scale, face_images *out,
-                              double *error, int64_t *clamped)
+                              double *error)
 {
     envl_image src = {.width = l->width, .height = l->height, .px = (float *)l->rgb};
-    envl_image strip = {0};
-    envl_result rc = envl__latlong_to_layout(&src, ENVL__LAYOUT_GL_STRIP, face, &strip);
+    float *gl; /* OpenGL's six faces of the glTF frame */
+    envl_result rc = envl__latlong_to_faces(&src, ENVL__LAYOUT_GL_STRIP, face, &gl);
     if (rc)
         return rc;
     size_t n = (size_t)face * face;
@@ -75,14 +75,12 @@ static envl_result encode_mip(const envl_level *l, int32_t face, double scale, f
         int32_t g = f == 2 ? 3 : f == 3 ? 2 : f; /* +Y and -Y swapped */
         for (int32_t r = 0; r < face; r++)
             for (int32_t i = 0; i < face; i++) {
-                const float *c = strip.px + 3 * ((size_t)(face - 1 - r) * strip.width +
-                                                 (size_t)g * face + (size_t)(face - 1 - i));
+                const float *c = gl + 3 * (g * n + (size_t)(face - 1 - r) * face +
+                                           (size_t)(face - 1 - i));
                 float v[3], back[3];
                 size_t t = (size_t)r * face + i, k = f * n + t;
-                for (int ch = 0; ch < 3; ch++) {
+                for (int ch = 0; ch < 3; ch++)
                     v[ch] = (float)(c[ch] / scale);
-                    *clamped += v[ch] > 255.0f;
-                }
                 envl_rgbd_encode(v, px + 4 * t);
                 envl_rgbd_decode(px + 4 * t, back);
                 for (int ch = 0; ch < 3; ch++)
@@ -99,7 +97,7 @@ static envl_result encode_mip(const envl_level *l, int32_t face, double scale, f
     free(px);
     free(want);
     free(got);
-    envl__image_free(&strip);
+    free(gl);
     return rc;
 }
 
@@ -477,10 +475,9 @@ static envl_result check_options(const char *path, const envl_gltf_options *o, i
         return envl__fail(ENVL_ERR_ARGUMENT, "gltf: the face size must be a power of two from "
                           "%d to %d, not %d", MIN_FACE, MAX_FACE, (int)*face);
     *mips = o->mips ? o->mips : lg - log2_exact(LAST_MIP_FACE) + 1;
-    if (*mips < 2 || *mips > lg + 1 || *mips > 16)
+    if (*mips < 2 || *mips > lg + 1) /* at most 13 (4096): glossy_error[16] holds them */
         return envl__fail(ENVL_ERR_ARGUMENT, "gltf: %d mips do not fit a %d-pixel face (2 to "
-                          "%d: each mip halves the face)", (int)*mips, (int)*face,
-                          (int)(lg + 1 < 16 ? lg + 1 : 16));
+                          "%d: each mip halves the face)", (int)*mips, (int)*face, (int)(lg + 1));
     return ENVL_OK;
 }
 
@@ -556,7 +553,7 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         double e;
         rc = envl__progress((double)k / mips, "encoding the RGBD faces");
         if (!rc)
-            rc = encode_mip(&l, face >> k, b.intensity, &img, &e, &s.clamped);
+            rc = encode_mip(&l, face >> k, b.intensity, &img, &e);
         s.rgbd_error = fmax(s.rgbd_error, rc ? 0 : e);
     }
     if (!rc) {

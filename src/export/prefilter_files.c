@@ -163,15 +163,12 @@ static envl_result put_map(exporter *x, int32_t layout, int32_t frame, const cha
         return put_image(x, stem, rgb, w, h);
     }
     envl_image src = {.width = w, .height = h, .px = (float *)rgb};
-    envl_image img = {0};
     int32_t face = w / 4 > 0 ? w / 4 : 1;
-    int32_t to = layout == ENVL_EXPORT_CROSS      ? ENVL_LAYOUT_CROSS_V
-                 : frame == ENVL_FRAME_GLTF ? ENVL__LAYOUT_GL_STRIP
-                                            : ENVL_LAYOUT_STRIP_H;
-    envl_result rc = envl__latlong_to_layout(&src, to, face, &img);
-    if (rc)
-        return rc;
+    envl_result rc;
     if (layout == ENVL_EXPORT_CROSS) {
+        envl_image img = {0};
+        if ((rc = envl__latlong_to_layout(&src, ENVL_LAYOUT_CROSS_V, face, &img)))
+            return rc;
         snprintf(name, sizeof name, "%s.%s", stem, x->format);
         json_array(j, "files");
         json_string(j, NULL, name);
@@ -185,27 +182,24 @@ static envl_result put_map(exporter *x, int32_t layout, int32_t frame, const cha
     /* Strip order (layout.c): front +X, back -X, left +Y, right -Y, top +Z, bottom -Z; the
      * GL strip: +X -X +Y -Y +Z -Z of the glTF frame. */
     static const char *suffix[6] = {"px", "nx", "py", "ny", "pz", "nz"};
-    float *f = malloc(sizeof(float) * 3 * (size_t)face * face);
-    if (!f) {
-        envl__image_free(&img);
-        return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
-    }
+    float *f;
+    rc = envl__latlong_to_faces(&src, frame == ENVL_FRAME_GLTF ? ENVL__LAYOUT_GL_STRIP
+                                                               : ENVL_LAYOUT_STRIP_H,
+                                face, &f);
+    if (rc)
+        return rc;
     json_array(j, "files");
     for (int k = 0; k < 6 && !rc; k++) {
-        for (int32_t r = 0; r < face; r++)
-            memcpy(f + 3 * (size_t)r * face, img.px + 3 * ((size_t)r * img.width + k * face),
-                   sizeof(float) * 3 * face);
         char file[600];
         snprintf(name, sizeof name, "%s_%s", stem, suffix[k]);
         snprintf(file, sizeof file, "%s.%s", name, x->format);
         json_string(j, NULL, file);
-        rc = put_image(x, name, f, face, face);
+        rc = put_image(x, name, f + 3 * (size_t)k * face * face, face, face);
     }
     json_array_end(j);
     json_string(j, "layout", "cube");
     json_int(j, "face_size", face);
     free(f);
-    envl__image_free(&img);
     return rc;
 }
 
@@ -229,7 +223,7 @@ static envl_result gl_faces(const float *rgb, int32_t w, int32_t h, int32_t face
 {
     *out = NULL;
     float *small = NULL;
-    envl_image src = {.width = w, .height = h, .px = (float *)rgb}, img = {0};
+    envl_image src = {.width = w, .height = h, .px = (float *)rgb};
     envl_result rc = ENVL_OK;
     *resampled = w != 4 * face;
     if (*resampled) {
@@ -237,24 +231,9 @@ static envl_result gl_faces(const float *rgb, int32_t w, int32_t h, int32_t face
         src = (envl_image){.width = 4 * face, .height = 2 * face, .px = small};
     }
     if (!rc)
-        rc = envl__latlong_to_layout(&src, ENVL__LAYOUT_GL_STRIP, face, &img);
+        rc = envl__latlong_to_faces(&src, ENVL__LAYOUT_GL_STRIP, face, out);
     free(small);
-    if (rc)
-        return rc;
-    size_t n = (size_t)face * face;
-    float *f = malloc(sizeof(float) * 3 * 6 * n);
-    if (!f) {
-        envl__image_free(&img);
-        return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
-    }
-    for (int k = 0; k < 6; k++)
-        for (int32_t r = 0; r < face; r++)
-            memcpy(f + 3 * (k * n + (size_t)r * face),
-                   img.px + 3 * ((size_t)r * img.width + (size_t)k * face),
-                   sizeof(float) * 3 * face);
-    envl__image_free(&img);
-    *out = f;
-    return ENVL_OK;
+    return rc;
 }
 
 /* Writes NAME.ktx2 (pending) from n images of rgb[k] (faces one after another, or one 2D
