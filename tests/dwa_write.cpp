@@ -11,6 +11,9 @@
 //       light that the 8 x 8 DCT of its block makes ring (on a black sky, at a high level);
 //       the data window is (0, 0) - (W - 1, H - 1), the display window the same moved by
 //       (OX, OY) (default 0, 0), so the codec's blocks start at (-OX, -OY) of the display
+//   dwa_write OUT.pfm pfm 0 IN.exr
+//       IN's values as OpenEXR decodes them (negative ones kept) as a PFM (float RGB, bottom
+//       row first), for scripts that read them with no filling
 //   dwa_write OUT.exr zip 0 --inf W H
 //       a W x H image whose every channel is +Inf (half)
 //   dwa_write OUT.exr zip 0 --windows DX0 DY0 DX1 DY1 WX0 WY0 WX1 WY1
@@ -28,6 +31,7 @@
 #include <cstring>
 #include <exception>
 #include <limits>
+#include <stdexcept>
 #include <vector>
 
 namespace {
@@ -36,6 +40,7 @@ int usage()
 {
     std::fprintf(stderr,
                  "usage: dwa_write OUT.exr dwaa|dwab|zip LEVEL IN.exr\n"
+                 "       dwa_write OUT.pfm pfm 0 IN.exr\n"
                  "       dwa_write OUT.exr dwaa|dwab|zip LEVEL --sun W H SKY X Y SUN [OX OY]\n"
                  "       dwa_write OUT.exr zip 0 --inf W H\n"
                  "       dwa_write OUT.exr zip 0 --windows DX0 DY0 DX1 DY1 WX0 WY0 WX1 WY1\n");
@@ -54,14 +59,34 @@ void write(const char *out, Imf::Compression comp, float level, const Imath::Box
     f.writePixels(data.max.y - data.min.y + 1);
 }
 
+/* IN's pixels (its data window) as a little-endian PFM, the bottom row first. */
+void write_pfm(const char *out, const std::vector<Imf::Rgba> &px, int w, int h)
+{
+    FILE *f = std::fopen(out, "wb");
+    if (!f)
+        throw std::runtime_error("cannot create the file");
+    std::fprintf(f, "PF\n%d %d\n-1\n", w, h);
+    for (int y = h - 1; y >= 0; y--)
+        for (int x = 0; x < w; x++) {
+            const Imf::Rgba &p = px[(size_t)y * w + x];
+            float v[3] = {p.r, p.g, p.b};
+            std::fwrite(v, sizeof v, 1, f);
+        }
+    if (std::fclose(f) != 0)
+        throw std::runtime_error("cannot write the file");
+}
+
 } // namespace
 
 int main(int argc, char **argv)
 {
     if (argc < 5)
         return usage();
-    Imf::Compression comp;
-    if (!std::strcmp(argv[2], "dwaa"))
+    Imf::Compression comp = Imf::NO_COMPRESSION;
+    bool pfm = !std::strcmp(argv[2], "pfm");
+    if (pfm)
+        ;
+    else if (!std::strcmp(argv[2], "dwaa"))
         comp = Imf::DWAA_COMPRESSION;
     else if (!std::strcmp(argv[2], "dwab"))
         comp = Imf::DWAB_COMPRESSION;
@@ -109,7 +134,10 @@ int main(int argc, char **argv)
             std::vector<Imf::Rgba> px((size_t)w * h);
             in.setFrameBuffer(px.data() - dw.min.x - (std::ptrdiff_t)dw.min.y * w, 1, w);
             in.readPixels(dw.min.y, dw.max.y);
-            write(argv[1], comp, level, in.displayWindow(), dw, px);
+            if (pfm)
+                write_pfm(argv[1], px, w, h);
+            else
+                write(argv[1], comp, level, in.displayWindow(), dw, px);
         } else {
             return usage();
         }
