@@ -141,14 +141,13 @@ int32_t envl__default_latlong_width(const envl_image *src, int32_t layout);
 double envl__layout_pixel_solid_angle(int32_t layout, int32_t w, int32_t h, int32_t i, int32_t j);
 
 /* ---- negative values (ringing.c; docs/methods.md, "Negative pixels") ---- */
-/* Fills every negative value of img (read in `layout`) from the positive light around it, so
- * that the sum of L dw keeps the file's signed sum; what it did goes to info's filled_energy,
- * added_energy, unfilled_values and fill_window. NaN and Inf must be gone. */
+/* With NaN and Inf gone from img (read in `layout`): the sum of its L dw (negative values
+ * included, dw from envl__layout_pixel_solid_angle) into info->signed_power, then, when
+ * info->negative_pixels, every negative value filled from the positive light around it, so
+ * that the sum keeps the file's signed sum; what it did goes to info's filled_energy,
+ * added_energy, unfilled_values and fill_window. */
 envl_result envl__fill_negatives(envl_image *img, int32_t layout, const char *file,
                                  envl_info *info);
-/* Sum of L dw of img's finite values (negative ones included), dw the pixel solid angle in
- * `layout` (envl__layout_pixel_solid_angle). */
-void envl__signed_power(const envl_image *img, int32_t layout, double power[3]);
 
 /* ---- lat-long resampling (resample.c) ---- */
 /* Exact area-weighted resampling of a lat-long image to out_w x out_h, turned by

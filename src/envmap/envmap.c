@@ -62,8 +62,7 @@ static envl_result sanitise(envl_image *img, int32_t layout, int32_t strict, con
             img->px[i] = maxfinite;
     }
     info->infinity_value = infinite ? maxfinite : 0.0;
-    envl__signed_power(img, layout, info->signed_power);
-    return negative ? envl__fill_negatives(img, layout, file, info) : ENVL_OK;
+    return envl__fill_negatives(img, layout, file, info);
 }
 
 static envl_result build_tables(envl_envmap *m)

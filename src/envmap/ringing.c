@@ -36,7 +36,8 @@ typedef struct tiles {
     int32_t ox, oy;         /* the block grid's origin, 0..7: tile 1 starts there when nonzero */
     int32_t ntx, nty;
     int wrap;               /* lat-long: columns wrap */
-    double *row_dw;         /* lat-long layouts: dw per row; else NULL (per pixel) */
+    double *row_dw;         /* lat-long layouts: dw per row */
+    float *px_dw;           /* the others: dw per pixel */
     /* per tile, of one channel: over its positive values the sums of L dw and L^2 dw and the
      * largest L; over its negative values the sum of -L dw and their count */
     double *pos, *sq, *top, *neg;
@@ -46,7 +47,7 @@ typedef struct tiles {
 
 static double pixel_dw(const tiles *t, int32_t i, int32_t j)
 {
-    return t->row_dw ? t->row_dw[j] : envl__layout_pixel_solid_angle(t->layout, t->w, t->h, i, j);
+    return t->row_dw ? t->row_dw[j] : t->px_dw[(size_t)j * t->w + i];
 }
 
 /* Pixel range [*a, *b) of tile index k along an axis of n pixels whose grid starts at o. */
@@ -226,24 +227,47 @@ envl_result envl__fill_negatives(envl_image *img, int32_t layout, const char *fi
     t.ntx = tile_count(t.ox, t.w);
     t.nty = tile_count(t.oy, t.h);
     t.wrap = layout == ENVL_LAYOUT_LATLONG || layout == ENVL_LAYOUT_EXR_LATLONG;
-    size_t n = (size_t)t.ntx * t.nty;
+    size_t n = (size_t)t.ntx * t.nty, npx = (size_t)t.w * t.h;
     t.pos = malloc(n * sizeof *t.pos);
     t.sq = malloc(n * sizeof *t.sq);
     t.top = malloc(n * sizeof *t.top);
     t.neg = malloc(n * sizeof *t.neg);
     t.negatives = malloc(n * sizeof *t.negatives);
     t.gift = malloc((size_t)MAX_WINDOW * MAX_WINDOW * sizeof *t.gift);
-    if (t.wrap)
+    if (t.wrap) /* dw depends on the row alone */
         t.row_dw = malloc((size_t)t.h * sizeof *t.row_dw);
+    else
+        t.px_dw = malloc(npx * sizeof *t.px_dw);
     envl_result rc = ENVL_OK;
-    if (!t.pos || !t.sq || !t.top || !t.neg || !t.negatives || !t.gift || (t.wrap && !t.row_dw)) {
+    if (!t.pos || !t.sq || !t.top || !t.neg || !t.negatives || !t.gift ||
+        !(t.row_dw || t.px_dw)) {
         rc = envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate the tiles that fill negative "
                         "pixels", file);
         goto done;
     }
-    for (int32_t j = 0; t.row_dw && j < t.h; j++)
-        t.row_dw[j] = envl__layout_pixel_solid_angle(layout, t.w, t.h, 0, j);
-    for (int ch = 0; ch < 3; ch++) {
+    for (int32_t j = 0; j < t.h; j++) {
+        if (t.row_dw)
+            t.row_dw[j] = envl__layout_pixel_solid_angle(layout, t.w, t.h, 0, j);
+        else
+            for (int32_t i = 0; i < t.w; i++)
+                t.px_dw[(size_t)j * t.w + i] =
+                    (float)envl__layout_pixel_solid_angle(layout, t.w, t.h, i, j);
+    }
+    /* the light the file holds, before anything moves */
+    for (int c = 0; c < 3; c++)
+        info->signed_power[c] = 0.0;
+    for (int32_t j = 0; j < t.h; j++) {
+        double row[3] = {0, 0, 0};
+        for (int32_t i = 0; i < t.w; i++) {
+            const float *p = t.px + 3 * ((size_t)j * t.w + i);
+            double dw = pixel_dw(&t, i, j);
+            for (int c = 0; c < 3; c++)
+                row[c] += p[c] * dw;
+        }
+        for (int c = 0; c < 3; c++)
+            info->signed_power[c] += row[c];
+    }
+    for (int ch = 0; ch < 3 && info->negative_pixels; ch++) {
         for (int32_t ty = 0; ty < t.nty; ty++)
             for (int32_t tx = 0; tx < t.ntx; tx++)
                 sum_tile(&t, ch, tx, ty);
@@ -254,26 +278,6 @@ envl_result envl__fill_negatives(envl_image *img, int32_t layout, const char *fi
     }
 done:
     free(t.pos), free(t.sq), free(t.top), free(t.neg), free(t.negatives), free(t.gift);
-    free(t.row_dw);
+    free(t.row_dw), free(t.px_dw);
     return rc;
-}
-
-void envl__signed_power(const envl_image *img, int32_t layout, double power[3])
-{
-    power[0] = power[1] = power[2] = 0.0;
-    int32_t w = img->width, h = img->height;
-    int rows = layout == ENVL_LAYOUT_LATLONG || layout == ENVL_LAYOUT_EXR_LATLONG;
-    for (int32_t j = 0; j < h; j++) {
-        double row[3] = {0, 0, 0}, dw = rows ? envl__layout_pixel_solid_angle(layout, w, h, 0, j)
-                                             : 0.0;
-        for (int32_t i = 0; i < w; i++) {
-            const float *p = img->px + 3 * ((size_t)j * w + i);
-            double d = rows ? 1.0 : envl__layout_pixel_solid_angle(layout, w, h, i, j);
-            for (int c = 0; c < 3; c++)
-                if (isfinite(p[c]))
-                    row[c] += p[c] * d;
-        }
-        for (int c = 0; c < 3; c++)
-            power[c] += rows ? row[c] * dw : row[c];
-    }
 }
