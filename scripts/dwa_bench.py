@@ -245,70 +245,12 @@ else:
 
 # ---- renders: Cycles and POV-Ray on the resized park's DWAB 45 ---------------------------------
 
-BLENDER_SCRIPT = r'''
-import bpy, sys, json, math
-import numpy as np
-argv = sys.argv[sys.argv.index("--") + 1:]
-exr, out, nx, ny, nz = argv[0], argv[1], *map(float, argv[2:5])
-scene = bpy.context.scene
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o, do_unlink=True)
-scene.render.engine = "CYCLES"
-scene.cycles.samples = 1024
-scene.cycles.use_denoising = False
-scene.cycles.max_bounces = 0  # the plane's direct light from the world only
-scene.render.resolution_x = scene.render.resolution_y = 16
-scene.render.image_settings.file_format = "OPEN_EXR"
-scene.render.image_settings.color_depth = "32"
-scene.view_settings.view_transform = "Standard"
-scene.view_settings.look = "None"
-scene.view_settings.exposure = 0
-scene.view_settings.gamma = 1
-scene.render.filter_size = 0.01
-world = bpy.data.worlds.new("w"); scene.world = world; world.use_nodes = True
-nt = world.node_tree; bg = nt.nodes["Background"]
-tex = nt.nodes.new("ShaderNodeTexEnvironment")
-tex.image = bpy.data.images.load(exr)
-tex.image.colorspace_settings.name = "Linear" if "Linear" in [c.name for c in
-    bpy.types.ColorManagedInputColorspaceSettings.bl_rna.properties["name"].enum_items] else "Linear Rec.709"
-nt.links.new(tex.outputs["Color"], bg.inputs["Color"])
-bg.inputs["Strength"].default_value = 1.0
-# a white diffuse plane facing n, the camera just above it looking back at it
-bpy.ops.mesh.primitive_plane_add(size=1000)
-plane = bpy.context.object
-mat = bpy.data.materials.new("white"); mat.use_nodes = True
-mt = mat.node_tree
-for node in list(mt.nodes):
-    if node.type != "OUTPUT_MATERIAL":
-        mt.nodes.remove(node)
-diff = mt.nodes.new("ShaderNodeBsdfDiffuse"); diff.inputs["Color"].default_value = (1, 1, 1, 1)
-mt.links.new(diff.outputs["BSDF"], mt.nodes["Material Output"].inputs["Surface"])
-plane.data.materials.append(mat)
-n = np.array([nx, ny, nz])
-rot = np.array([0, 0, 1.0])
-plane.rotation_mode = "QUATERNION"
-axis = np.cross(rot, n); s = np.linalg.norm(axis); c = float(rot @ n)
-if s > 1e-9:
-    axis = axis / s; ang = math.atan2(s, c)
-    plane.rotation_quaternion = (math.cos(ang / 2), *(axis * math.sin(ang / 2)))
-bpy.ops.object.camera_add()
-cam = bpy.context.object; scene.camera = cam
-cam.data.type = "ORTHO"; cam.data.ortho_scale = 0.1
-cam.rotation_mode = "QUATERNION"; cam.rotation_quaternion = plane.rotation_quaternion
-cam.location = tuple(n * 0.01)
-cam.data.clip_start = 0.001
-plane.visible_shadow = False
-scene.render.filepath = out
-bpy.ops.render.render(write_still=True)
-img = bpy.data.images.load(out)
-v = np.array(img.pixels[:]).reshape(-1, 4)[:, :3].mean(0)
-print("RESULT " + json.dumps({"cycles": list(v * math.pi), "blender": bpy.app.version_string}))
-'''
 
 
 def blender_run(cmd, exr, n):
-    script = path("cycles_plane.py")
-    open(script, "w").write(BLENDER_SCRIPT)
+    """Cycles' irradiance on a white plane facing n, the file as the world (scripts/
+    dwa_bench_cycles.py, run by the Blender `cmd`)."""
+    script = os.path.join(ROOT, "scripts", "dwa_bench_cycles.py")
     out = path("cycles_%d.exr" % len(glob.glob(path("cycles_*.exr"))))
     res = subprocess.run(cmd + ["-b", "--factory-startup", "--python", script, "--", exr, out,
                                 *map(str, n)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -409,6 +351,8 @@ if args.renders and os.path.exists(park):
     with E.load(band) as env:
         band_filled = np.array(env.pixels(), dtype=np.float64).reshape(env.height, env.width, 3)
     band_n = np.array([0.6, 0.0, 0.8])
+    filled_file = path("park_filled.exr")  # the park as envlight loads it
+    sh(ENVLIGHT, "convert", f, filled_file, "--quiet")
     maps = {"park": (f, sun_n, raw, filled), "band": (band, band_n, band_px, band_filled)}
     expect = {k: [lum(irradiance_midpoint(p, n)) for p in (signed, np.maximum(signed, 0.0), fill)]
               for k, (_, n, signed, fill) in maps.items()}
@@ -422,10 +366,13 @@ if args.renders and os.path.exists(park):
         if not shutil.which(cmd[0]) and not os.path.exists(cmd[0]):
             renders.append("| %s | (absent) | | | |" % name)
             continue
-        for key, (exr, n, _, _) in maps.items():
+        runs = [(key, exr, n) for key, (exr, n, _, _) in maps.items()]
+        runs.insert(1, ("park", filled_file, sun_n))
+        for key, exr, n in runs:
+            what = key if exr != filled_file else "park as envlight loads it (filled)"
             try:
                 r = blender_run(cmd, exr, n)
-                renders.append(row("%s (%s): %s" % (name, r["blender"].split()[0], key), key,
+                renders.append(row("%s (%s): %s" % (name, r["blender"].split()[0], what), key,
                                    lum(r["cycles"])))
             except RuntimeError as e:
                 print(e, file=sys.stderr)
@@ -464,8 +411,10 @@ for label, signed, prods in details:
     out.append("| %s | " % label + " | ".join("%+.3f" % pct(v, signed) for v in prods.values())
                + " |")
 if quality:
-    out += ["", "Diffuse error (docs/design.md) against the park before the resize "
-            "(its area-resampled 512 copy), %:", "", "| file | zeroed | filled |", "|---|---|---|"]
+    out += ["", "Diffuse error (docs/design.md) of the resized park (float, and DWAB 45), its "
+            "negative values set to 0 or filled, against the park before the resize (the 1024 "
+            "map area-resampled to 512: exact), %:", "", "| file | zeroed | filled |",
+            "|---|---|---|"]
     out += quality
 if timing:
     out += ["", timing]
@@ -483,6 +432,6 @@ if args.docs:
             "pixels\"." % (" ".join(sys.argv[1:]), date, *load0, *load1, os.cpu_count(),
                            os.uname().machine, time.time() - t_start), ""]
     with open(os.path.join(args.docs, "dwa_bench.md.tmp"), "w") as fh:
-        fh.write("\n".join(head) + text + "\n")
+        fh.write("\n".join(head) + "\n" + text + "\n")
     os.replace(os.path.join(args.docs, "dwa_bench.md.tmp"), os.path.join(args.docs, "dwa_bench.md"))
 shutil.rmtree(tmp, ignore_errors=True)

@@ -79,7 +79,7 @@ v = [float("nan"), 1, 1, float("inf"), 1, 1, -1, 1, 1, 1, 1, 1]  # 2 x 2: NaN, I
 open("odd.pfm", "wb").write(b"PF\n2 2\n-1\n" + struct.pack("<12f", *v))
 PY
 expect 0 "non-finite pixels replaced" -- $T "$ENVLIGHT" info odd.pfm --json
-has err.txt "odd.pfm: 2 pixels with NaN or Inf: NaN set to 0, +Inf to 1 (the largest finite value)"
+has err.txt "odd.pfm: 2 pixels with NaN or Inf: NaN and -Inf set to 0, +Inf to 1 (the largest finite value)"
 # the -1 beside 1s and a 0 (the NaN): too little light around it to fill it from (4 x its deficit)
 has err.txt "odd.pfm: 1 pixels with negative values (down to -1): 1 values with too little light around them set to 0"
 checks=$((checks + 1))

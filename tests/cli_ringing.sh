@@ -124,8 +124,12 @@ expect 1 "+Inf over zeros" -- "$ENVLIGHT" sh inf0.pfm
 has err.txt "inf0.pfm: 1 pixels are +Inf and no value is positive and finite"
 python3 -c 'import struct; open("inf1.pfm", "wb").write(b"PF\n4 2\n-1\n" + struct.pack("<24f", *([float("inf")] * 3 + [0.5] * 21)))'
 run "$ENVLIGHT" info inf1.pfm --json
-has err.txt "inf1.pfm: 1 pixels with NaN or Inf: NaN set to 0, +Inf to 0.5 (the largest finite value)"
+has err.txt "inf1.pfm: 1 pixels with NaN or Inf: NaN and -Inf set to 0, +Inf to 0.5 (the largest finite value)"
 has out.txt '"infinity_value": 0.5'
+python3 -c 'import struct; open("nan.pfm", "wb").write(b"PF\n4 2\n-1\n" + struct.pack("<24f", *([float("nan")] * 3 + [0.5] * 21)))'
+run "$ENVLIGHT" info nan.pfm
+has err.txt "nan.pfm: 1 pixels with NaN or Inf: NaN and -Inf set to 0 (--strict refuses them)"
+has out.txt "^replaced:    NaN and -Inf by 0$"
 
 # an EXR whose data window lies wholly outside its display window: nothing to read
 t09=$ENVL_SHARED_DATA/openexr/DisplayWindow/t09.exr

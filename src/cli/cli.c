@@ -163,10 +163,13 @@ static double luminance_percent(const double e[3], const double base[3])
 /* What the loader did to the file's values (envl_info; docs/design.md, "Units"). */
 static void warn_repairs(const char *file, const envl_info *in)
 {
+    char infinity[80] = "";
+    if (in->infinity_value > 0)
+        snprintf(infinity, sizeof infinity, ", +Inf to %g (the largest finite value)",
+                 in->infinity_value);
     if (in->nonfinite_pixels)
-        cli_error("warning: %s: %lld pixels with NaN or Inf: NaN set to 0, +Inf to %g (the "
-                  "largest finite value) (--strict refuses them)", file,
-                  (long long)in->nonfinite_pixels, in->infinity_value);
+        cli_error("warning: %s: %lld pixels with NaN or Inf: NaN and -Inf set to 0%s (--strict "
+                  "refuses them)", file, (long long)in->nonfinite_pixels, infinity);
     if (!in->negative_pixels)
         return;
     char filled[160] = "", unfilled[160] = "";

@@ -81,8 +81,11 @@ static void info_text(FILE *f, const envl_info *in)
             in->brightest_direction[1], in->brightest_direction[2]);
     fprintf(f, "non-finite:  %lld pixels, negative: %lld pixels\n",
             (long long)in->nonfinite_pixels, (long long)in->negative_pixels);
-    if (in->nonfinite_pixels)
-        fprintf(f, "replaced:    NaN by 0, +Inf by %g\n", in->infinity_value);
+    if (in->nonfinite_pixels && in->infinity_value > 0)
+        fprintf(f, "replaced:    NaN and -Inf by 0, +Inf by %g (the largest finite value)\n",
+                in->infinity_value);
+    else if (in->nonfinite_pixels)
+        fprintf(f, "replaced:    NaN and -Inf by 0\n");
     if (in->negative_pixels) {
         fprintf(f, "negative:    down to %g; filled from the light within %d px: %.6g %.6g %.6g "
                 "moved\n", in->negative_min, in->fill_window, in->filled_energy[0],
