@@ -30,7 +30,7 @@ extern "C" {
 #endif
 
 /* Bumped whenever a struct layout or a function signature changes (the ctypes shim checks it). */
-#define ENVL_ABI_VERSION 4
+#define ENVL_ABI_VERSION 5
 
 /* pi, the one definition every part of envlight uses. */
 #define ENVL_PI 3.14159265358979323846
@@ -108,7 +108,8 @@ typedef struct envl_load_options {
     double rotate_degrees;    /* turn the map about +Z (counter-clockwise seen from above); 0 */
     int64_t max_pixels;       /* refuse files whose header claims more pixels; default above */
     int32_t strict;           /* nonzero: NaN, Inf or negative pixels are an error; default 0:
-                                 NaN and negatives -> 0, +Inf -> largest finite value */
+                                 NaN -> 0, +Inf -> largest finite value, negative values filled
+                                 from the light around them (envl_info says what was done) */
     int32_t apply_exposure;   /* nonzero: divide Radiance pixels by the file's EXPOSURE; 0 */
     const char *exr_part;     /* multipart EXR: part name; default: first part with colour */
     int32_t threads;          /* worker threads; default: all cores (at most ENVL_MAX_THREADS) */
@@ -132,6 +133,20 @@ typedef struct envl_info {
     int32_t has_primaries;    /* the file named its primaries */
     float primaries[8];       /* CIE xy of R, G, B, white */
     double rotate_degrees;    /* rotation applied on load */
+    /* What the loader did to the file's values (docs/design.md, "Units"), in the map's units
+     * (ABI 5); but for signed_power all 0 when no value was replaced: */
+    double negative_min;      /* the most negative value of the file */
+    double signed_power[3];   /* integral of L dw of the file's values as read (NaN and Inf
+                                 replaced), negative ones included, in the file's layout: the
+                                 light the file holds (= power when no value was replaced) */
+    double filled_energy[3];  /* integral of -L dw of the negative values filled from the
+                                 positive light around them (taken from it: power stays
+                                 signed_power) */
+    double added_energy[3];   /* of the negative values set to 0 with too little light around
+                                 them: added to the power */
+    int64_t unfilled_values;  /* how many such values */
+    int32_t fill_window;      /* the widest window the filling took light from, pixels */
+    double infinity_value;    /* what +Inf became: the largest finite value of the file */
 } envl_info;
 
 /* Loads an .hdr/.pic, .exr or .pfm file (detected by content) into the canonical frame. */

@@ -4,6 +4,7 @@
 #define ENVL_CHECK_H
 
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -75,6 +76,21 @@ static inline const char *tmp_path(const char *name)
     mkdir(ENVL_TEST_TMP, 0755);
     snprintf(p, 4096, "%s/%s", ENVL_TEST_TMP, name);
     return p;
+}
+
+/* Runs a shell command (printf-style); 0 when it exited 0, else says which failed. */
+static inline int run_command(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+static inline int run_command(const char *fmt, ...)
+{
+    char cmd[8192];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(cmd, sizeof cmd, fmt, ap);
+    va_end(ap);
+    int st = system(cmd);
+    if (st != 0)
+        fprintf(stderr, "command failed (%d): %s\n", st, cmd);
+    return st;
 }
 
 static inline int check_report(const char *name)

@@ -79,10 +79,12 @@ v = [float("nan"), 1, 1, float("inf"), 1, 1, -1, 1, 1, 1, 1, 1]  # 2 x 2: NaN, I
 open("odd.pfm", "wb").write(b"PF\n2 2\n-1\n" + struct.pack("<12f", *v))
 PY
 expect 0 "non-finite pixels replaced" -- $T "$ENVLIGHT" info odd.pfm --json
-has err.txt "odd.pfm: 2 pixels with NaN or Inf, 1 with negative values"
+has err.txt "odd.pfm: 2 pixels with NaN or Inf: NaN and -Inf set to 0, +Inf to 1 (the largest finite value)"
+# the -1 beside 1s and a 0 (the NaN): too little light around it to fill it from (4 x its deficit)
+has err.txt "odd.pfm: 1 pixels with negative values (down to -1): 1 values with too little light around them set to 0"
 checks=$((checks + 1))
-python3 -c 'import json; d = json.load(open("out.txt")); assert d["nonfinite_pixels"] == 2 and d["negative_pixels"] == 1 and all(x == x for x in d["max"])' ||
-  fail "odd.pfm: counts or a NaN in the JSON"
+python3 -c 'import json; d = json.load(open("out.txt")); r = d["repair"]; assert d["nonfinite_pixels"] == 2 and d["negative_pixels"] == 1 and all(x == x for x in d["max"]) and r["infinity_value"] == 1 and r["negative_min"] == -1 and r["unfilled_values"] == 1 and r["fill_window"] == 0 and r["filled_energy"] == [0, 0, 0] and r["added_energy"][0] > 0' ||
+  fail "odd.pfm: counts, repair or a NaN in the JSON"
 bad odd.pfm "2 pixels with NaN or Inf and 1 with negative values (--strict)" "--strict" -- \
   "$ENVLIGHT" info odd.pfm --strict
 expect 1 "--strict on lights" -- $T "$ENVLIGHT" lights odd.pfm --strict

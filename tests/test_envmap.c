@@ -122,7 +122,8 @@ static void test_resample_power(void)
     free(px);
 }
 
-/* NaN and negatives -> 0, +Inf -> largest finite value; counted; strict refuses. */
+/* NaN -> 0, +Inf -> largest finite value, a negative value with too little light around it
+ * (ringing.c; test_ringing has the filling) -> 0; counted and reported; strict refuses. */
 static void test_sanitise(void)
 {
     float px[4 * 2 * 3] = {0};
@@ -140,6 +141,10 @@ static void test_sanitise(void)
     envl_envmap_info(m, &info);
     CHECK(info.nonfinite_pixels == 3);
     CHECK(info.negative_pixels == 1);
+    CHECK(info.infinity_value == 7.0 && info.negative_min == -2.0);
+    /* the -2 (blue) beside seven 1s: less than 4 x its deficit around it, so set to 0 */
+    CHECK(info.unfilled_values == 1 && info.fill_window == 0);
+    CHECK_REL(info.added_energy[2], 2.0 * envl_latlong_solid_angle(4, 2, 1), 1e-12);
     const float *q = envl_envmap_pixels(m);
     CHECK(q[0] == 0.0f);
     CHECK(q[4] == 7.0f);
@@ -151,6 +156,33 @@ static void test_sanitise(void)
     CHECK_RC(envl_envmap_from_pixels(px, 4, 2, 3, &o, &m), ENVL_ERR_NONFINITE);
     CHECK(m == NULL);
     CHECK(strstr(envl_last_error(), "3 pixels with NaN or Inf") != NULL);
+}
+
+/* +Inf stands for the largest finite value of the file; with none positive (all +Inf, or +Inf
+ * over black) nothing can stand for it: an error naming the count, not a black map. */
+static void test_infinite(void)
+{
+    float px[4 * 2 * 3];
+    for (int i = 0; i < 24; i++)
+        px[i] = INFINITY;
+    envl_envmap *m = (envl_envmap *)1;
+    envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG};
+    CHECK_RC(envl_envmap_from_pixels(px, 4, 2, 3, &o, &m), ENVL_ERR_NONFINITE);
+    CHECK(m == NULL);
+    CHECK(strstr(envl_last_error(), "8 pixels are +Inf and no value is positive and finite"));
+    for (int i = 3; i < 24; i++)
+        px[i] = i % 2 ? 0.0f : NAN;
+    CHECK_RC(envl_envmap_from_pixels(px, 4, 2, 3, &o, &m), ENVL_ERR_NONFINITE);
+    CHECK(strstr(envl_last_error(), "1 pixels are +Inf"));
+    px[23] = 2.5f;
+    CHECK_OK(envl_envmap_from_pixels(px, 4, 2, 3, &o, &m));
+    if (m) {
+        envl_info info;
+        envl_envmap_info(m, &info);
+        CHECK(info.infinity_value == 2.5);
+        CHECK(envl_envmap_pixels(m)[0] == 2.5f && envl_envmap_pixels(m)[2] == 2.5f);
+    }
+    envl_envmap_free(m);
 }
 
 static void test_arguments(void)
@@ -218,6 +250,7 @@ int main(void)
     test_spot();
     test_resample_power();
     test_sanitise();
+    test_infinite();
     test_arguments();
     test_atomic_save();
     return check_report("test_envmap");

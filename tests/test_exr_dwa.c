@@ -13,7 +13,6 @@
 
 #include <dirent.h>
 #include <fcntl.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <unistd.h>
 
@@ -43,21 +42,6 @@ static int have_oiiotool(void)
     return have;
 }
 
-/* Runs a shell command (printf-style); 0 when it exited 0. */
-static int run(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-static int run(const char *fmt, ...)
-{
-    char cmd[8192];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(cmd, sizeof cmd, fmt, ap);
-    va_end(ap);
-    int st = system(cmd);
-    if (st != 0)
-        fprintf(stderr, "command failed (%d): %s\n", st, cmd);
-    return st;
-}
-
 /* Compression of part `part` (by index) of a file, through OpenEXRCore; -1 if unreadable. */
 static int compression_of(const char *path, int part)
 {
@@ -81,7 +65,7 @@ static void compare_with_oiiotool(const char *path, const char *part, int index)
     char sub[128] = "";
     if (part)
         snprintf(sub, sizeof sub, "--subimage '%s'", part);
-    if (run("oiiotool '%s' %s -d float --compression none -o '%s'", path, sub, ref) != 0) {
+    if (run_command("oiiotool '%s' %s -d float --compression none -o '%s'", path, sub, ref) != 0) {
         CHECK(!"oiiotool's float copy");
         return;
     }
@@ -169,12 +153,12 @@ static void test_written_by_oiiotool(void)
         return;
     const char *path = tmp_path("written.exr");
     /* scanlines, 64 x 40 */
-    if (!run("oiiotool '%s' --cut 64x40+100+200 --origin +0+0 --compression dwaa -o '%s'", src,
-             path))
+    if (!run_command("oiiotool '%s' --cut 64x40+100+200 --origin +0+0 --compression dwaa "
+                     "-o '%s'", src, path))
         compare_with_oiiotool(path, NULL, 0);
     /* tiles of 32 x 32 over 70 x 45 pixels (partial tiles), data window at (100, 200) */
-    if (!run("oiiotool '%s' --cut 70x45+100+200 --tile 32 32 --compression dwab -o '%s'", src,
-             path)) {
+    if (!run_command("oiiotool '%s' --cut 70x45+100+200 --tile 32 32 --compression dwab "
+                     "-o '%s'", src, path)) {
         compare_with_oiiotool(path, NULL, 0);
         envl_image img;
         CHECK_OK(read_exr_file(path, NULL, 0, &img));
@@ -182,7 +166,7 @@ static void test_written_by_oiiotool(void)
         envl__image_free(&img);
     }
     /* data window 100 x 80 at (10, 20) inside the 587 x 675 display window: zero around it */
-    if (!run("oiiotool '%s' --crop 100x80+10+20 --compression dwaa -o '%s'", src, path)) {
+    if (!run_command("oiiotool '%s' --crop 100x80+10+20 --compression dwaa -o '%s'", src, path)) {
         compare_with_oiiotool(path, NULL, 0);
         envl_image img;
         CHECK_OK(read_exr_file(path, NULL, 0, &img));
@@ -193,12 +177,12 @@ static void test_written_by_oiiotool(void)
         envl__image_free(&img);
     }
     /* a layer: left.R, left.G, left.B */
-    if (!run("oiiotool '%s' --cut 64x40 --ch R,G,B --chnames left.R,left.G,left.B "
+    if (!run_command("oiiotool '%s' --cut 64x40 --ch R,G,B --chnames left.R,left.G,left.B "
              "--compression dwab -o '%s'", src2, path))
         compare_with_oiiotool(path, NULL, 0);
     /* Y and A (oiiotool writes one channel alone with ZIP): grey */
-    if (!run("oiiotool '%s' --cut 64x40 --ch G,A --chnames Y,A --compression dwaa -o '%s'", src2,
-             path)) {
+    if (!run_command("oiiotool '%s' --cut 64x40 --ch G,A --chnames Y,A --compression dwaa "
+                     "-o '%s'", src2, path)) {
         compare_with_oiiotool(path, NULL, 0);
         envl_image img;
         CHECK_OK(read_exr_file(path, NULL, 0, &img));
@@ -207,9 +191,10 @@ static void test_written_by_oiiotool(void)
         envl__image_free(&img);
     }
     /* two parts, "first" (R, G, B, A) and "second" (left.*): by default the first */
-    if (!run("oiiotool '%s' --cut 64x40+100+200 --origin +0+0 --attrib oiio:subimagename first "
-             "'%s' --cut 64x40 --ch R,G,B --chnames left.R,left.G,left.B --attrib "
-             "oiio:subimagename second --siappend --compression dwab -o '%s'", src, src2, path)) {
+    if (!run_command("oiiotool '%s' --cut 64x40+100+200 --origin +0+0 --attrib "
+                     "oiio:subimagename first '%s' --cut 64x40 --ch R,G,B --chnames "
+                     "left.R,left.G,left.B --attrib oiio:subimagename second --siappend "
+                     "--compression dwab -o '%s'", src, src2, path)) {
         compare_with_oiiotool(path, "first", 0);
         compare_with_oiiotool(path, "second", 1);
         envl_image a, b;
@@ -222,8 +207,8 @@ static void test_written_by_oiiotool(void)
         CHECK(strstr(envl_last_error(), "'third'") && strstr(envl_last_error(), "'second'"));
     }
     /* the pixel limit applies before anything is decoded */
-    if (!run("oiiotool '%s' --cut 64x40+100+200 --origin +0+0 --compression dwaa -o '%s'", src,
-             path)) {
+    if (!run_command("oiiotool '%s' --cut 64x40+100+200 --origin +0+0 --compression dwaa "
+                     "-o '%s'", src, path)) {
         envl_image img;
         CHECK_RC(read_exr_file(path, NULL, 64 * 40 - 1, &img), ENVL_ERR_LIMIT);
         CHECK(img.px == NULL && strstr(envl_last_error(), "written.exr"));
@@ -241,8 +226,8 @@ static void test_damaged(void)
     if (!src || !have_oiiotool())
         return;
     const char *path = tmp_path("damaged.exr");
-    if (run("oiiotool '%s' --cut 40x70+300+300 --origin +0+0 --compression dwaa -o '%s'", src,
-            path))
+    if (run_command("oiiotool '%s' --cut 40x70+300+300 --origin +0+0 --compression dwaa "
+                    "-o '%s'", src, path))
         return;
     uint8_t *data;
     size_t size;

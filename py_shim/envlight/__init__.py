@@ -430,6 +430,10 @@ class Envmap(_Handle):
             "exposure": i.exposure,
             "primaries": _t(i.primaries) if i.has_primaries else None,
             "rotate_degrees": i.rotate_degrees,
+            "negative_min": i.negative_min, "signed_power": _t(i.signed_power),
+            "filled_energy": _t(i.filled_energy), "added_energy": _t(i.added_energy),
+            "unfilled_values": i.unfilled_values, "fill_window": i.fill_window,
+            "infinity_value": i.infinity_value,
         }
 
     def pixels(self):

@@ -11,7 +11,7 @@ from ctypes import (CFUNCTYPE, POINTER, Structure, c_char, c_char_p, c_double, c
                     c_int, c_int32, c_int64, c_size_t, c_uint8, c_void_p)
 
 #: ENVL_ABI_VERSION of the envlight.h these bindings mirror.
-ABI_VERSION = 4
+ABI_VERSION = 5
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -75,6 +75,13 @@ class Info(Structure):
         ("has_primaries", c_int32),
         ("primaries", c_float * 8),
         ("rotate_degrees", c_double),
+        ("negative_min", c_double),
+        ("signed_power", c_double * 3),
+        ("filled_energy", c_double * 3),
+        ("added_energy", c_double * 3),
+        ("unfilled_values", c_int64),
+        ("fill_window", c_int32),
+        ("infinity_value", c_double),
     ]
 
 

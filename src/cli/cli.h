@@ -93,6 +93,11 @@ const char *cli_frame_label(int frame);
 /* "<what> error 0.123 %", or "<what> error not measured" for a negative error. */
 const char *cli_error_text(char *buf, size_t size, const char *what, double error);
 
+/* The JSON object "repair": what the loader did to the file's values (envl_info: NaN, Inf and
+ * the negative values filled from the light around them), in every JSON about a map. */
+struct json_writer;
+void cli_json_repair(struct json_writer *j, const envl_info *in);
+
 /* Loads FILE, or the built-in sky for NULL or "-"; warns (unless quiet) about replaced pixels
  * and says which layout auto-detection picked when that was a real guess (not evident from
  * the file's shape or metadata). Returns CLI_OK or CLI_FAIL; a message names FILE. */

@@ -44,6 +44,7 @@ static void write_json(const envl_envmap *map, const char *out, const envl_gltf_
     json_number(&j, "rgbd", s->rgbd_error);
     json_object_end(&j);
     json_number(&j, "seconds", s->seconds);
+    cli_json_repair(&j, &info);
     json_end(&j);
 }
 

@@ -9,7 +9,9 @@ static const cli_command info_command = {
     "Usage: envlight info [FILE] [--json] [input options]\n"
     "Size, layout, channels, statistics (mean radiance over the sphere, power = integral of\n"
     "L dw, per-channel maximum), brightest direction (canonical frame: +Z up, +X at the\n"
-    "lat-long centre), and the count of non-finite and negative pixels.\n",
+    "lat-long centre), the count of non-finite and negative pixels and what was done to them\n"
+    "(negative values filled from the light around them: the power stays the file's signed\n"
+    "sum).\n",
     NULL};
 
 static void info_json(FILE *f, const envl_info *in)
@@ -42,6 +44,7 @@ static void info_json(FILE *f, const envl_info *in)
         json_numbers(&j, "primaries", p, 8);
     }
     json_number(&j, "rotate_degrees", in->rotate_degrees);
+    cli_json_repair(&j, in);
     json_end(&j);
 }
 
@@ -78,6 +81,22 @@ static void info_text(FILE *f, const envl_info *in)
             in->brightest_direction[1], in->brightest_direction[2]);
     fprintf(f, "non-finite:  %lld pixels, negative: %lld pixels\n",
             (long long)in->nonfinite_pixels, (long long)in->negative_pixels);
+    if (in->nonfinite_pixels && in->infinity_value > 0)
+        fprintf(f, "replaced:    NaN and -Inf by 0, +Inf by %g (the largest finite value)\n",
+                in->infinity_value);
+    else if (in->nonfinite_pixels)
+        fprintf(f, "replaced:    NaN and -Inf by 0\n");
+    if (in->negative_pixels) {
+        fprintf(f, "negative:    down to %g; filled from the light within %d px: %.6g %.6g %.6g "
+                "moved\n", in->negative_min, in->fill_window, in->filled_energy[0],
+                in->filled_energy[1], in->filled_energy[2]);
+        fprintf(f, "signed sum:  %.6g %.6g %.6g (the file's power, negative values included)\n",
+                in->signed_power[0], in->signed_power[1], in->signed_power[2]);
+        if (in->unfilled_values)
+            fprintf(f, "unfilled:    %lld negative values set to 0 (too little light around "
+                    "them): %.6g %.6g %.6g added\n", (long long)in->unfilled_values,
+                    in->added_energy[0], in->added_energy[1], in->added_energy[2]);
+    }
     if (in->exposure != 1.0)
         fprintf(f, "exposure:    %g\n", in->exposure);
 }

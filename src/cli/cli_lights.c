@@ -76,6 +76,7 @@ static void write_json(FILE *f, const envl_info *info, const envl_lights *ls, in
     json_number(&j, "seconds", s.seconds);
     json_int(&j, "envmap_width", info->width);
     json_int(&j, "envmap_height", info->height);
+    cli_json_repair(&j, info);
     json_end(&j);
 }
 

@@ -171,6 +171,7 @@ int cli_sh(int argc, char **argv)
             json_number(&j, "diffuse", s.diffuse_error >= 0 ? s.diffuse_error : NAN);
             json_object_end(&j);
             json_number(&j, "seconds", s.seconds);
+            cli_json_repair(&j, &info);
             json_end(&j);
         } else {
             fprintf(o.f, "%s: SH order %d, window %s", info.file, s.order,

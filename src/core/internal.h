@@ -48,6 +48,8 @@ typedef struct envl_file_meta {
     float primaries[8];     /* xy of R, G, B, white */
     int32_t envmap_layout;  /* ENVL_LAYOUT_EXR_LATLONG / _EXR_CUBE from the EXR envmap attribute,
                                else 0 */
+    int32_t block_x0, block_y0; /* where the lossy codec's 8 x 8 blocks start in the image
+                               (DWAA / DWAB: the data window's origin, modulo 8), else 0, 0 */
 } envl_file_meta;
 
 /* A decoded image: RGB floats, row 0 = top of the image as displayed. */
@@ -131,6 +133,21 @@ envl_result envl__latlong_to_faces(const envl_image *latlong, int32_t strip, int
                                    float **out);
 /* Default lat-long width for an image read in `layout`. */
 int32_t envl__default_latlong_width(const envl_image *src, int32_t layout);
+/* Solid angle of pixel (i, j) of a w x h image in `layout`: for LATLONG the exact one of its
+ * row, for the others dw/dA at the pixel's centre times its area (the midpoint rule; OpenEXR's
+ * layouts, whose samples lie on the edges, the trapezoid rule); 0 where the layout sees no
+ * direction (outside a probe's disc, the empty cells of a cross) and for a size the layout
+ * cannot hold. */
+double envl__layout_pixel_solid_angle(int32_t layout, int32_t w, int32_t h, int32_t i, int32_t j);
+
+/* ---- negative values (ringing.c; docs/methods.md, "Negative pixels") ---- */
+/* With NaN and Inf gone from img (read in `layout`): the sum of its L dw (negative values
+ * included, dw from envl__layout_pixel_solid_angle) into info->signed_power, then, when
+ * info->negative_pixels, every negative value filled from the positive light around it, so
+ * that the sum keeps the file's signed sum; what it did goes to info's filled_energy,
+ * added_energy, unfilled_values and fill_window. */
+envl_result envl__fill_negatives(envl_image *img, int32_t layout, const char *file,
+                                 envl_info *info);
 
 /* ---- lat-long resampling (resample.c) ---- */
 /* Exact area-weighted resampling of a lat-long image to out_w x out_h, turned by

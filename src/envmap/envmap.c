@@ -11,29 +11,37 @@
 
 /* ---- construction ---- */
 
-/* Counts NaN/Inf/negative pixels of the file; replaces NaN and negatives by 0 and +Inf by the
- * largest finite value of the image (or refuses them in strict mode). */
-static envl_result sanitise(envl_image *img, int32_t strict, const char *file, envl_info *info)
+/* NaN, Inf and negative values of the file (docs/design.md, "Units"): counted, refused in strict
+ * mode; else NaN and -Inf become 0 and +Inf the largest finite value of the image (refused when
+ * no value is positive and finite: nothing can stand for it), and negative values are filled
+ * from the light around them (ringing.c). img is in `layout`. */
+static envl_result sanitise(envl_image *img, int32_t layout, int32_t strict, const char *file,
+                            envl_info *info)
 {
     size_t n = (size_t)img->width * img->height;
-    int64_t nonfinite = 0, negative = 0;
-    float maxfinite = 0.0f;
+    int64_t nonfinite = 0, negative = 0, infinite = 0;
+    float maxfinite = 0.0f, minimum = 0.0f;
     for (size_t i = 0; i < n; i++) {
         const float *p = img->px + 3 * i;
-        int bad = 0, neg = 0;
+        int bad = 0, neg = 0, inf = 0;
         for (int k = 0; k < 3; k++) {
-            if (!isfinite(p[k]))
+            if (!isfinite(p[k])) {
                 bad = 1;
-            else if (p[k] < 0)
+                inf |= p[k] > 0;
+            } else if (p[k] < 0) {
                 neg = 1;
-            else if (p[k] > maxfinite)
+                minimum = p[k] < minimum ? p[k] : minimum;
+            } else if (p[k] > maxfinite) {
                 maxfinite = p[k];
+            }
         }
         nonfinite += bad;
         negative += neg;
+        infinite += inf;
     }
     info->nonfinite_pixels = nonfinite;
     info->negative_pixels = negative;
+    info->negative_min = minimum;
     if (!nonfinite && !negative)
         return ENVL_OK;
     if (strict)
@@ -41,14 +49,20 @@ static envl_result sanitise(envl_image *img, int32_t strict, const char *file, e
                           "%s: %lld pixels with NaN or Inf and %lld with negative values "
                           "(--strict)",
                           file, (long long)nonfinite, (long long)negative);
+    if (infinite && !(maxfinite > 0.0f))
+        return envl__fail(ENVL_ERR_NONFINITE,
+                          "%s: %lld pixels are +Inf and no value is positive and finite: nothing "
+                          "to stand for +Inf (the largest finite value of the file does)",
+                          file, (long long)infinite);
     for (size_t i = 0; i < 3 * n; i++) {
         float v = img->px[i];
-        if (isnan(v) || v < 0)
-            img->px[i] = 0.0f; /* also -Inf */
+        if (isnan(v) || v == -INFINITY)
+            img->px[i] = 0.0f;
         else if (isinf(v))
             img->px[i] = maxfinite;
     }
-    return ENVL_OK;
+    info->infinity_value = infinite ? maxfinite : 0.0;
+    return envl__fill_negatives(img, layout, file, info);
 }
 
 static envl_result build_tables(envl_envmap *m)
@@ -133,15 +147,7 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
     m->apply_exposure = o->apply_exposure != 0;
     m->threads = envl__threads(o->threads);
 
-    envl_result rc = sanitise(img, o->strict, file, info);
-    if (rc)
-        goto fail;
-    if (o->apply_exposure && info->exposure != 1.0) {
-        size_t n = (size_t)img->width * img->height * 3;
-        for (size_t i = 0; i < n; i++)
-            img->px[i] = (float)(img->px[i] / info->exposure);
-    }
-
+    envl_result rc = ENVL_OK;
     int32_t layout = o->layout;
     if (layout < 0 || layout >= ENVL_LAYOUT_COUNT) {
         rc = envl__fail(ENVL_ERR_ARGUMENT, "%s: unknown layout %d", file, (int)layout);
@@ -152,6 +158,15 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
         info->layout_guessed = 1;
     }
     info->layout = layout;
+    if (o->apply_exposure && info->exposure != 1.0) {
+        size_t n = (size_t)img->width * img->height * 3;
+        for (size_t i = 0; i < n; i++)
+            img->px[i] = (float)(img->px[i] / info->exposure);
+    }
+    /* in the file's own layout: a codec's blocks and a pixel's solid angle are the file's */
+    rc = sanitise(img, layout, o->strict, file, info);
+    if (rc)
+        goto fail;
     if (o->width < 0) {
         rc = envl__fail(ENVL_ERR_ARGUMENT, "%s: width %d must be positive", file, (int)o->width);
         goto fail;
@@ -210,6 +225,8 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
         return rc;
     }
     compute_stats(m);
+    if (!info->nonfinite_pixels && !info->negative_pixels)
+        memcpy(info->signed_power, info->power, sizeof info->power);
     *out = m;
     return ENVL_OK;
 fail:

@@ -648,6 +648,43 @@ int32_t envl__default_latlong_width(const envl_image *src, int32_t layout)
     }
 }
 
+double envl__layout_pixel_solid_angle(int32_t layout, int32_t w, int32_t h, int32_t i, int32_t j)
+{
+    if (w <= 0 || h <= 0 || i < 0 || j < 0 || i >= w || j >= h)
+        return 0.0;
+    if (layout == ENVL_LAYOUT_LATLONG)
+        return envl_latlong_solid_angle(w, h, j);
+    geom g;
+    double d[3], jac, a, b;
+    if (geom_init(&g, layout, w, h) != ENVL_OK || !pix_to_dir(&g, i, j, 0.5, 0.5, d, &jac, &a, &b))
+        return 0.0;
+    /* pix_to_dir's jac is dw/dA up to a constant of the layout; times that and the pixel's area */
+    switch (layout) {
+    case ENVL_LAYOUT_ANGULAR: /* dw/dA = pi sin(pi r) / r on the unit disc, radius g.r pixels */
+        return ENVL_PI * jac / (g.r * g.r);
+    case ENVL_LAYOUT_MIRRORBALL: /* dw/dA = 4 on the unit disc */
+        return 4.0 * jac / (g.r * g.r);
+    case ENVL_LAYOUT_EXR_LATLONG: /* cos(latitude) dlongitude dlatitude; samples on the edges
+                                     (the seam twice, the poles): the trapezoid rule */
+        return jac * (w > 1 ? 2 * ENVL_PI / (w - 1) * (i == 0 || i == w - 1 ? 0.5 : 1.0)
+                            : 2 * ENVL_PI) *
+               (h > 1 ? ENVL_PI / (h - 1) * (j == 0 || j == h - 1 ? 0.5 : 1.0) : ENVL_PI);
+    case ENVL_LAYOUT_EXR_CUBE: { /* dA / (1 + s^2 + t^2)^(3/2), s and t in steps of 2 / (N - 1)
+                                    from edge to edge: the trapezoid rule */
+        if (g.n == 1)
+            return jac * 4.0;
+        double step = 2.0 / (g.n - 1);
+        int32_t fi = i, fj = j % g.n;
+        return jac * step * step * (fi == 0 || fi == g.n - 1 ? 0.5 : 1.0) *
+               (fj == 0 || fj == g.n - 1 ? 0.5 : 1.0);
+    }
+    default: { /* our cubes: s and t in steps of 2 / N */
+        double step = 2.0 / g.n;
+        return jac * step * step;
+    }
+    }
+}
+
 /* ---- conversions ---- */
 
 envl_result envl__layout_to_latlong(const envl_image *src, int32_t layout, int32_t out_width,

@@ -527,8 +527,6 @@ static float plane_at(const sample_plane *pl, int64_t x, int64_t y)
 static envl_result read_chunks(exr_reader *r, exr_storage_t storage)
 {
     exr_result_t rc;
-    if (r->ix0 > r->ix1 || r->iy0 > r->iy1)
-        return ENVL_OK; /* nothing of the data window is displayed */
     if (storage == EXR_STORAGE_SCANLINE) {
         int32_t lines = 0;
         rc = exr_get_scanlines_per_chunk(r->ctxt, r->part, &lines);
@@ -587,8 +585,6 @@ static envl_result read_chunks(exr_reader *r, exr_storage_t storage)
  * by the OpenEXR C++ library into the scratch buffer, then placed as the chunks above. */
 static envl_result read_dwa(exr_reader *r, exr_storage_t storage)
 {
-    if (r->ix0 > r->ix1 || r->iy0 > r->iy1)
-        return ENVL_OK;
     int32_t band = 0, tw = 0;
     exr_result_t rc = storage == EXR_STORAGE_SCANLINE
                           ? exr_get_scanlines_per_chunk(r->ctxt, r->part, &band)
@@ -777,6 +773,12 @@ static envl_result read_part(exr_context_t ctxt, exr_stream *s, const char *name
     r.ix1 = r.dx1 < r.dw.max.x ? r.dx1 : r.dw.max.x;
     r.iy1 = r.dy1 < r.dw.max.y ? r.dy1 : r.dw.max.y;
     r.nx0 = r.ix0, r.ny0 = r.iy0, r.nx1 = r.ix1, r.ny1 = r.iy1;
+    if (r.ix0 > r.ix1 || r.iy0 > r.iy1)
+        return envl__fail(ENVL_ERR_FORMAT, "%s: the data window (%d, %d) - (%d, %d) lies wholly "
+                          "outside the display window (%d, %d) - (%d, %d): no pixel of the image "
+                          "holds data (it would read as black)", name, r.dw.min.x, r.dw.min.y,
+                          r.dw.max.x, r.dw.max.y, disp.min.x, disp.min.y, disp.max.x,
+                          disp.max.y);
     for (int k = 0; k < 3; k++) {
         int i = r.pick.idx[k];
         if (i >= 0 && (cl->entries[i].x_sampling != 1 || cl->entries[i].y_sampling != 1))
@@ -854,9 +856,12 @@ static envl_result read_part(exr_context_t ctxt, exr_stream *s, const char *name
     if (exr_get_compression(ctxt, part, &comp) != EXR_ERR_SUCCESS)
         comp = EXR_COMPRESSION_NONE; /* the chunk reads then report what is wrong */
     s->msg[0] = '\0';
-    if (comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB)
+    if (comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB) {
+        /* its 8 x 8 DCT blocks start at the data window's origin (ringing.c fills by them) */
+        out->meta.block_x0 = (int32_t)(((r.dw.min.x - r.dx0) % 8 + 8) % 8);
+        out->meta.block_y0 = (int32_t)(((r.dw.min.y - r.dy0) % 8 + 8) % 8);
         e = read_dwa(&r, storage);
-    else
+    } else
         e = read_chunks(&r, storage);
     if (e)
         goto done;
