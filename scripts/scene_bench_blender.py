@@ -89,12 +89,20 @@ RECIPES = {
     # the same with the panel's Bake Volume Probe (EEVEE-Next: a probe around the objects,
     # baked: their bounce light and the sky they hide; core.bake_probe), not picked
     "probe-eevee": dict(read_scene=True, volume_probe=True),
+    # EEVEE's dome (eevee_dome.py): the sky as N soft-shadowed lamps, the world the ground's
+    # bounce below the horizon
+    "dome32-eevee": dict(read_scene=True, eevee_dome=32),
+    "dome64-eevee": dict(read_scene=True, eevee_dome=64),
+    "dome128-eevee": dict(read_scene=True, eevee_dome=128),
+    "dome64-probe-eevee": dict(read_scene=True, eevee_dome=64, volume_probe=True),
     # not a recipe: the plain HDR world with max bounces 0, the direct light at the first hit
     # alone. Its noise against the HDR world's gives the direct-light ceiling (direct_ceiling)
     "hdr-direct": None,
 }
-EEVEE = ("hdr-eevee", "picked-eevee", "probe-eevee")
+EEVEE = ("hdr-eevee", "picked-eevee", "probe-eevee", "dome32-eevee", "dome64-eevee",
+         "dome128-eevee", "dome64-probe-eevee")
 EEVEE_SPP = 64
+EEVEE_ENGINE = "BLENDER_EEVEE_NEXT"   # Blender 4.2+; legacy EEVEE ("BLENDER_EEVEE") in 3.x
 QUICK_RECIPES = ["hdr", "picked"]
 
 
@@ -294,10 +302,15 @@ def setup(envlight, library, tmp):
     return "Blender " + p.stdout.split()[1] if p.returncode == 0 else "Blender ?"
 
 
-def _env(tmp):
+def _env(tmp, folders=()):
+    """Blender's environment: its own user folders; `folders` (a map's) bound into Debian
+    13's root by scripts/blender4.sh's wrapper (it binds /tmp and /work/wt by itself)."""
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "ENVLIGHT_LIBRARY")}
     env.update(BLENDER_USER_SCRIPTS=os.path.join(tmp, "user", "scripts"),
                BLENDER_USER_CONFIG=os.path.join(tmp, "user", "config"))
+    binds = [b for b in [env.get("ENVL_BLENDER4_BINDS", "")] + list(folders) if b]
+    if binds:
+        env["ENVL_BLENDER4_BINDS"] = ":".join(binds)
     return env
 
 
@@ -324,14 +337,15 @@ def run_map(name, path, opts, log=_log):
                     image=QUICK_IMAGE if opts["quick"] else IMAGE,
                     ref_spp=QUICK_REF_SPP if opts["quick"] else REF_SPP,
                     spp=QUICK_SPP if opts["quick"] else SPP,
-                    out=os.path.join(tmp, "scene_%s.json" % scene), dir=tmp)
+                    out=os.path.join(tmp, "scene_%s.json" % scene), dir=tmp,
+                    ref_cache=os.path.join(opts["tmp"], "references"))
         spec_path = os.path.join(tmp, "spec_%s.json" % scene)
         with open(spec_path, "w") as f:
             json.dump(spec, f)
         t = time.time()
         p = subprocess.run([BLENDER, "-b", "--factory-startup", "--python",
                             os.path.abspath(__file__), "--", spec_path], capture_output=True,
-                           text=True, env=_env(opts["tmp"]))
+                           text=True, env=_env(opts["tmp"], [os.path.dirname(path)]))
         if p.returncode != 0 or not os.path.exists(spec["out"]):
             sys.exit("scene_bench: Blender failed on %s scene %s:\n%s%s" % (
                 name, scene, p.stdout[-3000:], p.stderr[-2000:]))
@@ -345,8 +359,8 @@ def run_map(name, path, opts, log=_log):
             runs.append(r)
         images[(scene, "reference")] = np.load(res["reference"]["image"])
         for r in res["runs"]:
-            if "image" in r:   # the picked Cycles render
-                images[(scene, "picked")] = np.load(r.pop("image"))
+            if "image" in r:   # the picked Cycles and EEVEE renders
+                images[(scene, r["recipe"])] = np.load(r.pop("image"))
         log("%s (%s): %.0f s; %s" % (name, scene, time.time() - t, "; ".join(
             "%s %s err %.2f %% floor %.2f %%" % (
                 r["recipe"], "-" if r["speedup"] is None else "%.2fx" % r["speedup"],
@@ -355,6 +369,27 @@ def run_map(name, path, opts, log=_log):
 
 
 # ---- inside Blender ------------------------------------------------------------------------
+
+def reference_cache(spec, blender_version):
+    """The file that holds (or will hold) the reference renders of spec's map and scene, or None
+    without spec["ref_cache"]: keyed by the map's bytes, the scene, the samples, the image
+    size, the Blender version and the source of everything that builds and renders the
+    scene (_in_blender up to the reference), so a changed scene or setting never reuses one.
+    The reference is the plain HDR world: no recipe changes it, and it is most of a run's
+    time (scene_bench.py --tmp keeps the cache between runs)."""
+    import hashlib
+    import inspect
+    if not spec.get("ref_cache"):
+        return None
+    h = hashlib.sha256()
+    with open(spec["map"], "rb") as f:
+        h.update(f.read())
+    h.update(json.dumps([spec["scene"], spec["ref_spp"], list(spec["image"]),
+                         blender_version]).encode())
+    h.update(inspect.getsource(_in_blender).split("# the reference")[0].encode())
+    os.makedirs(spec["ref_cache"], exist_ok=True)
+    return os.path.join(spec["ref_cache"], "ref_%s.npz" % h.hexdigest()[:24])
+
 
 def _in_blender():
     import bpy
@@ -509,10 +544,20 @@ def _in_blender():
                              floor=float(math.sqrt(max(err ** 2 - noise ** 2 - rn ** 2, 0))))
         return out
 
-    # the reference
-    r1, ta = render(spec["ref_spp"], 101)
-    r2, tb = render(spec["ref_spp"], 202)
-    ref_seconds = ta + tb
+    # the reference (or the same renders from an earlier run: reference_cache)
+    cache = reference_cache(spec, bpy.app.version_string)
+    cache_hit = cache is not None and os.path.exists(cache)
+    if cache_hit:
+        with np.load(cache) as z:
+            r1, r2, ref_seconds = z["r1"], z["r2"], float(z["seconds"])
+    else:
+        r1, ta = render(spec["ref_spp"], 101)
+        r2, tb = render(spec["ref_spp"], 202)
+        ref_seconds = ta + tb
+        if cache is not None:
+            tmp_cache = cache + ".tmp.npz"
+            np.savez(tmp_cache, r1=r1, r2=r2, seconds=ref_seconds)
+            os.replace(tmp_cache, cache)
     yref = 0.5 * (r1 + r2)
     ref_noise = {name: float(np.sqrt(np.mean((r1[m] - r2[m]) ** 2)) / 2 / yref[m].mean())
                  for name, m in list(masks.items()) + [("objects", every)]}
@@ -527,10 +572,10 @@ def _in_blender():
     for recipe in spec["recipes"]:
         settings = RECIPES[recipe]
         eevee = recipe in EEVEE
-        if eevee and (bpy.app.version < (4, 2, 0) or spec["scene"] != "a"):
-            continue   # EEVEE-Next is Blender 4.2+; its goal is on scene (a) (a render costs
-            #            ~20 CPU s on llvmpipe here)
-        scene.render.engine = "BLENDER_EEVEE_NEXT" if eevee else "CYCLES"
+        if eevee and recipe == "probe-eevee" and bpy.app.version < (4, 2, 0):
+            continue   # the volume probe is EEVEE-Next's (4.2+)
+        scene.render.engine = (EEVEE_ENGINE if bpy.app.version >= (4, 2, 0)
+                               else "BLENDER_EEVEE") if eevee else "CYCLES"
         cy.max_bounces = 0 if recipe == "hdr-direct" else 4   # the direct light alone
         scene.world = world
         bpy.ops.envlight.remove()
@@ -538,13 +583,17 @@ def _in_blender():
         t_lib = 0.0
         if settings is not None:
             s = world.envlight
+            for p in s.bl_rna.properties:   # the panel's defaults, then the recipe's own
+                if not p.is_readonly and p.identifier != "rna_type":
+                    s.property_unset(p.identifier)
             for k, v in settings.items():
                 setattr(s, k, v)
             t = time.perf_counter()
             r = bpy.ops.envlight.create_lights()
             t_lib = time.perf_counter() - t
             report = s.result_message
-            if r == {"CANCELLED"} and report.startswith("nothing computed"):
+            if getattr(s, "result_outcome", "") == "unchanged" or (
+                    r == {"CANCELLED"} and report.startswith("nothing computed")):
                 picked_as = "unchanged"   # the add-on left the scene as it is
             elif r != {"FINISHED"}:
                 raise RuntimeError("Create Lights: %s (%s)" % (r, s.result_message))
@@ -570,13 +619,14 @@ def _in_blender():
                    errors={k: v["error"] for k, v in st.items()},
                    biases={k: v["bias"] for k, v in st.items() if k != "objects"},
                    objects=st, picked_as=picked_as, report=report)
-        if recipe == "picked" and not eevee:
-            run["image"] = os.path.join(out_dir, "picked_%s.npy" % spec["scene"])
+        if recipe in ("picked", "picked-eevee"):   # the grid's pictures
+            run["image"] = os.path.join(out_dir, "%s_%s.npy" % (recipe, spec["scene"]))
             np.save(run["image"], np.stack([0.5 * (y1 + y2)] * 3, axis=-1).astype(np.float32))
         runs.append(run)
 
     speedups(runs)
     res = dict(reference=dict(spp=spec["ref_spp"], seconds=ref_seconds, noise=ref_noise,
+                              cached=bool(cache and cache_hit),
                               image=ref_img, pixels={k: int(m.sum())
                                                      for k, m in masks.items()}),
                runs=runs)

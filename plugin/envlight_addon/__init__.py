@@ -87,6 +87,10 @@ class EnvLightSettings(bpy.types.PropertyGroup):
         description="EEVEE-Next (4.2+): bake a volume light probe around the objects (not the "
         "ground): the light they bounce onto one another and the sky they hide; with or "
         "without Read Scene. Nearer Cycles on some maps, further on others (docs/blender_scenes.md)")
+    eevee_dome: IntProperty(
+        name="EEVEE Dome", default=0, min=0, max=1024,
+        description="Read Scene in EEVEE: the sky as this many soft-shadowed lamps for the "
+        "diffuse light, the world the map itself for reflections (0: 4 fitted lamps)")
     # results, shown by the panel; list-valued ones hold one item a line ("\n"-joined: an
     # item may itself contain "; ", issue 28's orphan lines)
     has_result: BoolProperty(default=False)

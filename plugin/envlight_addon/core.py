@@ -12,7 +12,7 @@ import time
 import bpy
 import mathutils
 
-from . import exact_discs, other_lights
+from . import eevee_dome, exact_discs, other_lights
 from . import scene as scene_reader
 
 TAG = "envlight"
@@ -451,13 +451,15 @@ def _collection(scene):
     return coll
 
 
-def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLight Light"):
+def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLight Light",
+                specular=True):
     """Sun lamps in the EnvLight collection: energy * color = strength * rgb * (1 - w / 4 pi)
     (energy = the largest channel, so colour <= 1), w = the light's solid angle: a Blender sun
     is given by its irradiance at normal incidence, which for a disc of solid angle w holding
     the power rgb is rgb (1 - w / 4 pi), the light's first moment (lights.c). Angle from the
     light's angle (soft), 0 (sharp), or no shadows (none). glossy False: the lamps light no
-    glossy reflection (Object.visible_glossy, Cycles), where glossy rays see the map itself."""
+    glossy reflection (Object.visible_glossy, Cycles), where glossy rays see the map itself.
+    specular False: no specular in EEVEE (Light.specular_factor 0)."""
     coll = _collection(scene)
     made = []
     for i, light in enumerate(lights):
@@ -469,6 +471,8 @@ def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLig
         data[TAG] = True
         data.energy = energy
         data.color = [c / energy for c in rgb]
+        if not specular and hasattr(data, "specular_factor"):
+            data.specular_factor = 0.0
         data.angle = light.angle if shadows == "SOFT" else 0.0
         cast = shadows != "NONE"
         if hasattr(data, "use_shadow"):
@@ -766,6 +770,8 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step):
             used = pkg.from_pixels(px, layout="latlong")
     elif plan.ground_albedo is not None:
         used = rest.sky_hemisphere()
+    if plan.dome:
+        return dome_rest(pkg, env, rest, used, plan, step)
     try:
         # the library's own progress moves the bar from 0.2 to 0.6 while it fits (issue 16)
         with pkg.progress(lambda f, stage: step(min(0.6, 0.2 + 0.4 * f))), \
@@ -808,6 +814,34 @@ def exact_figures(pkg, env, lamps, residual):
             "residual_power": residual_power}
 
 
+def dome_rest(pkg, env, rest, used, plan, step):
+    """EEVEE's dome (eevee_dome) over `used` (the map less the suns; over a ground its lower
+    half the bounce): -> (the dome's lamps, the cut's summary, the world's image: the ground's
+    bounce below the horizon over a ground, else nothing, None). Closes `used` and `rest`
+    unless they are `env`."""
+    import numpy as np
+    world = used.pixels()
+    ground = plan.ground_albedo is not None
+    sky = eevee_dome.upper_half(np, world) if ground else world
+    try:
+        with pkg.from_pixels(sky, layout="latlong") as smap, \
+                pkg.progress(lambda f, stage: step(min(0.6, 0.2 + 0.4 * f))), \
+                smap.lights(plan.dome, method="variance") as res:
+            lights, summary = list(res.lights), dict(res.summary)
+    finally:
+        for m in {id(used): used, id(rest): rest}.values():
+            if m is not env:
+                m.close()
+    step(0.6)
+    lo, hi = eevee_dome.dome_angle_degrees(lights)
+    plan.reasons.append(
+        "EEVEE: the sky as a dome of %d soft-shadowed lamps (its variance cut, %.0f-%.0f "
+        "degrees each: the objects occlude the sky's light as they hide the sky)%s" % (
+            len(lights), lo, hi, "; the world is the ground's bounce below the horizon "
+            "(EEVEE lights it unoccluded)" if ground else "; the world is black"))
+    return lights, summary, world - sky, None
+
+
 class NothingToDo(Exception):
     """Create Lights has nothing to compute for this scene: `reason` (else the plan's skipped
     items) says why; `warnings` what it found on the way (the scene's other lights...)."""
@@ -838,8 +872,8 @@ def create_lights(context, settings, progress=None, force=False):
     t0 = time.perf_counter()
     step = progress or (lambda v: None)
     warnings = []
-    plan = (scene_reader.read_scene(scene, settings.volume_probe) if settings.read_scene
-            else scene_reader.plan_from_settings(settings, scene))
+    plan = (scene_reader.read_scene(scene, settings.volume_probe, settings.eevee_dome)
+            if settings.read_scene else scene_reader.plan_from_settings(settings, scene))
     plan.force = force
     lights_note = other_lights.warning(scene)
     if lights_note:

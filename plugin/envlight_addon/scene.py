@@ -85,6 +85,7 @@ class Plan:
         self.recipe = ""
         self.probe = None              # EEVEE volume probe: (centre, half size, resolution)
         self.force = False             # Create Lamps Anyway (Cycles)
+        self.dome = 0                  # EEVEE: lamps in the dome (eevee_dome), 0: none
 
     def settings_lines(self, lamps, suns, order):
         """What was used, one line per setting, for the panel (with Read Scene on the panel's
@@ -95,6 +96,10 @@ class Plan:
                  "SH": "an order-2 SH node tree", "LIGHTS": "black (the lamps carry all)"}
         made = {"sun-residual": "the suns", "lamps-residual": "taken exactly"}.get(
             self.recipe, "%d by %s" % (lamps - suns, self.method))
+        if self.dome:
+            made = "%d in the dome" % (lamps - suns)
+            made = "%d sun%s + %s" % (suns, "s" if suns > 1 else "", made) if suns else made
+            order = None
         if suns and self.recipe not in ("sun-residual", "lamps-residual"):
             made = "%d sun%s + %s" % (suns, "s" if suns > 1 else "", made)
         out = ["lamps: %d (%s%s)" % (lamps, made, ", remainder order %d" % order
@@ -297,9 +302,9 @@ def set_probe(p, scene):
                      % (res[0], res[1], res[2], len(rest), "s" if len(rest) > 1 else ""))
 
 
-def read_scene(scene, volume_probe=False):
+def read_scene(scene, volume_probe=False, dome=0):
     """The Plan for `scene` (its engine, objects, materials, shadows, ground); volume_probe:
-    the panel's Bake Volume Probe."""
+    the panel's Bake Volume Probe; dome: EEVEE's dome of that many lamps (0: fitted lamps)."""
     p = Plan()
     engine = scene.render.engine
     p.engine = engine
@@ -354,6 +359,12 @@ def read_scene(scene, volume_probe=False):
         p.skipped.append("the SH world: EEVEE captures the world once, the residual image is "
                          "as cheap there")
         p.recipe = "eevee-residual" + ("-ground" if p.ground_albedo is not None else "")
+        if dome:
+            p.dome = dome
+            p.shadows = "SOFT"
+            p.reasons = [r for r in p.reasons if "fitted lamps" not in r and
+                         "order-1 SH remainder" not in r]
+            p.recipe = "eevee-dome" + ("-ground" if p.ground_albedo is not None else "")
         # EEVEE has no light bouncing between objects, and its world light is not occluded
         # by them, unless a volume probe is baked (EEVEE-Next): the panel's choice, as the
         # scene benchmark found it nearer Cycles on some maps and further on others

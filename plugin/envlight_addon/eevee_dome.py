@@ -1,0 +1,29 @@
+"""EEVEE's dome (issue 28): the sky as many soft-shadowed sun lamps, so that the objects
+occlude its light as they hide the sky.
+
+EEVEE lights diffuse and glossy from one capture of the world, and its diffuse from the world
+is the world's order-1 SH irradiance, never occluded by an object (issue 14). Lamps with
+shadows are what EEVEE occludes: the sky half (the map less its suns; over a ground, the
+ground's bounce stays in the world below the horizon, where a lamp would be hidden by the
+ground itself) is cut into DOME cells by the library's variance cut, each a sun lamp of its
+cell's power and angle. (Lamps of negative energy, which could have taken the sky's diffuse
+out of a world kept whole for the reflections, are ignored by EEVEE-Next: measured, a world's
+diffuse unchanged by them.)
+"""
+import math
+
+#: lamps in the dome (the variance cut of the sky)
+DOME = 64
+
+
+def upper_half(np, pixels):
+    """The map's rows above the horizon only (a ground hides the rest), as a copy."""
+    px = np.array(pixels)
+    px[px.shape[0] // 2:] = 0.0
+    return px
+
+
+def dome_angle_degrees(lights):
+    """The dome lamps' angles, smallest and largest (degrees), for the report."""
+    a = [math.degrees(l.angle) for l in lights]
+    return (min(a), max(a)) if a else (0.0, 0.0)
