@@ -2,11 +2,12 @@
 EnvLight panel as a user sees it (issue 28), in Blender's default startup scene (its cube, its
 camera and its 1000 W point light kept), one screenshot of the panel per step:
 
-    xvfb-run -a blender --factory-startup --python scripts/blender_panel_check.py -- SPEC.json
+    xvfb-run -a -s "-screen 0 WxHx24 -fbdir DIR" blender --factory-startup \
+        --window-geometry 0 0 W H --python scripts/blender_panel_check.py -- SPEC.json
 
 The 3D viewport becomes a Properties editor on the World tab, tall enough for every World
 panel; each step presses the panel's buttons as operators in that window, redraws, and saves
-the editor (a screenshot of the window cut to it) as STEP.png, then STEP_ocr.png: grey, inverted
+the editor (the X screen that Xvfb keeps in DIR, cut to it) as STEP.png, then STEP_ocr.png: grey, inverted
 (dark text on light) and 2x larger, for OCR. Steps (SPEC "steps", in order):
   eevee        the default engine (EEVEE), the world's Environment Texture `hdr`: Create Lights
   hide         Hide Them for the Render (the startup light)
@@ -14,12 +15,14 @@ the editor (a screenshot of the window cut to it) as STEP.png, then STEP_ocr.png
   cycles       Cycles, `hdr_nosun` (a map without a sun): Create Lights (nothing changes)
   anyway       Create Lamps Anyway (the panel's button: create_lights with force)
   ball         `ball` (a square mirror-ball image) left on Equirectangular: Create Lights
-SPEC (JSON): {"zip", "out": RESULT.json, "shots": DIR, "hdr", "hdr_nosun", "ball", "steps"}.
+SPEC (JSON): {"zip", "out": RESULT.json, "shots": DIR, "fbdir": Xvfb's -fbdir, "hdr",
+"hdr_nosun", "ball", "steps"}.
 RESULT: per step the operator's status, the panel's stored result, the lamps and the startup
 light's hide_render, the screenshot files."""
 import json
 import os
 import sys
+import time
 
 if __name__ == "__main__" and {"-h", "--help"} & set(
         sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]):
@@ -35,6 +38,8 @@ import blender_addon_check as check  # noqa: E402  (its helpers; it runs nothing
 
 #: UI scale for the screenshots (bigger text reads better by OCR)
 UI_SCALE = 1.5
+#: redraws (0.2 s apart) before a screenshot: one showed the panels still sliding into place
+SETTLE = 5
 
 
 def properties_area():
@@ -48,19 +53,38 @@ def properties_area():
     return win, area
 
 
-def shot(win, area, path):
-    """The Properties editor as shown (a screenshot of the window, cut to the editor), saved
-    as `path` and its OCR copy."""
-    with bpy.context.temp_override(window=win, screen=win.screen, area=area):
-        bpy.ops.wm.redraw_timer(type="DRAW_WIN_SWAP", iterations=2)
-        bpy.ops.screen.screenshot(filepath=path)
-    img = bpy.data.images.load(path)
-    W, H = img.size
-    px = np.empty(W * H * img.channels, np.float32)
-    img.pixels.foreach_get(px)
-    bpy.data.images.remove(img)
-    # rows bottom-up, as Blender's pixels and the area's x, y
-    rgb = px.reshape(H, W, -1)[area.y:area.y + area.height, area.x:area.x + area.width, :3]
+def read_xwd(path):
+    """The X screen as Xvfb keeps it in `path` (its -fbdir file, X Window Dump format: a
+    header of 25 big-endian 32-bit fields, the window name, the colour map, then the rows top
+    first) -> (H, W, 3) float32 in 0..1, rows top first. 24-bit TrueColor, 32 bits a pixel."""
+    raw = open(path, "rb").read()
+    f = np.frombuffer(raw[:100], dtype=">u4")
+    size, width, height, order, bpp, stride = (int(f[0]), int(f[4]), int(f[5]), int(f[7]),
+                                               int(f[11]), int(f[12]))
+    masks, ncolors = [int(v) for v in f[14:17]], int(f[19])
+    if bpp != 32:
+        raise RuntimeError("%s: %d bits a pixel (32 expected)" % (path, bpp))
+    start = size + 12 * ncolors
+    rows = np.frombuffer(raw[start:start + height * stride], dtype="<u4" if order == 0 else ">u4")
+    px = rows.reshape(height, stride // 4)[:, :width]
+    out = []
+    for m in masks:
+        shift = (m & -m).bit_length() - 1
+        out.append(((px & m) >> shift).astype(np.float32) / float(m >> shift))
+    return np.stack(out, axis=-1)
+
+
+def shot(win, area, path, fbdir):
+    """The Properties editor as shown, saved as `path` and its OCR copy: the X screen as Xvfb
+    holds it (`fbdir`: Blender 4.3's own screenshot reads back black under Xvfb here), the
+    window at the screen's top left, cut to the editor."""
+    for _ in range(SETTLE):   # Blender slides panels to their new places over a few draws
+        with bpy.context.temp_override(window=win, screen=win.screen, area=area):
+            bpy.ops.wm.redraw_timer(type="DRAW_WIN_SWAP", iterations=2)
+        time.sleep(0.2)
+    screen = read_xwd(os.path.join(fbdir, "Xvfb_screen0"))
+    top = win.height - (area.y + area.height)
+    rgb = screen[top:top + area.height, area.x:area.x + area.width][::-1]   # rows bottom-up
     h, w = rgb.shape[:2]
     cut = bpy.data.images.new("shot", w, h)
     rgba = np.ones((h, w, 4), np.float32)
@@ -152,7 +176,8 @@ def main():
             raise ValueError("unknown step %r" % step)
         st = state(scene)
         st["rc"] = rc
-        st["shot"], st["ocr"] = shot(win, area, os.path.join(spec["shots"], step + ".png"))
+        st["shot"], st["ocr"] = shot(win, area, os.path.join(spec["shots"], step + ".png"),
+                                     spec["fbdir"])
         result["steps"][step] = st
     with open(spec["out"], "w") as f:
         json.dump(result, f, indent=1)

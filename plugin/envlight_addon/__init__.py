@@ -219,6 +219,7 @@ class ENVLIGHT_OT_remove(bpy.types.Operator):
             return {"CANCELLED"}
         if context.scene.world:
             context.scene.world.envlight.has_result = False
+            context.scene.world.envlight.result_message = ""
         self.report({"INFO"}, "EnvLight: removed %d lamps%s" % (
             n, "; shown again: %s" % other_lights.names(shown) if shown else ""))
         return {"FINISHED"}
