@@ -60,7 +60,12 @@ QUICK_SPP = 8
 TARGET_E = 0.02              # the error at which speedups are compared (2 %)
 TARGET_SPEEDUP = 3.0         # issue 14: the picked recipe >= 3x sooner than the HDR world
 TARGET_BIAS = 0.01           # and no object's mean off by more than 1 %
-TARGET_EEVEE = 0.03          # EEVEE-Next: the picked recipe within 3 % of Cycles on scene (a)
+# EEVEE-Next (issue 28): the pick within 3 % of Cycles (relative RMS, converged) on the matte
+# objects and the ground, 5 % on glossy ones (roughness >= 0.2), every object's mean within
+# 1 %, on scenes (a), (b), (c)
+TARGET_EEVEE = 0.03
+TARGET_EEVEE_GLOSSY = 0.05
+MATTE = ("matte", "wall", "overhang")
 GROUND_ALBEDO = 0.5
 BLENDER4 = "/var/cache/envlight/trixie-root/run-blender"
 
@@ -102,6 +107,14 @@ RECIPES = {
 EEVEE = ("hdr-eevee", "picked-eevee", "probe-eevee", "dome32-eevee", "dome64-eevee",
          "dome128-eevee", "dome64-probe-eevee")
 EEVEE_SPP = 64
+#: the report's picture grid (scene_bench.py's grid): per map the Cycles reference and the
+#: picked recipe in Cycles and in EEVEE-Next on (a), the reference and EEVEE on (b) and (c)
+GRID_COLUMNS = [("a", "reference"), ("a", "picked"), ("a", "picked-eevee"),
+                ("b", "reference"), ("b", "picked-eevee"), ("c", "reference"),
+                ("c", "picked-eevee")]
+GRID_CAPTION = ("Rows: maps; columns: (a) the Cycles reference, the pick in Cycles, the pick "
+                "in EEVEE-Next; (b) the reference, EEVEE; (c) the reference, EEVEE; one "
+                "exposure per map, luminance, sRGB.")
 EEVEE_ENGINE = "BLENDER_EEVEE_NEXT"   # Blender 4.2+; legacy EEVEE ("BLENDER_EEVEE") in 3.x
 QUICK_RECIPES = ["hdr", "picked"]
 
@@ -148,10 +161,13 @@ def describe(result):
         "variance): where it is under %gx, no such recipe meets the goal. An estimate: a "
         "recipe also changes the light sampled at later bounces" % TARGET_SPEEDUP,
         "- goal: the picked recipe >= %gx sooner than the HDR world in Cycles on every map and "
-        "scene, no object's mean off by more than %.0f %%; in EEVEE-Next within %.0f %% of the "
-        "Cycles reference on scene (a) (EEVEE: %d samples, one render, CPU time of the "
-        "process: Mesa's llvmpipe renders on the CPU here)"
-        % (TARGET_SPEEDUP, 100 * TARGET_BIAS, 100 * TARGET_EEVEE, EEVEE_SPP)]
+        "scene, no object's mean off by more than %.0f %%; in EEVEE (EEVEE-Next in 4.2+, "
+        "legacy EEVEE in 3.x) within %.0f %% of the Cycles reference on the matte objects and "
+        "the ground, %.0f %% on the glossy sphere, every object's mean within %.0f %%, on "
+        "scenes (a), (b), (c) (EEVEE: %d samples, one render, CPU time of the process: Mesa's "
+        "llvmpipe renders on the CPU here)"
+        % (TARGET_SPEEDUP, 100 * TARGET_BIAS, 100 * TARGET_EEVEE,
+           100 * TARGET_EEVEE_GLOSSY, 100 * TARGET_BIAS, EEVEE_SPP)]
 
 
 def target_row(r):
@@ -160,13 +176,14 @@ def target_row(r):
     Cycles reference on scene (a) (relative RMS over the objects), other scenes not judged."""
     worst = max(r["biases"].items(), key=lambda kv: abs(kv[1]))
     if r["engine"] == "eevee":
-        if r["scene"] != "a":
-            return True, "(%s, EEVEE) %s: %.1f %% from Cycles (not judged)" % (
-                r["scene"], r["picked_as"], 100 * r["error"])
-        ok = r["error"] <= TARGET_EEVEE
-        return ok, "(a, EEVEE) %s: %.1f %% from Cycles %s, worst bias %s %+.1f %%" % (
-            r["picked_as"], 100 * r["error"], "ok" if ok else "over", worst[0],
-            100 * worst[1])
+        m, g, gl = eevee_figures(r)
+        ok = (m <= TARGET_EEVEE and g <= TARGET_EEVEE and (gl is None or
+                                                          gl <= TARGET_EEVEE_GLOSSY)
+              and abs(worst[1]) <= TARGET_BIAS)
+        return ok, "(%s, EEVEE) %s: matte %.1f %%, ground %.1f %%%s, worst bias %s %+.1f %% %s" % (
+            r["scene"], r["picked_as"], 100 * m, 100 * g,
+            "" if gl is None else ", glossy %.1f %%" % (100 * gl), worst[0], 100 * worst[1],
+            "ok" if ok else "over")
     ok_s = r["speedup"] is not None and r["speedup"] >= TARGET_SPEEDUP
     ok_b = abs(worst[1]) <= TARGET_BIAS
     ceiling = r.get("direct_ceiling")
@@ -174,6 +191,49 @@ def target_row(r):
         r["scene"], r["picked_as"], r["speedup"] or 0.0, "ok" if ok_s else "short",
         "" if ceiling is None else " (direct-light ceiling %.1fx)" % ceiling,
         worst[0], 100 * worst[1], "ok" if ok_b else "over")
+
+
+def eevee_figures(r):
+    """(matte, ground, glossy or None) converged errors of a row: the worst matte object's
+    (the spheres, wall, overhang), the ground's, the glossy sphere's."""
+    o = r["objects"]
+    return (max(o[k]["floor"] for k in MATTE if k in o), o["ground"]["floor"],
+            o["glossy"]["floor"] if "glossy" in o else None)
+
+
+def eevee_lines(result):
+    """The EEVEE table: per map and scene, for each EEVEE row, its converged error on the matte
+    objects (the worst), the ground and the glossy sphere, the worst object's bias and its
+    CPU seconds (64 samples)."""
+    rows = [r for r in result["runs"] if r["engine"] == "eevee"]
+    recipes = []
+    for r in rows:
+        if r["recipe"] not in recipes:
+            recipes.append(r["recipe"])
+    if not rows:
+        return []
+    L = ["## EEVEE against the Cycles reference", "",
+         "Each cell: matte (the worst matte object) / ground / glossy converged error %%, the "
+         "worst object's bias %%, CPU s of the render. Goal (issue 28): matte and ground <= "
+         "%.0f %%, glossy <= %.0f %%, |bias| <= %.0f %%." % (
+             100 * TARGET_EEVEE, 100 * TARGET_EEVEE_GLOSSY, 100 * TARGET_BIAS), "",
+         "| map | scene | " + " | ".join(recipes) + " |", "|---|---|" + "---|" * len(recipes)]
+    by = {(r["map"], r["scene"], r["recipe"]): r for r in rows}
+    for m in result["maps"]:
+        for sc in result["scenes"]:
+            cells = []
+            for k in recipes:
+                r = by.get((m, sc, k))
+                if r is None:
+                    cells.append("-")
+                    continue
+                mt, g, gl = eevee_figures(r)
+                wk, wb = max(r["biases"].items(), key=lambda kv: abs(kv[1]))
+                cells.append("%.1f / %.1f / %s / %s %+.1f / %.0f s%s" % (
+                    100 * mt, 100 * g, "-" if gl is None else "%.1f" % (100 * gl), wk,
+                    100 * wb, r["seconds"], " [%s]" % r["picked_as"] if r["picked"] else ""))
+            L.append("| %s | %s | %s |" % (m, sc, " | ".join(cells)))
+    return L + [""]
 
 
 def report_lines(result, checks):
@@ -208,7 +268,8 @@ def report_lines(result, checks):
                     " [%s]" % r["picked_as"] if r["picked"] else ""))
             L.append("| %s | %s | %.2f | %s |" % (m, sc, 100 * e["reference"]["noise"].get(sc, 0),
                                                   " | ".join(cells)))
-    L += ["", "## Goal check (picked rows)", "", "| map | met | detail |", "|---|---|---|"]
+    L += [""] + eevee_lines(result)
+    L += ["## Goal check (picked rows)", "", "| map | met | detail |", "|---|---|---|"]
     for m in result["maps"]:
         met, text = checks[m]
         L.append("| %s | %s | %s |" % (m, {True: "**met**", False: "not met",
@@ -622,6 +683,9 @@ def _in_blender():
         if recipe in ("picked", "picked-eevee"):   # the grid's pictures
             run["image"] = os.path.join(out_dir, "%s_%s.npy" % (recipe, spec["scene"]))
             np.save(run["image"], np.stack([0.5 * (y1 + y2)] * 3, axis=-1).astype(np.float32))
+        elif eevee:   # every EEVEE render, to look at (luminance), beside the run's files
+            np.save(os.path.join(out_dir, "%s_%s.npy" % (recipe, spec["scene"])),
+                    y1.astype(np.float32))
         runs.append(run)
 
     speedups(runs)
