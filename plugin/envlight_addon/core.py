@@ -452,14 +452,17 @@ def _collection(scene):
 
 
 def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLight Light",
-                specular=True):
+                specular=True, shadow_resolution=None):
     """Sun lamps in the EnvLight collection: energy * color = strength * rgb * (1 - w / 4 pi)
     (energy = the largest channel, so colour <= 1), w = the light's solid angle: a Blender sun
     is given by its irradiance at normal incidence, which for a disc of solid angle w holding
     the power rgb is rgb (1 - w / 4 pi), the light's first moment (lights.c). Angle from the
     light's angle (soft), 0 (sharp), or no shadows (none). glossy False: the lamps light no
     glossy reflection (Object.visible_glossy, Cycles), where glossy rays see the map itself.
-    specular False: no specular in EEVEE (Light.specular_factor 0)."""
+    specular False: no specular in EEVEE (Light.specular_factor 0). shadow_resolution: EEVEE-
+    Next's finest shadow texel (Light.shadow_maximum_resolution, m): the dome's many soft
+    lamps need no fine one, and at the default 1 mm 32 of them overflow EEVEE's shadow pool
+    ("Shadow buffer full ... (3284 / 2048)": shadows missing)."""
     coll = _collection(scene)
     made = []
     for i, light in enumerate(lights):
@@ -473,6 +476,8 @@ def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLig
         data.color = [c / energy for c in rgb]
         if not specular and hasattr(data, "specular_factor"):
             data.specular_factor = 0.0
+        if shadow_resolution and hasattr(data, "shadow_maximum_resolution"):
+            data.shadow_maximum_resolution = shadow_resolution
         data.angle = light.angle if shadows == "SOFT" else 0.0
         cast = shadows != "NONE"
         if hasattr(data, "use_shadow"):
@@ -1020,7 +1025,9 @@ def create_lights(context, settings, progress=None, force=False):
     suns = create_suns(scene, sun_lights, rot, strength, plan.shadows, glossy=True,
                        name="EnvLight Sun")
     n_suns = len(suns) if plan.suns else 0
-    suns += create_suns(scene, lights, rot, strength, plan.shadows, glossy=not glossy_hdr)
+    suns += create_suns(scene, lights, rot, strength, plan.shadows, glossy=not glossy_hdr,
+                        shadow_resolution=eevee_dome.shadow_resolution(scene)
+                        if plan.dome else None)
     glossy_image = None
     if glossy_pixels is not None and glossy_hdr:
         glossy_image = pixels_to_image(glossy_pixels, "EnvLight Glossy")

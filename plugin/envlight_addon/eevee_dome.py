@@ -14,6 +14,9 @@ import math
 
 #: lamps in the dome (the variance cut of the sky)
 DOME = 64
+#: the dome lamps' finest shadow texel, as a share of the largest extent of the scene's
+#: objects (the ground left out): their shadows are soft, wider than this
+SHADOW_TEXEL = 0.01
 
 
 def upper_half(np, pixels):
@@ -27,3 +30,16 @@ def dome_angle_degrees(lights):
     """The dome lamps' angles, smallest and largest (degrees), for the report."""
     a = [math.degrees(l.angle) for l in lights]
     return (min(a), max(a)) if a else (0.0, 0.0)
+
+
+def shadow_resolution(scene):
+    """The dome lamps' Light.shadow_maximum_resolution (m): SHADOW_TEXEL x the largest extent
+    of the visible objects other than a ground (find_ground), or None without any."""
+    from . import scene as reader
+    objs = reader._visible_meshes(scene)
+    ground = reader.find_ground(objs)
+    boxes = [reader._world_box(o) for o in objs if o is not ground]
+    if not boxes:
+        return None
+    ext = max(max(hi[i] - lo[i] for i in range(3)) for lo, hi in boxes)
+    return SHADOW_TEXEL * ext if ext > 0 else None
