@@ -218,22 +218,25 @@ def eevee_lines(result):
          "%.0f %%, glossy <= %.0f %%, |bias| <= %.0f %%." % (
              100 * TARGET_EEVEE, 100 * TARGET_EEVEE_GLOSSY, 100 * TARGET_BIAS), "",
          "| map | scene | " + " | ".join(recipes) + " |", "|---|---|" + "---|" * len(recipes)]
+    def cell(r, k):
+        mt, g, gl = eevee_figures(r)
+        wk, wb = max(r["biases"].items(), key=lambda kv: abs(kv[1]))
+        return "%.1f / %.1f / %s / %s %+.1f / %.0f s%s" % (
+            100 * mt, 100 * g, "-" if gl is None else "%.1f" % (100 * gl), wk, 100 * wb,
+            r["seconds"], " [%s]" % r["picked_as"] if r["picked"] else "")
+    for m, sc, cells in table_cells(result, rows, recipes, cell):
+        L.append("| %s | %s | %s |" % (m, sc, " | ".join(cells)))
+    return L + [""]
+
+
+def table_cells(result, rows, recipes, cell):
+    """(map, scene, cells) per map and scene: cell(row, recipe) for each recipe's row, "-"
+    where it did not run."""
     by = {(r["map"], r["scene"], r["recipe"]): r for r in rows}
     for m in result["maps"]:
         for sc in result["scenes"]:
-            cells = []
-            for k in recipes:
-                r = by.get((m, sc, k))
-                if r is None:
-                    cells.append("-")
-                    continue
-                mt, g, gl = eevee_figures(r)
-                wk, wb = max(r["biases"].items(), key=lambda kv: abs(kv[1]))
-                cells.append("%.1f / %.1f / %s / %s %+.1f / %.0f s%s" % (
-                    100 * mt, 100 * g, "-" if gl is None else "%.1f" % (100 * gl), wk,
-                    100 * wb, r["seconds"], " [%s]" % r["picked_as"] if r["picked"] else ""))
-            L.append("| %s | %s | %s |" % (m, sc, " | ".join(cells)))
-    return L + [""]
+            yield m, sc, [cell(by[(m, sc, k)], k) if (m, sc, k) in by else "-"
+                          for k in recipes]
 
 
 def report_lines(result, checks):
@@ -247,27 +250,19 @@ def report_lines(result, checks):
          % result["reference_settings"]["recipe_spp"], "",
          "| map | scene | ref noise % | " + " | ".join(recipes) + " |",
          "|---|---|---|" + "---|" * len(recipes)]
-    by = {(r["map"], r["scene"], r["recipe"]): r for r in result["runs"]}
-    for m, e in result["maps"].items():
-        for sc in result["scenes"]:
-            cells = []
-            for k in recipes:
-                r = by.get((m, sc, k))
-                if r is None:
-                    cells.append("-")
-                    continue
-                if k == "hdr-direct":   # not a lighting: its noise and the ceiling it gives
-                    cells.append("noise %.1f / ceiling %s" % (
-                        100 * r["noise"], "-" if r.get("direct_ceiling") is None
-                        else "%.1fx" % r["direct_ceiling"]))
-                    continue
-                wk, wb = max(r["biases"].items(), key=lambda kv: abs(kv[1]))
-                cells.append("%.1f / %.1f / %s %+.1f / %s%s" % (
-                    100 * r["error"], 100 * r["floor"], wk, 100 * wb,
-                    "-" if r["speedup"] is None else "%.1fx" % r["speedup"],
-                    " [%s]" % r["picked_as"] if r["picked"] else ""))
-            L.append("| %s | %s | %.2f | %s |" % (m, sc, 100 * e["reference"]["noise"].get(sc, 0),
-                                                  " | ".join(cells)))
+    def cell(r, k):
+        if k == "hdr-direct":   # not a lighting: its noise and the ceiling it gives
+            return "noise %.1f / ceiling %s" % (
+                100 * r["noise"], "-" if r.get("direct_ceiling") is None
+                else "%.1fx" % r["direct_ceiling"])
+        wk, wb = max(r["biases"].items(), key=lambda kv: abs(kv[1]))
+        return "%.1f / %.1f / %s %+.1f / %s%s" % (
+            100 * r["error"], 100 * r["floor"], wk, 100 * wb,
+            "-" if r["speedup"] is None else "%.1fx" % r["speedup"],
+            " [%s]" % r["picked_as"] if r["picked"] else "")
+    for m, sc, cells in table_cells(result, result["runs"], recipes, cell):
+        noise = result["maps"][m]["reference"]["noise"].get(sc, 0)
+        L.append("| %s | %s | %.2f | %s |" % (m, sc, 100 * noise, " | ".join(cells)))
     L += [""] + eevee_lines(result)
     L += ["## Goal check (picked rows)", "", "| map | met | detail |", "|---|---|---|"]
     for m in result["maps"]:

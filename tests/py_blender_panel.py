@@ -80,39 +80,22 @@ def ocr(path):
 
 @pytest.fixture(scope="module")
 def panel(addon_zip):
-    folder = os.path.join(TMP, "panel")
-    shutil.rmtree(folder, ignore_errors=True)
-    os.makedirs(folder)
-    ball = os.path.join(folder, "ball.hdr")   # a mirror ball, as a camera would photograph it
+    inputs = os.path.join(TMP, "panel_inputs")
+    shutil.rmtree(inputs, ignore_errors=True)
+    fbdir = os.path.join(inputs, "fb")
+    os.makedirs(fbdir)
+    ball = os.path.join(inputs, "ball.hdr")   # a mirror ball, as a camera would photograph it
     subprocess.run([os.environ.get("ENVLIGHT", os.path.join(base.BUILD, "envlight")),
                     "convert", COURTYARD, ball, "--layout-out", "mirrorball", "--size", "256",
                     "--quiet"], check=True)
-    fbdir = os.path.join(folder, "fb")
-    os.makedirs(fbdir)
-    spec = {"zip": addon_zip, "out": os.path.join(folder, "result.json"), "fbdir": fbdir,
-            "shots": os.path.join(folder, "shots"), "hdr": COURTYARD, "hdr_nosun": COURTYARD,
-            "ball": ball, "steps": ["eevee", "hide", "remove", "cycles", "anyway", "ball"]}
-    with open(os.path.join(folder, "spec.json"), "w") as f:
-        json.dump(spec, f)
-    env = {k: v for k, v in os.environ.items() if k not in ("ENVLIGHT_LIBRARY", "PYTHONPATH")}
-    env.update(BLENDER_USER_SCRIPTS=os.path.join(folder, "scripts"),
-               BLENDER_USER_CONFIG=os.path.join(folder, "config"))
-    cmd = [base.XVFB_RUN, "-a", "-s", "-screen 0 %dx%dx24 -fbdir %s" % (SCREEN + (fbdir,)),
-           base.BLENDER,
-           "--factory-startup", "--window-geometry", "0", "0", str(SCREEN[0]), str(SCREEN[1]),
-           "--python", SCRIPT, "--", os.path.join(folder, "spec.json")]
-    p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=1200)
-    log = p.stdout + p.stderr
-    with open(os.path.join(folder, "blender.log"), "w") as f:
-        f.write(log)
-    assert p.returncode == 0 and "ENVLIGHT_CHECK_DONE" in p.stdout, log[-4000:]
-    assert "Traceback" not in log, log[-4000:]
-    with open(spec["out"]) as f:
-        res = json.load(f)
-    assert res["blender"] == base.BLENDER_VERSION
+    spec = {"fbdir": fbdir, "shots": os.path.join(inputs, "shots"), "hdr": COURTYARD,
+            "hdr_nosun": COURTYARD, "ball": ball,
+            "steps": ["eevee", "hide", "remove", "cycles", "anyway", "ball"]}
+    res, log = base.run_blender("panel", spec, addon_zip, window=True, script=SCRIPT,
+                                screen=SCREEN, fbdir=fbdir)
     res["log"] = log
     res["text"] = {k: ocr(v["ocr"]) for k, v in res["steps"].items()}
-    with open(os.path.join(folder, "ocr.json"), "w") as f:
+    with open(os.path.join(inputs, "ocr.json"), "w") as f:
         json.dump(res["text"], f, indent=1)
     return res
 

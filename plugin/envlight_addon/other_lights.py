@@ -4,17 +4,12 @@ render besides its own; Hide Other Lights hides them in renders (Object.hide_ren
 camera icon), marking each with HIDDEN so that Remove EnvLight shows them again; nothing else
 about them changes.
 """
+from .scene import _ours
+
 #: object custom property: EnvLight hid this light for the render (Remove shows it again)
 HIDDEN = "envlight_hidden"
 #: the most lights named in a line of the panel or the report
 NAMED = 3
-
-
-def _ours(obj):
-    try:
-        return bool(obj.get("envlight"))
-    except (AttributeError, TypeError):
-        return False
 
 
 def rendering(scene):
