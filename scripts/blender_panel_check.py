@@ -26,7 +26,8 @@ import time
 
 if __name__ == "__main__" and {"-h", "--help"} & set(
         sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]):
-    print("usage: xvfb-run -a blender --factory-startup --python %s -- SPEC.json\n\n%s"
+    print("usage: blender -b --factory-startup --python %s -- SPEC.json (it needs a window: "
+          "run it without -b under xvfb-run, as below)\n\n%s"
           % ("scripts/" + os.path.basename(__file__), __doc__))
     sys.exit(0)
 
