@@ -160,8 +160,7 @@ def report(result, out_dir, host, module=None):
             L += ["Notes: " + " ".join(result["notes"]), ""]
         L += module.report_lines(result, target_check(result, module))
         L += ["", "![grid](%s_scene_grid.png)" % host, "",
-              "Rows: maps; columns: reference (a), picked (a), reference (b), picked (b); one "
-              "exposure per map, sRGB.", "",
+              getattr(module, "GRID_CAPTION", GRID_CAPTION), "",
               "![error against time](%s_scene_error_time.png)" % host, ""]
         write_atomic(os.path.join(out_dir, "scene_bench_%s.md" % host), "\n".join(L))
         return
@@ -302,12 +301,19 @@ def plot(result, out_dir, host, family):
     os.replace(png + ".tmp", png)
 
 
-def grid(images, result, out_dir, host):
-    """oiiotool mosaic: per map reference (a), picked (a), reference (b), picked (b)."""
+#: the picture grid's columns, (scene, image) per map; a host module's GRID_COLUMNS (and its
+#: GRID_CAPTION) replace them
+GRID_COLUMNS = [("a", "reference"), ("a", "picked"), ("b", "reference"), ("b", "picked")]
+GRID_CAPTION = ("Rows: maps; columns: reference (a), picked (a), reference (b), picked (b); "
+                "one exposure per map, sRGB.")
+
+
+def grid(images, result, out_dir, host, cols=GRID_COLUMNS):
+    """oiiotool mosaic: per map the images of `cols` (default: reference (a), picked (a),
+    reference (b), picked (b))."""
     import numpy as np
     import envlight as E
     d = tempfile.mkdtemp(prefix="scene_bench_grid")
-    cols = [("a", "reference"), ("a", "picked"), ("b", "reference"), ("b", "picked")]
     tiles, rows = [], 0
     blank = None
     for m in result["maps"]:
@@ -359,7 +365,8 @@ def write_out(args, host, result, images=None):
         write_atomic(os.path.join(args.docs, "scene_bench_%s.json" % args.host), text)
         report(result, args.docs, args.host, host)
         if images is not None:
-            grid(images, result, args.docs, args.host)
+            grid(images, result, args.docs, args.host,
+                 getattr(host, "GRID_COLUMNS", GRID_COLUMNS))
         plot(result, args.docs, args.host, host.family)
     print()
     for m, (met, text_) in target_check(result, host).items():

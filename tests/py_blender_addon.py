@@ -110,11 +110,12 @@ def spot_hdr():
     return path, info, np.array(d)
 
 
-def run_blender(name, spec, zip_path, window=False, script=CHECK):
+def run_blender(name, spec, zip_path, window=False, script=CHECK, screen=None, fbdir=None):
     """One fresh Blender running `script` (blender_addon_check.py; tests/py_blender_hard_cases.py
     passes its own) on `spec`: own user-scripts/config folders, the environment's
     ENVLIGHT_LIBRARY removed so the add-on must use the library inside its zip. window: Blender
-    with a window on a virtual X server (xvfb-run, Debian's xvfb) instead of -b."""
+    with a window on a virtual X server (xvfb-run, Debian's xvfb) instead of -b; screen (W, H):
+    that screen, the window filling it; fbdir: Xvfb keeps its screen there (-fbdir)."""
     folder = os.path.join(TMP, name)
     shutil.rmtree(folder, ignore_errors=True)
     os.makedirs(folder)
@@ -128,8 +129,12 @@ def run_blender(name, spec, zip_path, window=False, script=CHECK):
     cmd = [BLENDER, "-b", "--factory-startup", "--python", script, "--",
            os.path.join(folder, "spec.json")]
     if window:
-        cmd = [XVFB_RUN, "-a", "-s", "-screen 0 1280x800x24"] + [c for c in cmd if c != "-b"]
-    p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=900)
+        w, h = screen or (1280, 800)
+        server = "-screen 0 %dx%dx24" % (w, h) + (" -fbdir %s" % fbdir if fbdir else "")
+        cmd = [XVFB_RUN, "-a", "-s", server] + [c for c in cmd if c != "-b"]
+        if screen:
+            cmd[5:5] = ["--window-geometry", "0", "0", str(w), str(h)]
+    p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=1200)
     log = p.stdout + p.stderr
     with open(os.path.join(folder, "blender.log"), "w") as f:
         f.write(log)

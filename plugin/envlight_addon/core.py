@@ -12,6 +12,7 @@ import time
 import bpy
 import mathutils
 
+from . import eevee_dome, exact_discs, other_lights
 from . import scene as scene_reader
 
 TAG = "envlight"
@@ -40,6 +41,9 @@ MAX_SUNS = 4
 #: the plain world is as fast (immenstadter_horn, 22 %: 0.6x; scripts/scene_bench.py --host
 #: blender, docs/blender_scenes.md)
 SUN_SHARE_MIN = 0.5
+#: Create Lamps Anyway on a map without a sun: lamps taken exactly around the directions of
+#: the fit's this many lights (exact_discs)
+EXACT_LAMPS = 4
 
 
 def sun_share(summary):
@@ -199,6 +203,20 @@ def source_layout(node):
     return PROJECTION_LAYOUTS[proj]
 
 
+def projection_warning(layout, w, h, name):
+    """The warning for an image whose shape does not fit the Environment Texture's projection
+    (issue 28: a mirror ball left on Equirectangular), or None. Blender renders the world as
+    the projection says, so the lamps follow that; the warning says it is likely not meant."""
+    if layout == "latlong" and w != 2 * h:
+        return ("image '%s' is %d x %d, not 2:1, on an Equirectangular projection: %s; the "
+                "lamps follow the world as Blender shows it" % (
+                    name, w, h, "a square image is usually a mirror ball (set the Environment "
+                    "Texture's projection to Mirror Ball) or an angular probe (Blender has no "
+                    "such projection: convert it with `envlight convert`)" if w == h else
+                    "a lat-long map is twice as wide as high"))
+    return None   # (a stretched mirror ball: envmap_of_pixels says how it reads it)
+
+
 def _image_file(image):
     try:
         return bpy.path.abspath(image.filepath, library=image.library)
@@ -311,6 +329,9 @@ def read_source(pkg, world):
         buf, w, h, ch = image_pixels(image, src.warnings)
     except RuntimeError as e:
         raise RuntimeError("%s: %s" % (where, e)) from None
+    shape = projection_warning(layout, w, h, image.name)
+    if shape:
+        src.warnings.append(shape)
     what = "image '%s'" % image.name
     try:
         env, stats = envmap_of_pixels(pkg, buf, w, h, ch, layout, src.warnings, what)
@@ -430,13 +451,18 @@ def _collection(scene):
     return coll
 
 
-def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLight Light"):
+def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLight Light",
+                specular=True, shadow_resolution=None):
     """Sun lamps in the EnvLight collection: energy * color = strength * rgb * (1 - w / 4 pi)
     (energy = the largest channel, so colour <= 1), w = the light's solid angle: a Blender sun
     is given by its irradiance at normal incidence, which for a disc of solid angle w holding
     the power rgb is rgb (1 - w / 4 pi), the light's first moment (lights.c). Angle from the
     light's angle (soft), 0 (sharp), or no shadows (none). glossy False: the lamps light no
-    glossy reflection (Object.visible_glossy, Cycles), where glossy rays see the map itself."""
+    glossy reflection (Object.visible_glossy, Cycles), where glossy rays see the map itself.
+    specular False: no specular in EEVEE (Light.specular_factor 0). shadow_resolution: EEVEE-
+    Next's finest shadow texel (Light.shadow_maximum_resolution, m): the dome's many soft
+    lamps need no fine one, and at the default 1 mm 32 of them overflow EEVEE's shadow pool
+    ("Shadow buffer full ... (3284 / 2048)": shadows missing)."""
     coll = _collection(scene)
     made = []
     for i, light in enumerate(lights):
@@ -448,6 +474,10 @@ def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLig
         data[TAG] = True
         data.energy = energy
         data.color = [c / energy for c in rgb]
+        if not specular and hasattr(data, "specular_factor"):
+            data.specular_factor = 0.0
+        if shadow_resolution and hasattr(data, "shadow_maximum_resolution"):
+            data.shadow_maximum_resolution = shadow_resolution
         data.angle = light.angle if shadows == "SOFT" else 0.0
         cast = shadows != "NONE"
         if hasattr(data, "use_shadow"):
@@ -633,7 +663,7 @@ def sh_negative_figures(coeffs, n=1024):
 
 def build_world(world, mode, original_socket, residual_image, sh_coeffs, mapping_src, strength,
                 keep_background, glossy_hdr=False, sky_only=False, glossy_image=None,
-                camera_only=False):
+                camera_only=False, eevee=True):
     """Our own World Output, made active (the user's nodes are left as they were):
        residual: camera and glossy rays see `original_socket`, other rays the residual image;
        sh: other rays see the SH radiance (camera rays the original if keep_background; with
@@ -646,7 +676,9 @@ def build_world(world, mode, original_socket, residual_image, sh_coeffs, mapping
            whose lamps draw them), in the residual and lights worlds and with glossy_hdr;
        camera_only: only camera rays see the original, all others the lighting world (EEVEE,
            which shades its one world capture as a glossy ray);
-       lights: other rays see black (camera and glossy rays the original)."""
+       lights: other rays see black (camera and glossy rays the original).
+    eevee: the render engine is EEVEE, whose world sun extraction (4.2+) is turned off (the
+    lamps carry the suns); Cycles has none, and its report does not speak of it."""
     tree = world.node_tree
     user_out = _active_output(tree)
     if user_out is not None and not tagged(user_out):
@@ -701,7 +733,7 @@ def build_world(world, mode, original_socket, residual_image, sh_coeffs, mapping
         shader = mix.outputs[0]
     tree.links.new(shader, out.inputs["Surface"])
     out.is_active_output = True
-    return out, disable_sun_extraction(world)
+    return out, disable_sun_extraction(world) if eevee else None
 
 
 def pixels_to_image(residual, name):
@@ -743,6 +775,8 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step):
             used = pkg.from_pixels(px, layout="latlong")
     elif plan.ground_albedo is not None:
         used = rest.sky_hemisphere()
+    if plan.dome:
+        return dome_rest(pkg, env, rest, used, plan, step)
     try:
         # the library's own progress moves the bar from 0.2 to 0.6 while it fits (issue 16)
         with pkg.progress(lambda f, stage: step(min(0.6, 0.2 + 0.4 * f))), \
@@ -769,19 +803,68 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step):
     return lights, summary, residual, sh_coeffs
 
 
-class NothingToDo(Exception):
-    """Create Lights has nothing to compute for this scene (its plan says why)."""
+def exact_figures(pkg, env, lamps, residual):
+    """The summary figures of lamps taken exactly and their residual: the diffuse error of
+    the lamps (rgb max(0, n.l), as the library measures lights) + the residual's exact
+    irradiance against the map's (design.md's measure), and the residual's power."""
+    import numpy as np
+    normals = pkg.fibonacci_directions()
+    with pkg.from_pixels(residual, layout="latlong") as rmap:
+        approx = np.array(rmap.irradiance(normals))
+        residual_power = rmap.info()["power"]
+    n = np.array(normals)
+    for l in lamps:
+        approx += np.maximum(n @ np.array(l.direction), 0.0)[:, None] * np.array(l.rgb)[None]
+    return {"diffuse_error": pkg.relative_rms_luminance(approx, env.irradiance(normals)),
+            "residual_power": residual_power}
 
-    def __init__(self, plan, reason=None):
+
+def dome_rest(pkg, env, rest, used, plan, step):
+    """EEVEE's dome (eevee_dome) over `used` (the map less the suns; over a ground its lower
+    half the bounce): -> (the dome's lamps, the cut's summary, the world's image: the ground's
+    bounce below the horizon over a ground, else nothing, None). Closes `used` and `rest`
+    unless they are `env`."""
+    import numpy as np
+    world = used.pixels()
+    ground = plan.ground_albedo is not None
+    sky = eevee_dome.upper_half(np, world) if ground else world
+    try:
+        with pkg.from_pixels(sky, layout="latlong") as smap, \
+                pkg.progress(lambda f, stage: step(min(0.6, 0.2 + 0.4 * f))), \
+                smap.lights(plan.dome, method="variance") as res:
+            lights, summary = list(res.lights), dict(res.summary)
+    finally:
+        for m in {id(used): used, id(rest): rest}.values():
+            if m is not env:
+                m.close()
+    step(0.6)
+    lo, hi = eevee_dome.dome_angle_degrees(lights)
+    plan.reasons.append(
+        "EEVEE: the sky as a dome of %d soft-shadowed lamps (its variance cut, %.0f-%.0f "
+        "degrees each: the objects occlude the sky's light as they hide the sky)%s" % (
+            len(lights), lo, hi, "; the world is the ground's bounce below the horizon "
+            "(EEVEE lights it unoccluded)" if ground else "; the world is black"))
+    return lights, summary, world - sky, None
+
+
+class NothingToDo(Exception):
+    """Create Lights has nothing to compute for this scene: `reason` (else the plan's skipped
+    items) says why; `warnings` what it found on the way (the scene's other lights...)."""
+
+    def __init__(self, plan, reason=None, warnings=()):
         super().__init__(reason or "; ".join(plan.skipped) or "nothing to compute")
         self.plan = plan
+        self.warnings = list(warnings)
 
 
 # ---- the whole button --------------------------------------------------------------------------
 
-def create_lights(context, settings, progress=None):
+def create_lights(context, settings, progress=None, force=False):
     """Runs Create Lights for context.scene.world with `settings` (the world's envlight
-    properties). Returns a dict for the panel; raises RuntimeError / envlight.Error.
+    properties). Returns a dict for the panel; raises RuntimeError / envlight.Error, or
+    NothingToDo (the plan: nothing to compute for this scene; a previous result is removed).
+    force (Create Lamps Anyway, Cycles): lamps even where the plain world is as fast: the
+    suns, or on a map without one lamps taken exactly (exact_discs), still unbiased.
 
     All the library work happens first; the scene is changed only once it has succeeded, so a
     failure leaves the previous lamps and nodes as they were."""
@@ -794,8 +877,12 @@ def create_lights(context, settings, progress=None):
     t0 = time.perf_counter()
     step = progress or (lambda v: None)
     warnings = []
-    plan = (scene_reader.read_scene(scene, settings.volume_probe) if settings.read_scene
-            else scene_reader.plan_from_settings(settings, scene))
+    plan = (scene_reader.read_scene(scene, settings.volume_probe, settings.eevee_dome)
+            if settings.read_scene else scene_reader.plan_from_settings(settings, scene))
+    plan.force = force
+    lights_note = other_lights.warning(scene)
+    if lights_note:
+        warnings.append(lights_note)
     mode = plan.world_mode
     method = plan.method
     rot = mathutils.Matrix.Identity(3)
@@ -817,7 +904,8 @@ def create_lights(context, settings, progress=None):
         env = pkg.load(path)
     step(0.2)
     if not plan.compute:
-        raise NothingToDo(plan)
+        env.close()
+        raise NothingToDo(plan, warnings=warnings)
     # ---- 2. compute only what the plan needs: the fit remainder for the residual and SH
     # worlds (lights-only: the lights take everything), the residual image for the residual
     # world and the sky-only SH fit over a ground, SH of the residual only for an SH world
@@ -847,14 +935,39 @@ def create_lights(context, settings, progress=None):
                     rest = pkg.from_pixels(glossy_pixels, layout="latlong")
         if plan.count == 0 and plan.recipe == "sun-residual":
             share = sun_share(sun_summary)
-            if share < SUN_SHARE_MIN:
+            if share < SUN_SHARE_MIN and not force:
                 if rest is not env:
                     rest.close()
                 why = ("the map's suns hold %.0f %% of its light (under %.0f %%): the plain HDR "
-                       "world is exact and, in Cycles, as fast (scene benchmark); the scene is "
-                       "left as it is" % (100 * share, 100 * SUN_SHARE_MIN))
-                plan.skipped.append("everything: " + why)
-                raise NothingToDo(plan, why)
+                       "world is exact and, in Cycles, as fast (scene benchmark)"
+                       % (100 * share, 100 * SUN_SHARE_MIN))
+                raise NothingToDo(plan, why, warnings)
+            if share < SUN_SHARE_MIN and sun_lights:
+                plan.reasons.append(
+                    "Create Lamps Anyway: the suns hold %.0f %% of the light (under %.0f %%, "
+                    "where the scene benchmark found the plain world as fast or faster: "
+                    "0.6x on a map whose sun holds 22 %%)" % (100 * share, 100 * SUN_SHARE_MIN))
+        if plan.count == 0 and force and not sun_lights:
+            # no sun: lamps taken exactly from the brightest areas (the fit's 4 lights'
+            # directions and sizes), the world the map less exactly them
+            with env.lights(EXACT_LAMPS, method="fit", order=2, measure=False,
+                            residual=False) as fres:
+                directions = [l.direction for l in
+                              sorted(fres.lights, key=lambda l: -sum(l.rgb))]
+            px = env.pixels()
+            rows = [env.solid_angle(r) for r in range(px.shape[0])]
+            sun_lights, glossy_pixels = exact_discs.take(np, px, rows, directions)
+            lum = lambda c: sum(w * v for w, v in zip(LUMINANCE, c))  # noqa: E731
+            taken = sum(lum(l.rgb) for l in sun_lights) / max(lum(power), 1e-30)
+            plan.reasons = [r for r in plan.reasons if "the suns as lamps" not in r]
+            plan.reasons.append(
+                "Create Lamps Anyway: the map has no sun: %d lamps taken exactly from its "
+                "brightest areas (%.0f %% of its light; the world is the map less exactly "
+                "them: unbiased)" % (len(sun_lights), 100 * taken))
+            plan.recipe = "lamps-residual"
+            plan.suns = False
+            sun_summary = dict(sun_summary, **exact_figures(pkg, env, sun_lights,
+                                                            glossy_pixels))
         if plan.count == 0:
             # the suns alone: every other ray sees the map less them, exactly
             lights, summary = [], sun_summary
@@ -911,7 +1024,10 @@ def create_lights(context, settings, progress=None):
     glossy_hdr = (mode != "SH" or plan.glossy_hdr) and not plan.camera_only
     suns = create_suns(scene, sun_lights, rot, strength, plan.shadows, glossy=True,
                        name="EnvLight Sun")
-    suns += create_suns(scene, lights, rot, strength, plan.shadows, glossy=not glossy_hdr)
+    n_suns = len(suns) if plan.suns else 0
+    suns += create_suns(scene, lights, rot, strength, plan.shadows, glossy=not glossy_hdr,
+                        shadow_resolution=eevee_dome.shadow_resolution(scene)
+                        if plan.dome else None)
     glossy_image = None
     if glossy_pixels is not None and glossy_hdr:
         glossy_image = pixels_to_image(glossy_pixels, "EnvLight Glossy")
@@ -922,7 +1038,8 @@ def create_lights(context, settings, progress=None):
         _, sun_note = build_world(world, mode, original_socket, residual_image, sh_coeffs,
                                   mapping_node, strength, settings.keep_background,
                                   plan.glossy_hdr, plan.ground_albedo is not None,
-                                  glossy_image, plan.camera_only)
+                                  glossy_image, plan.camera_only,
+                                  plan.engine in scene_reader.EEVEE_ENGINES)
         if sun_note:
             notes.append(sun_note)
     elif mode != "LIGHTS":
@@ -941,6 +1058,8 @@ def create_lights(context, settings, progress=None):
         # the plan: what was computed and why, what was skipped and why
         "recipe": plan.recipe, "reasons": list(plan.reasons), "skipped": list(plan.skipped),
         "expected": plan.expected(),
+        "settings": plan.settings_lines(len(suns), n_suns, order if plan.count else None),
+        "diffuse_label": plan.diffuse_label(),
         "ground_albedo": plan.ground_albedo, "ground_object": plan.ground_object,
         # what the add-on changed in the world's render settings (reported as INFO)
         "notes": notes,

@@ -60,6 +60,7 @@ PROBE_OFF = ("volume probe: off (Bake Volume Probe: the objects' bounce light an
 
 ENGINES = {"CYCLES": "Cycles", "BLENDER_EEVEE_NEXT": "EEVEE", "BLENDER_EEVEE": "EEVEE",
            "BLENDER_WORKBENCH": "Workbench"}
+EEVEE_ENGINES = ("BLENDER_EEVEE_NEXT", "BLENDER_EEVEE")
 
 
 class Plan:
@@ -83,6 +84,48 @@ class Plan:
         self.skipped = []              # what was left out and why
         self.recipe = ""
         self.probe = None              # EEVEE volume probe: (centre, half size, resolution)
+        self.force = False             # Create Lamps Anyway (Cycles)
+        self.dome = 0                  # EEVEE: lamps in the dome (eevee_dome), 0: none
+
+    def settings_lines(self, lamps, suns, order):
+        """What was used, one line per setting, for the panel (with Read Scene on the panel's
+        own settings are not what the recipe uses: issue 28's greyed-out Remainder Order 2
+        beside an EEVEE recipe of order 1). lamps: how many were made, suns: how many of
+        them are the map's suns; order: the fit's remainder order used, or None."""
+        world = {"RESIDUAL": "the residual image (what the lamps leave)",
+                 "SH": "an order-2 SH node tree", "LIGHTS": "black (the lamps carry all)"}
+        made = {"sun-residual": "the suns", "lamps-residual": "taken exactly"}.get(
+            self.recipe, "%d by %s" % (lamps - suns, self.method))
+        if self.dome:
+            made = "%d in the dome" % (lamps - suns)
+            made = "%d sun%s + %s" % (suns, "s" if suns > 1 else "", made) if suns else made
+            order = None
+        if suns and self.recipe not in ("sun-residual", "lamps-residual"):
+            made = "%d sun%s + %s" % (suns, "s" if suns > 1 else "", made)
+        out = ["lamps: %d (%s%s)" % (lamps, made, ", remainder order %d" % order
+                                     if order is not None and self.count else ""),
+            "shadows: %s" % self.shadows.lower(),
+            "world: %s; camera rays: the map%s" % (
+                world.get(self.world_mode, self.world_mode),
+                "" if self.camera_only or self.world_mode == "SH" else ", glossy rays: the map")]
+        if self.ground_albedo is not None:
+            out.append("ground: %s, albedo %.2f" % (
+                "'%s'" % self.ground_object if self.ground_object else "a plane z = 0",
+                self.ground_albedo))
+        return out
+
+    def diffuse_label(self):
+        """What the diffuse error figure measures for this recipe (unoccluded)."""
+        if self.recipe in ("sun-residual", "lamps-residual"):
+            return "the lamps + the residual world: exact but for the lamps' disc shape"
+        if self.world_mode == "RESIDUAL" and self.camera_only:
+            return ("the lamps + an order-1 SH of what they leave, as EEVEE lights its world's "
+                    "diffuse")
+        if self.world_mode == "SH":
+            return "the lamps + the SH world"
+        if self.world_mode == "LIGHTS":
+            return "the lamps alone"
+        return "the lamps + the fit's SH remainder"
 
     def expected(self):
         """'in-scene error to expect ...' for the report, or None without a figure."""
@@ -259,9 +302,9 @@ def set_probe(p, scene):
                      % (res[0], res[1], res[2], len(rest), "s" if len(rest) > 1 else ""))
 
 
-def read_scene(scene, volume_probe=False):
+def read_scene(scene, volume_probe=False, dome=0):
     """The Plan for `scene` (its engine, objects, materials, shadows, ground); volume_probe:
-    the panel's Bake Volume Probe."""
+    the panel's Bake Volume Probe; dome: EEVEE's dome of that many lamps (0: fitted lamps)."""
     p = Plan()
     engine = scene.render.engine
     p.engine = engine
@@ -295,7 +338,7 @@ def read_scene(scene, volume_probe=False):
     # the world
     p.world_mode = "SH"
     p.method, p.count = "fit", 4
-    if engine in ("BLENDER_EEVEE_NEXT", "BLENDER_EEVEE"):
+    if engine in EEVEE_ENGINES:
         # EEVEE lights from one capture of the world, shaded as a glossy ray (Is Glossy 1,
         # Is Camera 0): a world split by ray type cannot give diffuse and glossy different
         # light, so the lighting world is the map less the lamps for both, camera rays the map
@@ -316,6 +359,12 @@ def read_scene(scene, volume_probe=False):
         p.skipped.append("the SH world: EEVEE captures the world once, the residual image is "
                          "as cheap there")
         p.recipe = "eevee-residual" + ("-ground" if p.ground_albedo is not None else "")
+        if dome:
+            p.dome = dome
+            p.shadows = "SOFT"
+            p.reasons = [r for r in p.reasons if "fitted lamps" not in r and
+                         "order-1 SH remainder" not in r]
+            p.recipe = "eevee-dome" + ("-ground" if p.ground_albedo is not None else "")
         # EEVEE has no light bouncing between objects, and its world light is not occluded
         # by them, unless a volume probe is baked (EEVEE-Next): the panel's choice, as the
         # scene benchmark found it nearer Cycles on some maps and further on others
