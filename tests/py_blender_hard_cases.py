@@ -292,8 +292,11 @@ def test_blank_generated_image_has_no_light(cases):
 def test_nan_and_negative_pixels_are_reported(cases):
     c = cases["nan_negative"]
     check_spot(c, LL_SPOT)
-    assert any("3 pixels with NaN" in w and "2 negative" in w for w in c["warnings"]), \
-        c["warnings"]
+    assert any("3 pixels with NaN or infinite values: NaN set to 0" in w
+               for w in c["warnings"]), c["warnings"]
+    assert any("2 negative pixels" in w and ("filled from the light around them" in w or
+                                             "set to 0, adding" in w)
+               for w in c["warnings"]), c["warnings"]
     # the library's repair of Blender's pixels as they are: NaN to 0, the negative values filled
     # from the light around them (the power keeps their signed sum; docs/methods.md)
     clean = np.nan_to_num(cases["_inputs"]["nan"], nan=0.0)

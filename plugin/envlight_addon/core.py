@@ -46,11 +46,15 @@ SUN_SHARE_MIN = 0.5
 EXACT_LAMPS = 4
 
 
+def luminance(rgb):
+    """Rec. 709 luminance of an rgb triple (LUMINANCE)."""
+    return sum(w * v for w, v in zip(LUMINANCE, rgb))
+
+
 def sun_share(summary):
     """The share of the map's light (luminance) its suns took."""
-    lum = lambda c: sum(w * v for w, v in zip(LUMINANCE, c))  # noqa: E731
-    total = lum(summary["power"])
-    return lum(summary["lights_power"]) / total if total > 0 else 0.0
+    total = luminance(summary["power"])
+    return luminance(summary["lights_power"]) / total if total > 0 else 0.0
 
 # order-2 real SH basis constants (docs/design.md, Ramamoorthi & Hanrahan 2001)
 _Y00, _Y1, _Y2, _Y20, _Y22 = 0.282095, 0.488603, 1.092548, 0.315392, 0.546274
@@ -305,6 +309,33 @@ def envmap_of_pixels(pkg, buf, w, h, ch, layout, warnings=None, name="image"):
     return pkg.from_pixels(ll, layout="latlong"), stats
 
 
+def repair_warnings(what, stats):
+    """What the library did to the image's values (envl_info; docs/methods.md, "Negative
+    pixels"): NaN set to 0, +Inf to the largest finite value, negative values filled from the
+    light around them (the image's signed sum of light kept) or, with too little light around,
+    set to 0 (the light that adds)."""
+    out = []
+    if stats["nonfinite_pixels"]:
+        out.append("%s: %d pixels with NaN or infinite values: NaN set to 0, +Inf to the largest "
+                   "finite value" % (what, stats["nonfinite_pixels"]))
+    if stats["negative_pixels"]:
+        signed = luminance(stats["signed_power"])
+        moved = luminance(stats["filled_energy"])
+        added = luminance(stats["added_energy"])
+        parts = []
+        if stats["fill_window"]:
+            parts.append("filled from the light around them, moving %.2g %% of its light "
+                         "(the image's sum of light kept)" % (100.0 * moved / signed if signed > 0
+                                                              else 0.0))
+        if stats["unfilled_values"]:
+            parts.append("%d with too little light around them set to 0, adding %.2g %%" % (
+                stats["unfilled_values"], 100.0 * added / signed if signed > 0 else 0.0))
+        out.append("%s: %d negative pixels (down to %g, a lossy codec's or a resize's ringing): "
+                   "%s" % (what, stats["negative_pixels"], stats["negative_min"],
+                           "; ".join(parts)))
+    return out
+
+
 def read_source(pkg, world):
     """Create Lights' first step for Source: World Texture: the world's Environment Texture
     (with its Mapping and strength: inspect_source) and the library's envmap of its image, in
@@ -337,10 +368,7 @@ def read_source(pkg, world):
         env, stats = envmap_of_pixels(pkg, buf, w, h, ch, layout, src.warnings, what)
     except pkg.Error as e:
         raise RuntimeError("%s: the library cannot use %s: %s" % (where, what, e)) from None
-    if stats["nonfinite_pixels"] or stats["negative_pixels"]:
-        src.warnings.append("%s: %d pixels with NaN or infinite values and %d negative ones, "
-                            "read as 0 (infinite: as the largest finite value)"
-                            % (what, stats["nonfinite_pixels"], stats["negative_pixels"]))
+    src.warnings.extend(repair_warnings(what, stats))
     if not max(env.info()["power"]) > 0.0:
         env.close()
         raise RuntimeError("%s: %s has no light (every pixel is black%s)" % (
