@@ -212,6 +212,15 @@ ENVL_API void envl_free(void *memory);
 /* Writes `size` bytes to `path` atomically (temporary file in the same directory + rename):
  * an existing file is either replaced whole or left as it was. */
 ENVL_API envl_result envl_file_write_atomic(const char *path, const void *data, size_t size);
+/* ENVL_ERR_ARGUMENT, the message naming both, when an output is the same file as an input or
+ * as another output: the same device and inode when both exist (hard and symbolic links), else
+ * the same normalised path (absolute; the symbolic links of the part that exists resolved;
+ * ".", ".." and repeated slashes of the rest taken out). NULL and empty names are skipped.
+ * Every writer of the library that knows its inputs checks its outputs this way (the map's
+ * file, a POV-Ray scene: envl_envmap_save, envl_products_export, envl_gltf_export,
+ * envl_preview_write, envl_pov_include_write); a caller writing several files checks them. */
+ENVL_API envl_result envl_outputs_check(const char *const *inputs, int32_t n_inputs,
+                                        const char *const *outputs, int32_t n_outputs);
 
 /* ---- exact irradiance and the error measure (docs/design.md) ------------------------------------- */
 /* E(n) = sum over pixels of L dw max(0, n.d), in double, for `count` unit normals. */

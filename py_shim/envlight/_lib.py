@@ -411,6 +411,7 @@ FUNCTIONS = {
                                    POINTER(c_int32)]),
     "envl_free": (None, [c_void_p]),
     "envl_file_write_atomic": (_R, [c_char_p, c_void_p, c_size_t]),
+    "envl_outputs_check": (_R, [POINTER(c_char_p), c_int32, POINTER(c_char_p), c_int32]),
     "envl_irradiance_exact": (_R, [_map, c_int32, _pd, _pd]),
     "envl_fibonacci_direction": (None, [c_int32, c_int32, _pd]),
     "envl_relative_rms_luminance": (c_double, [c_int32, _pd, _pd]),

@@ -192,6 +192,24 @@ int cli_load(const char *file, const cli_common *c, envl_envmap **out)
     return CLI_OK;
 }
 
+int cli_outputs_ok(const char *const *inputs, int n_inputs, const char *const *outputs,
+                   int n_outputs)
+{
+    int n = n_inputs + n_outputs;
+    const char **names = malloc(sizeof *names * (size_t)(n > 0 ? n : 1));
+    if (!names) {
+        cli_error("out of memory");
+        return CLI_FAIL;
+    }
+    for (int i = 0; i < n; i++) {
+        const char *s = i < n_inputs ? inputs[i] : outputs[i - n_inputs];
+        names[i] = s && strcmp(s, "-") ? s : NULL;
+    }
+    envl_result rc = envl_outputs_check(names, n_inputs, names + n_inputs, n_outputs);
+    free(names);
+    return rc ? cli_fail() : CLI_OK;
+}
+
 int cli_output_open(cli_output *o, const char *path)
 {
     memset(o, 0, sizeof *o);

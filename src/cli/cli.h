@@ -110,6 +110,12 @@ int cli_interrupted(void);
  * needs no note), 0 if it was a real guess (a square image, or an unusual aspect). */
 int cli_layout_evident(const envl_info *in);
 
+/* No output replaces an input or another output (envl_outputs_check; "-" and NULL, stdin's
+ * sky and stdout, are skipped): CLI_OK, else the message and CLI_FAIL. Called before the map
+ * is read, so a refused run computes nothing. */
+int cli_outputs_ok(const char *const *inputs, int n_inputs, const char *const *outputs,
+                   int n_outputs);
+
 /* Output: a memory stream whose contents are written atomically to `path`, or stdout when
  * path is NULL or "-". */
 typedef struct cli_output {

@@ -140,7 +140,7 @@ int cli_convert(int argc, char **argv)
     if (!in || !out)
         return cli_usage("convert", "needs IN and OUT");
     envl_envmap *map;
-    if (cli_load(in, &c, &map))
+    if (cli_outputs_ok(&in, 1, &out, 1) || cli_load(in, &c, &map))
         return CLI_FAIL;
     /* progress (on a terminal): the library reports reading and resampling, this the writing */
     char stage[80];

@@ -166,6 +166,12 @@ int32_t envl__threads(int32_t requested);
 void envl__light_set_angle(envl_light *l);
 
 /* ---- envmap (envmap.c) ---- */
+/* The file the map was read from (envl_envmap_load), in full; NULL for the sky and pixels from
+ * memory. */
+const char *envl__envmap_source(const envl_envmap *m);
+/* envl_outputs_check of `outputs` against the map's file and `other_input` (may be NULL). */
+envl_result envl__outputs_of_map(const envl_envmap *m, const char *other_input,
+                                 const char *const *outputs, int32_t n_outputs);
 /* Takes ownership of img (img->px is moved). */
 envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *options,
                                     const char *file, envl_envmap **out);

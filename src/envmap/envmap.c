@@ -251,6 +251,8 @@ envl_result envl_envmap_load(const char *path, const envl_load_options *options,
         return rc;
     }
     rc = envl__envmap_from_image(&img, options, path, out);
+    if (!rc && !((*out)->source_path = strdup(path)))
+        rc = envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", path);
     if (!rc && (rc = envl__progress(1.0, "done"))) {
         envl_envmap_free(*out);
         *out = NULL;
@@ -306,6 +308,7 @@ void envl_envmap_free(envl_envmap *m)
     if (!m)
         return;
     free(m->px);
+    free(m->source_path);
     free(m->row_omega);
     free(m->row_cos);
     free(m->row_sin);
@@ -365,12 +368,25 @@ void envl_envmap_direction(const envl_envmap *m, int32_t c, int32_t r, double d[
     d[2] = m->row_sin[r];
 }
 
+const char *envl__envmap_source(const envl_envmap *m)
+{
+    return m->source_path;
+}
+
+envl_result envl__outputs_of_map(const envl_envmap *m, const char *other_input,
+                                 const char *const *outputs, int32_t n_outputs)
+{
+    const char *inputs[2] = {m->source_path, other_input};
+    return envl_outputs_check(inputs, 2, outputs, n_outputs);
+}
+
 envl_result envl_envmap_save(const envl_envmap *m, const char *path,
                              const envl_save_options *options)
 {
     if (!m)
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_save: map is NULL");
-    return envl_image_save(path, m->px, m->width, m->height, options);
+    envl_result rc = envl__outputs_of_map(m, NULL, &path, 1);
+    return rc ? rc : envl_image_save(path, m->px, m->width, m->height, options);
 }
 
 envl_result envl_envmap_to_layout(const envl_envmap *m, int32_t layout, int32_t size,

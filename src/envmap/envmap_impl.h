@@ -13,6 +13,9 @@ struct envl_envmap {
     double *col_cos;      /* cos(phi) at each column's centre */
     double *col_sin;      /* sin(phi) */
     envl_info info;
+    char *source_path;    /* the file it was read from (envl_envmap_load), in full; NULL for the
+                             sky and pixels from memory: an input no output may replace
+                             (envl_outputs_check) */
     int32_t apply_exposure; /* the load option apply_exposure was given: the pixels may be the
                                file's divided by its EXPOSURE (the POV-Ray include then does
                                not name the file as its sky) */

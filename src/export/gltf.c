@@ -491,6 +491,8 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
     if (!map)
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_gltf_export: NULL map");
     envl_result rc = check_options(path, o, &glb, &face, &mips);
+    if (!rc) /* the map's file is not replaced */
+        rc = envl__outputs_of_map(map, NULL, &path, 1);
     if (rc)
         return rc;
     double t0 = envl__seconds();

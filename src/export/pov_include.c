@@ -401,6 +401,19 @@ static envl_result sky_write(const pov_plan *p, pov_work *w)
     return ENVL_OK;
 }
 
+/* No output replaces the map's file, the scene or the other output (envl_outputs_check); a
+ * sky image named after the include says so. */
+static envl_result outputs_check(const envl_envmap *map, const envl_pov_options *o,
+                                 const pov_plan *p, const char *path, const pov_work *w)
+{
+    const char *outputs[2] = {path, w->sky_use_input ? NULL : w->sky_path};
+    envl_result r = envl__outputs_of_map(map, o->scene_path, outputs, 1);
+    if (!r && (r = envl__outputs_of_map(map, o->scene_path, outputs, 2)) && !p->sky_image)
+        envl__fail_prefix(r, "pov: the sky image, named after the include (sky_image, "
+                          "--sky-image, names it)");
+    return r;
+}
+
 /* ---- the call ---- */
 
 /* What the plan says, before anything is computed. */
@@ -446,7 +459,10 @@ static envl_result pov_run(envl_envmap *map, const envl_pov_options *o, const ch
     r = plan_recipe(o, p);
     if (res)
         fill_plan(p, res);
-    if (r || (r = sky_name(p, path, w)) || (r = compute(p, o->threads, w)) || (r = sky_write(p, w)))
+    if (r || (r = sky_name(p, path, w)))
+        return r;
+    if ((r = outputs_check(map, o, p, path, w)) || (r = compute(p, o->threads, w)) ||
+        (r = sky_write(p, w)))
         return r;
     char *text = NULL;
     size_t size = 0;

@@ -129,6 +129,20 @@ static envl_result put_in_place(exporter *x)
     return rc;
 }
 
+/* No file of the set replaces the map's file (envl_outputs_check). */
+static envl_result outputs_check(const exporter *x, const envl_products *p)
+{
+    const char **finals = malloc(sizeof *finals * (size_t)(x->n > 0 ? x->n : 1));
+    if (!finals)
+        return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    for (int32_t i = 0; i < x->n; i++)
+        finals[i] = x->files[i].final;
+    const char *input = p->source_path;
+    envl_result rc = envl_outputs_check(&input, 1, finals, x->n);
+    free(finals);
+    return rc;
+}
+
 /* Writes one RGB image under `name` (extension added) into a temporary file. */
 static envl_result put_image(exporter *x, const char *stem, const float *rgb, int32_t w,
                              int32_t h)
@@ -650,6 +664,7 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
     }
     free(x.json_buf);
     rc = rc ? rc : envl__progress(1.0, "done");
+    rc = rc ? rc : outputs_check(&x, p);
     rc = rc ? rc : put_in_place(&x);
     for (int32_t i = 0; i < x.n; i++) {
         if (rc)

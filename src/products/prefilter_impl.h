@@ -72,6 +72,7 @@ struct envl_products {
     float *brdf;
     int32_t brdf_size, brdf_multiscatter, brdf_samples;
     char file[1024];
+    char *source_path;        /* the map's file in full (envl__envmap_source), or NULL */
 };
 
 #endif

@@ -23,6 +23,7 @@ void envl_products_free(envl_products *p)
     envl_lights_free(p->lights);
     free(p->sun);
     free(p->brdf);
+    free(p->source_path);
     free(p);
 }
 
@@ -286,7 +287,11 @@ envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **
         return envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
     snprintf(p->file, sizeof p->file, "%s", m->info.file);
     plan pl = {0};
-    envl_result rc = envl__prefilter_resolve(&q->prefilter, m, &p->opt);
+    envl_result rc = ENVL_OK;
+    if (m->source_path && !(p->source_path = strdup(m->source_path)))
+        rc = envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
+    if (!rc)
+        rc = envl__prefilter_resolve(&q->prefilter, m, &p->opt);
     if (!rc)
         rc = plan_levels(q, p, &pl);
     pl.steps = (q->diffuse != 0) + (q->irradiance_map != 0) + (q->shadows != 0) + pl.n_want +
