@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 static const cli_command prefilter_command = {
     "prefilter",
@@ -296,13 +297,16 @@ int cli_prefilter(int argc, char **argv)
         rc = cli_fail();
         goto done;
     }
-    if (mkdir(dir, 0777) != 0 && errno != EEXIST) {
+    int created = mkdir(dir, 0777) == 0; /* a folder this run made goes if it fails */
+    if (!created && errno != EEXIST) {
         cli_error("%s: cannot create the directory: %s", dir, strerror(errno));
         rc = CLI_FAIL;
         goto done;
     }
     if (envl_products_export(p, dir, &eo)) {
         rc = cli_fail();
+        if (created)
+            rmdir(dir); /* empty: the export removed its temporaries */
         goto done;
     }
     if (json) {

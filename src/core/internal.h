@@ -98,6 +98,13 @@ envl_result envl__write_pfm(const char *path, const float *rgb, int32_t w, int32
 /* ---- files (io.c) ---- */
 /* Reads a whole regular file (refuses directories, larger than max_bytes). Caller frees. */
 envl_result envl__read_file(const char *path, size_t max_bytes, uint8_t **data, size_t *size);
+/* Every temporary file of the writers is DIR/.envl-PID-..., PID the writing process's. */
+#define ENVL__TEMP_PREFIX ".envl-"
+/* Removes the temporaries in `dir` (NULL or "": the working folder) that processes which are
+ * gone left behind (a SIGKILL): this user's regular files named .envl-PID-..., PID not this
+ * process's and either not running on this host or unchanged for a day (io.c). Best effort:
+ * nothing is reported. Called by every writer before it writes into a folder. */
+void envl__remove_stale_temporaries(const char *dir);
 /* Atomic replace: *tmp_path gets a fresh unique name in path's directory (caller frees). */
 envl_result envl__atomic_begin(const char *path, char **tmp_path);
 /* Renames tmp over path (on failure removes tmp). `ok` false: just removes tmp. */

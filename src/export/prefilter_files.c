@@ -69,7 +69,8 @@ static envl_result add_pending(exporter *x, const char *name, char **tmp_out)
         return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
     }
     snprintf(fin, ln, "%s/%s", x->dir, name);
-    snprintf(tmp, ln, "%s/.envl-%ld-%d-%s", x->dir, (long)getpid(), (int)x->n, name);
+    snprintf(tmp, ln, "%s/" ENVL__TEMP_PREFIX "%ld-%d-%s", x->dir, (long)getpid(), (int)x->n,
+             name);
     x->files[x->n].tmp = tmp;
     x->files[x->n].final = fin;
     x->n++;
@@ -591,6 +592,7 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
         return rc;
     exporter x = {.dir = dir, .format = rgbm ? "png" : vk ? "ktx2" : fmt, .rgbm = rgbm,
                   .vk_format = vk};
+    envl__remove_stale_temporaries(dir);
     x.json = open_memstream(&x.json_buf, &x.json_size);
     if (!x.json)
         return envl__fail(ENVL_ERR_MEMORY, "export: cannot buffer the sidecar");
