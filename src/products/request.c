@@ -200,11 +200,9 @@ static envl_result compute_levels(envl_envmap *m, envl_products *p, plan *pl)
             return rc;
         double t = envl__seconds();
         envl_level *l = &p->levels[i];
-        rc = envl__specular_level(m, &p->opt, pl->want[i], 0, &pl->sp,
-                                              &p->level_px[i], l);
-        if (!rc && !envl__floats_finite(p->level_px[i], 3 * (size_t)l->width * l->height))
-            rc = envl__fail(ENVL_ERR_NONFINITE, "%s: the specular level of roughness %g "
-                            "overflows the float range", m->info.file, pl->want[i]);
+        rc = envl__specular_level(m, &p->opt, pl->want[i], 0, &pl->sp, &p->level_px[i], l);
+        if (!rc)
+            rc = envl__level_finite(m, l, &p->level_px[i]);
         if (rc)
             return rc;
         l->rgb = p->level_px[i];
