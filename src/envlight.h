@@ -30,7 +30,7 @@ extern "C" {
 #endif
 
 /* Bumped whenever a struct layout or a function signature changes (the ctypes shim checks it). */
-#define ENVL_ABI_VERSION 4
+#define ENVL_ABI_VERSION 5
 
 /* pi, the one definition every part of envlight uses. */
 #define ENVL_PI 3.14159265358979323846
@@ -455,7 +455,13 @@ typedef struct envl_prefilter_options {
                                  returned as lights (envl_products_sun_lights) that the renderer
                                  adds analytically, as engines light with a sun; each product's
                                  error is measured with them added (docs/methods.md, "Prefiltered maps") */
+    int32_t half;             /* nonzero: the maps will be stored as IEEE half floats (KTX2,
+                                 "ktx2"): each is measured as written, its values rounded to
+                                 half and those above ENVL_HALF_MAX written as ENVL_HALF_MAX
+                                 (ABI 5); default 0: 32-bit floats */
 } envl_prefilter_options;
+/* The largest finite IEEE half float: larger values are written as it (KTX2 "ktx2", EXR half). */
+#define ENVL_HALF_MAX 65504.0
 
 /* Width of the specular level of `roughness` under `options` (height = width / 2). */
 ENVL_API int32_t envl_prefilter_level_width(const envl_prefilter_options *options,

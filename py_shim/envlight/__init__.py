@@ -663,7 +663,7 @@ class Envmap(_Handle):
     def _prefilter_options(f, levels=None, width=None, min_width=None, samples=None,
                            unfiltered=False, irradiance_method="resampled",
                            irradiance_width=None, irradiance_order=2, threads=None,
-                           sun_lights=False):
+                           sun_lights=False, half=False):
         """envl_prefilter_options for function f; None = the library's default (envlight.h, docs/design.md)."""
         o = _lib.PrefilterOptions()
         o.levels = A.integer(levels, f + ": levels", 1, A.PREFILTER_MAX_LEVELS, 0, "the default 6")
@@ -679,6 +679,7 @@ class Envmap(_Handle):
         o.irradiance_order = _order(irradiance_order, f + ": irradiance_order", A.SH_MAX_ORDER)
         o.threads = _threads(threads, f + ": threads")
         o.sun_lights = A.flag(sun_lights, f + ": sun_lights")
+        o.half = A.flag(half, f + ": half")
         return o
 
     def prefilter(self, roughness=None, chain=False, mirror=False, irradiance=False,
@@ -688,7 +689,8 @@ class Envmap(_Handle):
         roughness: GGX roughness values (one specular level each); chain: all K levels
         (options: levels, width, min_width, samples, unfiltered, irradiance_method
         'resampled'|'sh'|'exact', irradiance_width, irradiance_order, threads, sun_lights: the
-        sun as lights, left out of the irradiance map and glossy levels); mirror: the
+        sun as lights, left out of the irradiance map and glossy levels; half: measured as
+        half floats hold them, for export(format='ktx2')); mirror: the
         roughness-0 level; irradiance: an irradiance map; diffuse: SH irradiance of sh_order;
         brdf: the split-sum table; shadows: that many lights for shadows (shadows_method
         'fit' (None: the default)|'median'|'variance'|'sun'; 0: none); measure: also the glossy /

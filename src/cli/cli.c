@@ -4,6 +4,7 @@
 #include "escape.h"
 
 #include <errno.h>
+#include <math.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -208,6 +209,21 @@ int cli_outputs_ok(const char *const *inputs, int n_inputs, const char *const *o
     envl_result rc = envl_outputs_check(names, n_inputs, names + n_inputs, n_outputs);
     free(names);
     return rc ? cli_fail() : CLI_OK;
+}
+
+void cli_half_warning(const char *what, const float *v, size_t n, int quiet)
+{
+    size_t over = 0;
+    double largest = 0;
+    for (size_t i = 0; v && i < n; i++)
+        if (fabs(v[i]) > ENVL_HALF_MAX) {
+            over++;
+            largest = fmax(largest, fabs(v[i]));
+        }
+    if (over && !quiet)
+        cli_error("warning: %s: %zu values above %g (the largest half float) written as %g: the "
+                  "largest was %g (%.1f %% lower)", what, over, ENVL_HALF_MAX, ENVL_HALF_MAX,
+                  largest, 100 * (1 - ENVL_HALF_MAX / largest));
 }
 
 int cli_output_open(cli_output *o, const char *path)

@@ -116,6 +116,11 @@ int cli_layout_evident(const envl_info *in);
 int cli_outputs_ok(const char *const *inputs, int n_inputs, const char *const *outputs,
                    int n_outputs);
 
+/* A file of IEEE half floats holds at most ENVL_HALF_MAX: unless quiet, says on stderr how
+ * many of the n values (RGB floats) of `what` go above it, and the largest (how much lower it
+ * is written). */
+void cli_half_warning(const char *what, const float *v, size_t n, int quiet);
+
 /* Output: a memory stream whose contents are written atomically to `path`, or stdout when
  * path is NULL or "-". */
 typedef struct cli_output {

@@ -111,6 +111,26 @@ static int ktx2_levels_fit(const char *format, int32_t face, int32_t levels)
     return 1;
 }
 
+/* Half floats (ktx2): the values each map loses above ENVL_HALF_MAX, on stderr. */
+static void half_warnings(const envl_envmap *map, const envl_products *p, int quiet)
+{
+    envl_info info;
+    envl_envmap_info(map, &info);
+    char what[1200];
+    envl_irradiance_map irr;
+    if (envl_products_irradiance(p, &irr) == ENVL_OK) {
+        snprintf(what, sizeof what, "%s: the irradiance map", info.file);
+        cli_half_warning(what, irr.rgb, 3 * (size_t)irr.width * irr.height, quiet);
+    }
+    for (int32_t i = 0; i < envl_products_level_count(p); i++) {
+        envl_level l;
+        envl_products_level(p, i, &l);
+        snprintf(what, sizeof what, "%s: specular level %d (r %.3f)", info.file, (int)i,
+                 l.roughness);
+        cli_half_warning(what, l.rgb, 3 * (size_t)l.width * l.height, quiet);
+    }
+}
+
 /* The table of what was written: the products, their errors and seconds. */
 static int print_summary(const envl_envmap *map, const envl_products *p, const char *dir,
                          const envl_export_options *eo)
@@ -284,6 +304,7 @@ int cli_prefilter(int argc, char **argv)
                           eo.layout == ENVL_EXPORT_ATLAS);
     q.brdf.threads = c.load.threads;
     q.measure = measure;
+    q.prefilter.half = eo.format && !strcmp(eo.format, "ktx2"); /* measured as written */
 
     envl_envmap *map;
     if (cli_load(file, &c, &map)) {
@@ -297,6 +318,8 @@ int cli_prefilter(int argc, char **argv)
         rc = cli_fail();
         goto done;
     }
+    if (q.prefilter.half)
+        half_warnings(map, p, c.quiet);
     int created = mkdir(dir, 0777) == 0; /* a folder this run made goes if it fails */
     if (!created && errno != EEXIST) {
         cli_error("%s: cannot create the directory: %s", dir, strerror(errno));

@@ -477,6 +477,26 @@ static envl_result check_export(const envl_products *p, const char *dir,
     return ENVL_OK;
 }
 
+/* What the stated errors are of: the values as this format holds them, or as computed. */
+static const char *errors_of(const envl_products *p, const char *fmt, int rgbm, int32_t vk)
+{
+    int half = vk == ENVL__VK_FORMAT_R16G16B16A16_SFLOAT;
+    if (half && p->opt.half)
+        return "the maps as written: rounded to half floats, values above 65504 written as "
+               "65504";
+    if (half)
+        return "the maps in 32-bit floats, before their rounding to half floats "
+               "(envl_prefilter_options.half measures them as written)";
+    if (p->opt.half)
+        return "the maps rounded to half floats (envl_prefilter_options.half), not as written "
+               "here: 32-bit floats";
+    if (rgbm)
+        return "the maps in 32-bit floats, before RGBM's 8 bits";
+    if (!strcmp(fmt, "hdr"))
+        return "the maps in 32-bit floats, before RGBE's 8-bit mantissas";
+    return "the maps as written: 32-bit floats";
+}
+
 /* The sidecar's conventions: frame, lat-long formula, format and layout, KTX2, cube faces,
  * RGBM, GGX and the roughness mapping, sun lights. */
 static void write_conventions(json_writer *j, const envl_products *p,
@@ -500,6 +520,7 @@ static void write_conventions(json_writer *j, const envl_products *p,
     json_string(j, "units", "radiance as in the source (irradiance map: irradiance)");
     /* false: every error below is null (--no-error) */
     json_bool(j, "errors_measured", p->measured);
+    json_string(j, "errors_of", errors_of(p, fmt, rgbm, vk));
     if (vk) {
         json_object(j, "ktx2");
         json_int(j, "vk_format", vk);

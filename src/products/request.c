@@ -2,6 +2,7 @@
  * repeats, one SH projection shared with an SH irradiance map, one pyramid, one split of the
  * bright pixels), measures them when asked, and hands them out. */
 #include "prefilter_impl.h"
+#include "ktx2.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -231,8 +232,23 @@ static envl_result compute_brdf(const envl_request *q, envl_products *p)
     return ENVL_OK;
 }
 
+/* The error of a w x h map against ref at the error directions, as written: with half floats
+ * (options.half) the map rounded to half first, values above ENVL_HALF_MAX as it. */
+static envl_result written_error(const envl_products *p, const double *dirs, const double *ref,
+                                 const float *px, int32_t w, int32_t h, int32_t n_sun,
+                                 double roughness, double *error)
+{
+    float *half = p->opt.half ? envl__half_rounded(px, 3 * (size_t)w * h) : NULL;
+    if (p->opt.half && !half)
+        return envl__fail(ENVL_ERR_MEMORY, "error measure: out of memory");
+    envl_result rc = envl__sampled_error(dirs, ref, half ? half : px, w, h, p->sun, n_sun,
+                                         roughness, error);
+    free(half);
+    return rc;
+}
+
 /* The glossy error of every level and the diffuse error of the irradiance map (the sun lights
- * added as the renderer adds them). */
+ * added as the renderer adds them), each as written. */
 static envl_result measure(envl_envmap *m, envl_products *p)
 {
     double *dirs = envl__fibonacci_dirs();
@@ -254,9 +270,8 @@ static envl_result measure(envl_envmap *m, envl_products *p)
         envl_level *l = &p->levels[i];
         rc = envl__glossy_reference(m, C, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
         if (!rc)
-            rc = envl__sampled_error(dirs, ref, l->rgb, l->width, l->height, p->sun,
-                                     l->roughness > 0 ? p->n_sun : 0, l->roughness,
-                                     &l->glossy_error);
+            rc = written_error(p, dirs, ref, l->rgb, l->width, l->height,
+                               l->roughness > 0 ? p->n_sun : 0, l->roughness, &l->glossy_error);
     }
     if (!rc && p->sh)
         rc = envl__sh_measure(m, p->sh);
@@ -266,8 +281,8 @@ static envl_result measure(envl_envmap *m, envl_products *p)
         const double *eref;
         rc = envl_envmap_reference_irradiance(m, &eref);
         if (!rc)
-            rc = envl__sampled_error(dirs, eref, p->irr_px, p->irr.width, p->irr.height, p->sun,
-                                     p->n_sun, -1, &p->irr.diffuse_error);
+            rc = written_error(p, dirs, eref, p->irr_px, p->irr.width, p->irr.height, p->n_sun,
+                               -1, &p->irr.diffuse_error);
     }
     free(dirs);
     free(ref);
