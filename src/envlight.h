@@ -530,6 +530,11 @@ typedef struct envl_products_summary {
     double seconds;           /* everything (error measures excluded) */
     double seconds_sh, seconds_pyramid, seconds_specular, seconds_irradiance, seconds_lights,
         seconds_brdf;
+    int32_t prefiltered_width, prefiltered_height; /* the map the products were computed
+                                 from: the map's own size, or the finer copy that a map too
+                                 coarse for the GGX sums (each pixel a point at its centre:
+                                 fewer than 16 columns or 8 rows, pixels more than twice as
+                                 wide as tall or as tall as wide) is split into first (ABI 5) */
 } envl_products_summary;
 
 typedef struct envl_products envl_products;

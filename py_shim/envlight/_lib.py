@@ -241,6 +241,8 @@ class ProductsSummary(Structure):
         ("seconds_irradiance", c_double),
         ("seconds_lights", c_double),
         ("seconds_brdf", c_double),
+        ("prefiltered_width", c_int32),
+        ("prefiltered_height", c_int32),
     ]
 
 

@@ -319,6 +319,7 @@ void envl_envmap_free(envl_envmap *m)
     free(m->region_table);
     free(m->mip_px);
     free(m->cells);
+    envl_envmap_free(m->points_copy);
     free(m);
 }
 
@@ -366,6 +367,54 @@ void envl_envmap_direction(const envl_envmap *m, int32_t c, int32_t r, double d[
     d[0] = m->row_cos[r] * m->col_cos[c];
     d[1] = m->row_cos[r] * m->col_sin[c];
     d[2] = m->row_sin[r];
+}
+
+/* ---- maps too coarse for the GGX sums (envmap_impl.h) ---- */
+
+static int too_coarse(int32_t w, int32_t h)
+{
+    return w < 16 || h < 8 || w < h || w > 4 * (int64_t)h;
+}
+
+envl_result envl__points_copy(const envl_envmap *m, envl_envmap **copy)
+{
+    *copy = NULL;
+    int32_t w = m->width, h = m->height;
+    if (!too_coarse(w, h))
+        return ENVL_OK;
+    /* each pixel split into k x j: at least 64 x 32, pixels within [1/2, 2] in aspect */
+    int64_t k = (64 + w - 1) / w, j = (32 + h - 1) / h;
+    if (w * k < h * j)
+        k = (h * j + w - 1) / w;
+    if (w * k > 4 * h * j)
+        j = (w * k + 4 * (int64_t)h - 1) / (4 * (int64_t)h);
+    int64_t cw = w * k, ch = h * j;
+    if (cw * ch > 2048 * 1024) /* too many: area-resampled (a row or column mean) instead */
+        cw = 2048, ch = 1024;
+    float *px;
+    envl_result rc = envl__latlong_resample(m->px, w, h, (int32_t)cw, (int32_t)ch, 0.0, &px);
+    if (rc)
+        return rc;
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads};
+    rc = envl_envmap_from_pixels(px, (int32_t)cw, (int32_t)ch, 3, &lo, copy);
+    free(px);
+    if (!rc) /* messages about the copy name the map */
+        memcpy((*copy)->info.file, m->info.file, sizeof m->info.file);
+    return rc;
+}
+
+envl_result envl__points_map(envl_envmap *m, envl_envmap **out)
+{
+    *out = m;
+    if (!too_coarse(m->width, m->height))
+        return ENVL_OK;
+    if (!m->points_copy) {
+        envl_result rc = envl__points_copy(m, &m->points_copy);
+        if (rc)
+            return rc;
+    }
+    *out = m->points_copy;
+    return ENVL_OK;
 }
 
 const char *envl__envmap_source(const envl_envmap *m)

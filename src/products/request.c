@@ -289,20 +289,26 @@ static envl_result measure(envl_envmap *m, envl_products *p)
     return rc;
 }
 
-envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **out)
+envl_result envl_compute(envl_envmap *map, const envl_request *q, envl_products **out)
 {
-    if (!m || !q || !out || q->n_roughness < 0 || (q->n_roughness && !q->roughness))
+    if (!map || !q || !out || q->n_roughness < 0 || (q->n_roughness && !q->roughness))
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_compute: bad arguments");
     *out = NULL;
     double t0 = envl__seconds();
     envl_products *p = calloc(1, sizeof *p);
     if (!p)
         return envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
-    snprintf(p->file, sizeof p->file, "%s", m->info.file);
+    snprintf(p->file, sizeof p->file, "%s", map->info.file);
     plan pl = {0};
     envl_result rc = ENVL_OK;
-    if (m->source_path && !(p->source_path = strdup(m->source_path)))
+    if (map->source_path && !(p->source_path = strdup(map->source_path)))
         rc = envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
+    /* every product from the map the GGX sums can take (a too coarse one split first) */
+    envl_envmap *m = map;
+    if (!rc)
+        rc = envl__points_map(map, &m);
+    p->summary.prefiltered_width = m->width;
+    p->summary.prefiltered_height = m->height;
     if (!rc)
         rc = envl__prefilter_resolve(&q->prefilter, m, &p->opt);
     if (!rc)

@@ -298,7 +298,9 @@ envl_result envl_prefilter_specular(envl_envmap *m, double roughness, int32_t wi
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_prefilter_specular: NULL argument");
     *rgb = NULL;
     resolved o;
-    envl_result rc = envl__prefilter_resolve(options, m, &o);
+    envl_result rc = envl__points_map(m, &m); /* a too coarse map split first */
+    if (!rc)
+        rc = envl__prefilter_resolve(options, m, &o);
     if (rc)
         return rc;
     envl_level st;
