@@ -79,8 +79,8 @@ static void furnace(int32_t w, int32_t h, int coarse)
               s.prefiltered_height >= 32 && s.prefiltered_height % h == 0 &&
               s.prefiltered_width >= s.prefiltered_height &&
               s.prefiltered_width <= 4 * s.prefiltered_height);
-    else if (coarse == 2) /* splitting would pass 2048 x 1024: resampled to it */
-        CHECK(s.prefiltered_width == 2048 && s.prefiltered_height == 1024);
+    else if (coarse == 2) /* splitting would pass 1024 x 512: resampled to it */
+        CHECK(s.prefiltered_width == 1024 && s.prefiltered_height == 512);
     else
         CHECK(s.prefiltered_width == w && s.prefiltered_height == h);
     /* one level on its own */
@@ -141,7 +141,7 @@ static void ramp_one_wide(void)
 int main(void)
 {
     static const int32_t sizes[][3] = {
-        /* w, h, coarse: 0 as it is, 1 split first, 2 resampled to 2048 x 1024 first */
+        /* w, h, coarse: 0 as it is, 1 split first, 2 resampled to 1024 x 512 first */
         {1, 1, 1},  {1, 2, 1},  {1, 8, 1},   {1, 15, 1}, {2, 1, 1},    {2, 2, 1},
         {3, 7, 1},  {4, 2, 1},  {8, 4, 1},   {15, 8, 1}, {7, 100, 1},  {1, 64, 1},
         {64, 1, 1}, {40, 3, 1}, {16, 8, 0},  {64, 32, 0}, {48, 12, 0}, {24, 20, 0},

@@ -4,6 +4,7 @@
 
 #include "envlight.h"
 
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -194,5 +195,16 @@ envl_result envl__sh_rotate(int32_t order, const double R[9], int32_t channels, 
 /* Reports fraction (0..1) and stage to the calling thread's progress callback; its cancel as
  * ENVL_ERR_CANCELLED (progress.c). */
 envl_result envl__progress(double fraction, const char *stage);
+/* Inside a step's long loop: the last step reported again, at most every 0.1 s, so that a
+ * cancel is seen within that (ENVL_ERR_CANCELLED); ENVL_OK without a callback (every worker
+ * thread: the callback is the calling thread's). */
+envl_result envl__progress_poll(void);
+/* A cancel shared by the threads of one parallel loop, zero-initialised: each item calls
+ * envl__cancel_check, 1 (stop) once the caller's thread has seen a cancel in its poll; the
+ * loop's caller then returns ENVL_ERR_CANCELLED (the message is its thread's). */
+typedef struct envl_cancel {
+    atomic_int stop;
+} envl_cancel;
+int envl__cancel_check(envl_cancel *c);
 
 #endif

@@ -389,10 +389,15 @@ envl_result envl__points_copy(const envl_envmap *m, envl_envmap **copy)
     if (w * k > 4 * h * j)
         j = (w * k + 4 * (int64_t)h - 1) / (4 * (int64_t)h);
     int64_t cw = w * k, ch = h * j;
-    if (cw * ch > 2048 * 1024) /* too many: area-resampled (a row or column mean) instead */
-        cw = 2048, ch = 1024;
-    float *px;
-    envl_result rc = envl__latlong_resample(m->px, w, h, (int32_t)cw, (int32_t)ch, 0.0, &px);
+    if (cw * ch > 1024 * 512) /* too many: area-resampled (a mean of rows or columns) */
+        cw = 1024, ch = 512;
+    /* rows first, then columns (area weights separate): each pass costs its own pixels, where
+     * one pass would resample every one of 16384 rows of a 1 x 16384 map to the full width */
+    float *rows, *px = NULL;
+    envl_result rc = envl__latlong_resample(m->px, w, h, w, (int32_t)ch, 0.0, &rows);
+    if (!rc)
+        rc = envl__latlong_resample(rows, w, (int32_t)ch, (int32_t)cw, (int32_t)ch, 0.0, &px);
+    free(rows);
     if (rc)
         return rc;
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads};

@@ -42,7 +42,7 @@ struct envl_envmap {
  * pixels more than twice as wide as tall or as tall as wide: a map one pixel wide puts every
  * point on one meridian) is prefiltered from a copy with each pixel split evenly into k x j
  * pixels (the same function) of at least 64 x 32 with pixels within that aspect; a copy that
- * would exceed 2048 x 1024 pixels is the map area-resampled to 2048 x 1024 instead.
+ * would exceed 1024 x 512 pixels is the map area-resampled to 1024 x 512 instead.
  * envl__points_copy: *copy NULL when m is fine as it is, else that copy (the caller frees it);
  * envl__points_map: m itself or the copy, cached on m (envl_envmap_drop_mips frees it). */
 envl_result envl__points_copy(const envl_envmap *m, envl_envmap **copy);

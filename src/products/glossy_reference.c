@@ -15,6 +15,7 @@ typedef struct ref_job {
     const double *dirs;
     double *out;
     int failed;
+    envl_cancel cancel;       /* a cancel seen between directions */
 } ref_job;
 
 static void ref_range(void *ctx, int64_t begin, int64_t end)
@@ -26,7 +27,7 @@ static void ref_range(void *ctx, int64_t begin, int64_t end)
         j->failed = 1;
         return;
     }
-    for (int64_t i = begin; i < end; i++) {
+    for (int64_t i = begin; i < end && !envl__cancel_check(&j->cancel); i++) {
         const double *R = j->dirs + 3 * i;
         double *o = j->out + 3 * i;
         if (j->a2 == 0) {
@@ -77,9 +78,11 @@ envl_result envl_prefilter_reference(const envl_envmap *m, double roughness, int
     envl_result rc = envl__points_copy(m, &copy);
     if (rc)
         return rc;
-    ref_job j = {copy ? copy : m, a * a, dirs, out, 0};
+    ref_job j = {copy ? copy : m, a * a, dirs, out, 0, {0}};
     envl__parallel_for(count, m->threads, ref_range, &j);
     envl_envmap_free(copy);
+    if (atomic_load(&j.cancel.stop))
+        return ENVL_ERR_CANCELLED; /* the message: envl__progress_poll's */
     return j.failed ? envl__fail(ENVL_ERR_MEMORY, "prefilter reference: out of memory")
                     : ENVL_OK;
 }
