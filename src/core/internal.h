@@ -96,6 +96,14 @@ envl_result envl__write_exr(const char *path, const float *rgb, int32_t w, int32
                             int32_t pixel_type, int32_t envmap);
 envl_result envl__write_pfm(const char *path, const float *rgb, int32_t w, int32_t h);
 
+/* ---- file names (paths.c) ---- */
+/* `name` made absolute, the symbolic links of the part that exists resolved, ".", ".." and
+ * repeated slashes of the rest taken out (malloc'd; NULL when out of memory). */
+char *envl__normalised_path(const char *name);
+/* The path of `to` relative to the folder `from`, both normalised ("../x/y.hdr"; "." for the
+ * folder itself). malloc'd; NULL when out of memory. */
+char *envl__relative_path(const char *from, const char *to);
+
 /* ---- files (io.c) ---- */
 /* Reads a whole regular file (refuses directories, larger than max_bytes). Caller frees. */
 envl_result envl__read_file(const char *path, size_t max_bytes, uint8_t **data, size_t *size);

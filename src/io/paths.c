@@ -1,8 +1,8 @@
-/* No output replaces an input or another output of the same run (envl_outputs_check). Two
- * names are the same file when both exist with the same device and inode (hard links, symbolic
- * links), else when their normalised paths are equal: absolute, the symbolic links of the
- * part that exists resolved (realpath), then ".", ".." and repeated slashes of the rest taken
- * out by name. */
+/* File names: normalised and relative paths, and no output replacing an input or another output
+ * of the same run (envl_outputs_check). Two names are the same file when both exist with the
+ * same device and inode (hard links, symbolic links), else when their normalised paths are
+ * equal: absolute, the symbolic links of the part that exists resolved (realpath), then ".",
+ * ".." and repeated slashes of the rest taken out by name. */
 #include "internal.h"
 
 #include <errno.h>
@@ -80,6 +80,43 @@ static char *absolute(const char *name)
     return out;
 }
 
+char *envl__normalised_path(const char *name)
+{
+    char *abs = absolute(name);
+    char *path = abs ? normalised(abs) : NULL;
+    free(abs);
+    return path;
+}
+
+char *envl__relative_path(const char *from, const char *to)
+{
+    /* the longest common prefix that ends at a component boundary of both */
+    size_t common = 0;
+    for (size_t k = 0;; k++) {
+        int from_end = from[k] == '\0' || from[k] == '/', to_end = to[k] == '\0' || to[k] == '/';
+        if (from_end && to_end)
+            common = k;
+        if (!from[k] || from[k] != to[k])
+            break;
+    }
+    size_t ups = 0; /* from's components after it */
+    for (const char *s = from + common; *s; s++)
+        ups += s[0] == '/' && s[1] && s[1] != '/';
+    const char *rest = to + common;
+    while (*rest == '/')
+        rest++;
+    char *out = malloc(3 * ups + strlen(rest) + 2);
+    if (!out)
+        return NULL;
+    char *q = out;
+    for (size_t k = 0; k < ups; k++)
+        q += sprintf(q, "../");
+    sprintf(q, "%s", *rest || ups ? rest : ".");
+    if (ups && !*rest)
+        q[-1] = '\0'; /* "../.." rather than "../../" */
+    return out;
+}
+
 static envl_result identify(const char *name, file_id *id)
 {
     id->name = name;
@@ -87,9 +124,7 @@ static envl_result identify(const char *name, file_id *id)
     id->exists = stat(name, &st) == 0;
     id->dev = id->exists ? st.st_dev : 0;
     id->ino = id->exists ? st.st_ino : 0;
-    char *abs = absolute(name);
-    id->path = abs ? normalised(abs) : NULL;
-    free(abs);
+    id->path = envl__normalised_path(name);
     return id->path ? ENVL_OK : envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", name);
 }
 
