@@ -391,13 +391,15 @@ envl_result envl__points_copy(const envl_envmap *m, envl_envmap **copy)
     int64_t cw = w * k, ch = h * j;
     if (cw * ch > 1024 * 512) /* too many: area-resampled (a mean of rows or columns) */
         cw = 1024, ch = 512;
-    /* rows first, then columns (area weights separate): each pass costs its own pixels, where
+    /* rows and columns apart (area weights separate), the pass that leaves fewer pixels first:
      * one pass would resample every one of 16384 rows of a 1 x 16384 map to the full width */
-    float *rows, *px = NULL;
-    envl_result rc = envl__latlong_resample(m->px, w, h, w, (int32_t)ch, 0.0, &rows);
+    int rows_first = (int64_t)w * ch <= cw * (int64_t)h;
+    int32_t mw = rows_first ? w : (int32_t)cw, mh = rows_first ? (int32_t)ch : h;
+    float *mid, *px = NULL;
+    envl_result rc = envl__latlong_resample(m->px, w, h, mw, mh, 0.0, &mid);
     if (!rc)
-        rc = envl__latlong_resample(rows, w, (int32_t)ch, (int32_t)cw, (int32_t)ch, 0.0, &px);
-    free(rows);
+        rc = envl__latlong_resample(mid, mw, mh, (int32_t)cw, (int32_t)ch, 0.0, &px);
+    free(mid);
     if (rc)
         return rc;
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads};
