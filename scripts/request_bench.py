@@ -56,7 +56,8 @@ print("\n".join(lines))
 for name, req in REQUESTS:
     best = None
     for _ in range(RUNS):
-        E.lib.envl_envmap_drop_mips(m._handle())
+        with m._use() as h:
+            E.lib.envl_envmap_drop_mips(h)
         m.drop_caches()
         with m.prefilter(**req) as p:
             s = p.summary

@@ -6,9 +6,10 @@
 # BUILD_DIR (default build) is built first (scripts/build.sh). Without --all the tests that take
 # more than ~10 s natively are left out (memcheck runs code 20-50x slower): test_layout,
 # test_lights, test_prefilter and test_preview (their large maps; the same code runs on small
-# maps in the others and in the CLI tests), and test_pov_include (7 s, but its write-fault loop
+# maps in the others and in the CLI tests), test_pov_include (7 s, but its write-fault loop
 # writes the include once per write step: 339 s under memcheck; CI runs it under ASan and
-# UBSan). The C tests run with ENVL_UNDER_MEMCHECK=1: test_irradiance then leaves out its
+# UBSan), test_error_paths (every failing call, each scenario three times: LeakSanitizer checks
+# it in CI's ASan run) and test_furnace (prefilter chains on 20 maps up to 1024 x 512). The C tests run with ENVL_UNDER_MEMCHECK=1: test_irradiance then leaves out its
 # brute-force comparison on the 12 maps (the sky and the synthetic maps stay; natively and
 # under ASan it runs them all). The POV-Ray, main-job and Python/Blender tests are always left
 # out: they spend their time in external programs, not in envlight. Memcheck runs all threads
@@ -54,7 +55,7 @@ rm -rf "$logs" && mkdir -p "$logs" && chmod 1777 "$logs"
 vg=(valgrind --tool=memcheck --leak-check=full --errors-for-leak-kinds=definite,indirect
     --show-leak-kinds=definite,indirect --track-origins=yes --error-exitcode=99 --quiet)
 shared=${ENVL_SHARED_DATA:-$root/../shared/data}
-slow='^(test_layout|test_lights|test_prefilter|test_preview|test_pov_include)$'
+slow='^(test_layout|test_lights|test_prefilter|test_preview|test_pov_include|test_error_paths|test_furnace)$'
 start=$(date +%s); date0=$(date +%Y-%m-%dT%H:%M:%S); load0=$(cut -d' ' -f1-3 /proc/loadavg)
 
 # The CLI tests call $ENVLIGHT: a wrapper that runs the real binary under memcheck, one log per

@@ -227,6 +227,15 @@ ENVL_API void envl_free(void *memory);
 /* Writes `size` bytes to `path` atomically (temporary file in the same directory + rename):
  * an existing file is either replaced whole or left as it was. */
 ENVL_API envl_result envl_file_write_atomic(const char *path, const void *data, size_t size);
+/* ENVL_ERR_ARGUMENT, the message naming both, when an output is the same file as an input or
+ * as another output: the same device and inode when both exist (hard and symbolic links), else
+ * the same normalised path (absolute; the symbolic links of the part that exists resolved;
+ * ".", ".." and repeated slashes of the rest taken out). NULL and empty names are skipped.
+ * Every writer of the library that knows its inputs checks its outputs this way (the map's
+ * file, a POV-Ray scene: envl_envmap_save, envl_products_export, envl_gltf_export,
+ * envl_preview_write, envl_pov_include_write); a caller writing several files checks them. */
+ENVL_API envl_result envl_outputs_check(const char *const *inputs, int32_t n_inputs,
+                                        const char *const *outputs, int32_t n_outputs);
 
 /* ---- exact irradiance and the error measure (docs/design.md) ------------------------------------- */
 /* E(n) = sum over pixels of L dw max(0, n.d), in double, for `count` unit normals. */
@@ -461,7 +470,13 @@ typedef struct envl_prefilter_options {
                                  returned as lights (envl_products_sun_lights) that the renderer
                                  adds analytically, as engines light with a sun; each product's
                                  error is measured with them added (docs/methods.md, "Prefiltered maps") */
+    int32_t half;             /* nonzero: the maps will be stored as IEEE half floats (KTX2,
+                                 "ktx2"): each is measured as written, its values rounded to
+                                 half and those above ENVL_HALF_MAX written as ENVL_HALF_MAX
+                                 (ABI 5); default 0: 32-bit floats */
 } envl_prefilter_options;
+/* The largest finite IEEE half float: larger values are written as it (KTX2 "ktx2", EXR half). */
+#define ENVL_HALF_MAX 65504.0
 
 /* Width of the specular level of `roughness` under `options` (height = width / 2). */
 ENVL_API int32_t envl_prefilter_level_width(const envl_prefilter_options *options,
@@ -530,6 +545,11 @@ typedef struct envl_products_summary {
     double seconds;           /* everything (error measures excluded) */
     double seconds_sh, seconds_pyramid, seconds_specular, seconds_irradiance, seconds_lights,
         seconds_brdf;
+    int32_t prefiltered_width, prefiltered_height; /* the map the products were computed
+                                 from: the map's own size, or the finer copy that a map too
+                                 coarse for the GGX sums (each pixel a point at its centre:
+                                 fewer than 16 columns or 8 rows, pixels more than twice as
+                                 wide as tall or as tall as wide) is split into first (ABI 5) */
 } envl_products_summary;
 
 typedef struct envl_products envl_products;

@@ -84,7 +84,7 @@ expect 1 "convert from a missing file" -- "$ENVLIGHT" convert nothing.hdr keep.p
 cmp -s sky.pfm keep.pfm || { fails=$((fails + 1)); echo "FAIL: output changed by a failed convert"; }
 checks=$((checks + 1))
 expect 1 "unknown output extension" -- "$ENVLIGHT" convert - out.xyz
-ls | grep -q 'tmp-' && { fails=$((fails + 1)); echo "FAIL: temporary file left behind"; ls; }
+ls -A | grep -q '\.envl-\|tmp-' && { fails=$((fails + 1)); echo "FAIL: temporary file left behind"; ls; }
 checks=$((checks + 1))
 
 finish

@@ -2,8 +2,8 @@
 # Every kind of output on a full disk (issue 19): a small tmpfs holds a good copy of each output,
 # is then filled, and each command writing there again must exit 1 within 60 s (an OpenEXR
 # header write once deadlocked on ENOSPC), name the file and the cause, leave the old output
-# byte-identical and no temporary file (*.tmp-*, prefilter's .envl-*). Needs root (mount);
-# skipped otherwise.
+# byte-identical and no temporary file (.envl-*); a prefilter into a folder it creates leaves
+# no folder (issue 30). Needs root (mount); skipped otherwise.
 . "$(dirname "$0")/clitest.sh"
 
 full=$PWD/full
@@ -78,6 +78,9 @@ on_full "prefilter rgbm-png" "$full/prepng/" -- "$ENVLIGHT" prefilter - -o "$ful
   --format rgbm-png "${pre[@]}" "${r[@]}"
 on_full "prefilter ktx2" "$full/prektx/" -- "$ENVLIGHT" prefilter - -o "$full/prektx" \
   --format ktx2 "${pre[@]}" "${r[@]}"
+# a folder the run created goes again when the run fails (issue 30, 4.11)
+on_full "prefilter into a new folder" "$full/new/" -- "$ENVLIGHT" prefilter - -o "$full/new" \
+  "${pre[@]}" "${r[@]}"
 on_full "lights --residual" "$full/res.exr" -- "$ENVLIGHT" lights - --residual "$full/res.exr" \
   "${r[@]}"
 on_full "lights json" "$full/l.json" -- "$ENVLIGHT" lights - --json -o "$full/l.json" "${r[@]}"

@@ -297,6 +297,35 @@ def test_no_lights_puts_the_whole_map_in_the_environment():
     check_sh_through_babylon(glb, "-")
 
 
+def write_pfm(p, rgb):
+    """rgb: (H, W, 3), row 0 at the top."""
+    h, w, _ = rgb.shape
+    with open(p, "wb") as f:
+        f.write(b"PF\n%d %d\n-1.0\n" % (w, h))
+        f.write(np.ascontiguousarray(rgb[::-1], dtype="<f4").tobytes())
+
+
+def test_without_a_punctual_light_the_file_is_valid():
+    """Issue 30, 4.2: no light (--lights none, or a map without a sun under the default
+    --lights sun) made scenes[0].nodes an empty array, an error (EMPTY_ENTITY) for the
+    validator; the scene then has no "nodes" at all (glTF 2.0: optional, at least one item
+    when present)."""
+    overcast = path("overcast.pfm")  # a soft sky with no sun: 2 at the zenith, 0.5 below
+    rows = np.linspace(2.0, 0.5, 32)[:, None, None] * np.ones((32, 64, 3))
+    write_pfm(overcast, rows)
+    for name, args in (("none_lights.glb", ["-", "--lights", "none"]),
+                       ("none_lights.gltf", ["-", "--lights", "none"]),
+                       ("no_sun.glb", [overcast])):
+        out = path(name)
+        r = run("gltf", *args, "-o", out, "--size", "16", "--mips", "2")
+        assert "lights       0 directional" in r.stdout
+        doc = read_glb(out)[0] if out.endswith(".glb") else json.load(open(out))
+        assert "nodes" not in doc["scenes"][0] and "nodes" not in doc, doc["scenes"]
+        report = node("gltf_validate.mjs", out)
+        issues = report["issues"]
+        assert issues["numErrors"] == 0 and issues["numWarnings"] == 0, issues["messages"]
+
+
 def test_a_real_map():
     hdr = os.path.join(DATA, "latlong_hdri", "rooitou_park_1k.hdr")
     if not os.path.exists(hdr):

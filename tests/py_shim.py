@@ -585,6 +585,23 @@ def test_prefilter_constant_map():
     assert e.value.name == "ENVL_ERR_IO" and "no/such/dir" in e.value.message
 
 
+def test_prefilter_half_states_the_error_of_half_floats():
+    """Issue 30, 4.7: half=True measures the maps as a half-float file (export format 'ktx2')
+    holds them: a uniform 70000 is written as 65504, 6.42 % low, and the level says so; the
+    sidecar says what the errors are of."""
+    with envlight.from_pixels(np.full((32, 64, 3), 7e4, np.float32)) as env:
+        for half, want in ((True, 1 - 65504 / 7e4), (False, 0.0)):
+            with env.prefilter(roughness=[0.5], measure=True, width=64, half=half) as p:
+                assert p.levels[0]["glossy_error"] == pytest.approx(want, abs=1e-6)
+                out = os.path.join(TMP, "prefilter_half_%d" % half)
+                os.makedirs(out, exist_ok=True)
+                p.export(out, format="ktx2", layout="cube", frame="gltf")
+                with open(os.path.join(out, "prefilter.json")) as f:
+                    said = json.load(f)["errors_of"]
+                assert said.startswith("the maps as written" if half else
+                                       "the maps in 32-bit floats, before their rounding"), said
+
+
 # ---- lights: the sun method ------------------------------------------------------------------
 
 def test_sun_lights_through_the_shim():

@@ -318,6 +318,22 @@ def test_envmap_to_layout_refuses(env):
         refused(lambda: env.to_layout("cross", size), ARG, "Envmap.to_layout: size")
 
 
+
+def test_envmap_to_layout_sides_beyond_32_bits(env):
+    """Issue 30, 4.9: sizes 2^30 .. 2^31 - 1 pass the shim's int32 check; the library took the
+    cross's 3 x size in 32 bits (signed overflow: a negative width, ENVL_ERR_FORMAT). A side
+    that does not fit 32 bits is a bad argument; sides that fit but too many pixels, the size
+    limit."""
+    for layout in ("cross", "hcross", "hstrip", "vstrip", "exr-cube"):
+        for size in (2 ** 30, 2 ** 31 - 1):
+            with pytest.raises(envlight.ArgumentError, match="a side does not fit 32 bits"):
+                env.to_layout(layout, size)
+    for layout in ("latlong", "angular", "mirrorball", "exr-latlong", "cross"):
+        with pytest.raises(envlight.Error) as e:
+            env.to_layout(layout, 2 ** 20)
+        assert e.value.name == "ENVL_ERR_LIMIT" and "more than the limit" in e.value.message
+
+
 LIGHTS = [
     ("n", dict(n=BIG + 3, method="median"), ARG),   # gave 3 lights
     ("n", dict(n=0, method="median"), ARG),         # gave the default 16

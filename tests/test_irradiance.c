@@ -64,6 +64,83 @@ static void test_constant(void)
     envl_envmap_free(m);
 }
 
+/* Pixels wider than tall (a map narrower than twice its height) are integrated the other way
+ * round (issue 30, 4.4: a map one pixel wide took 256 azimuth slices of every pixel for every
+ * normal, 70 s for the reference of a 1 x 16384 map): exact in azimuth, in slices of elevation
+ * at most delta = 0.25 degrees high. Their midpoints miss the integrand cos t I(t) (I the
+ * exact azimuth integral, |I| <= dphi |L|, its second derivative at most 4 dphi |L|) by at
+ * most delta^3 / 24 x 4 dphi |L| a slice; over the sphere's pi / delta x 2 pi / dphi slices
+ * that is pi^2 delta^2 / 3 |L|: 4 pi delta^2 |L| bounds it. Checked on constant maps (E = pi)
+ * at every 16th of the 1024 normals and the poles, on a linear z map one pixel wide (pi a +
+ * 2 pi / 3 b n_z, within that plus test_linear_sky's 4 pi h^2 (|a| + |b|)), and against the same
+ * function split into narrow pixels (each pixel into 64 columns), integrated the usual way: the
+ * two within the sum of both slicings' bounds (azimuth slices d: 4 pi d^2 |L|). */
+static void test_wide_pixels(void)
+{
+    const double delta = 0.25 * PI / 180;
+    double normals[66 * 3];
+    for (int i = 0; i < 64; i++)
+        envl_fibonacci_direction(16 * i, 1024, normals + 3 * i);
+    const double poles[6] = {0, 0, 1, 0, 0, -1};
+    memcpy(normals + 3 * 64, poles, sizeof poles);
+    double e[66 * 3], e2[66 * 3];
+    const double one[3] = {1, 1, 1}, zero[3] = {0, 0, 0};
+    static const int sizes[4][2] = {{1, 16}, {1, 512}, {3, 40}, {5, 64}};
+    for (int s = 0; s < 4; s++) {
+        envl_envmap *m = linear_z_map(sizes[s][0], sizes[s][1], one, zero, 0);
+        CHECK_OK(envl_irradiance_exact(m, 66, normals, e));
+        double worst = 0;
+        for (int i = 0; i < 66 * 3; i++)
+            worst = fmax(worst, fabs(e[i] - PI));
+        printf("  constant %d x %d: worst |E - pi| %.2e (bound %.2e)\n", sizes[s][0],
+               sizes[s][1], worst, 4 * PI * delta * delta);
+        CHECK(worst <= 4 * PI * delta * delta);
+        envl_envmap_free(m);
+    }
+    const double a[3] = {1.0, 0.5, 2.0}, b[3] = {0.5, -0.25, 1.5};
+    envl_envmap *m = linear_z_map(1, 512, a, b, 0);
+    CHECK_OK(envl_irradiance_exact(m, 66, normals, e));
+    double h = PI / 512;
+    for (int i = 0; i < 66; i++)
+        for (int k = 0; k < 3; k++)
+            CHECK_NEAR(e[3 * i + k], PI * a[k] + 2 * PI / 3 * b[k] * normals[3 * i + 2],
+                       4 * PI * (h * h + delta * delta) * (fabs(a[k]) + fabs(b[k])));
+    envl_envmap_free(m);
+    /* 4 x 64 of values in [0, 1] against its 256 x 64 split */
+    enum { W = 4, H = 64, K = 64 };
+    static float px[3 * W * H], split[3 * W * K * H];
+    for (int i = 0; i < 3 * W * H; i++)
+        px[i] = (float)((i * 7919) % 101) / 100.0f;
+    for (int r = 0; r < H; r++)
+        for (int c = 0; c < W * K; c++)
+            for (int k = 0; k < 3; k++)
+                split[3 * (r * W * K + c) + k] = px[3 * (r * W + c / K) + k];
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG};
+    envl_envmap *wide, *narrow;
+    CHECK_OK(envl_envmap_from_pixels(px, W, H, 3, &lo, &wide));
+    CHECK_OK(envl_envmap_from_pixels(split, W * K, H, 3, &lo, &narrow));
+    CHECK_OK(envl_irradiance_exact(wide, 66, normals, e));
+    CHECK_OK(envl_irradiance_exact(narrow, 66, normals, e2));
+    double d = 2 * PI / (W * K) / 6; /* the split's azimuth slices: 360 / 256 / 0.25 -> 6 */
+    double worst = 0;
+    for (int i = 0; i < 66 * 3; i++)
+        worst = fmax(worst, fabs(e[i] - e2[i]));
+    printf("  4 x 64 against its 256 x 64 split: worst difference %.2e (bound %.2e)\n", worst,
+           4 * PI * (delta * delta + d * d));
+    CHECK(worst <= 4 * PI * (delta * delta + d * d));
+    envl_envmap_free(wide);
+    envl_envmap_free(narrow);
+    /* the cost: across the horizon a pixel 1 x 2048 is 0.09 degrees high, one slice (it took
+     * 256 for every pixel: 360 / 0.25 azimuth slices, capped), so at most a slice a pixel a
+     * normal (on one thread: the counter is the thread's) */
+    m = linear_z_map(1, 2048, one, zero, 1);
+    envl__horizon_slices = 0;
+    CHECK_OK(envl_irradiance_exact(m, 16, normals, e));
+    printf("  1 x 2048: %.2f slices a pixel a normal\n", envl__horizon_slices / (2048.0 * 16));
+    CHECK(envl__horizon_slices <= 2048 * 16);
+    envl_envmap_free(m);
+}
+
 /* The reference at 1024 normals is the same at 1 and 4 threads, bit for bit. */
 static void test_threads_deterministic(void)
 {
@@ -208,6 +285,7 @@ int main(void)
 {
     test_linear_sky();
     test_constant();
+    test_wide_pixels();
     test_threads_deterministic();
     test_fibonacci();
     test_error_measure();

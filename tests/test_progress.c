@@ -1,7 +1,7 @@
 /* The progress callback (envl_set_progress): fractions rising to 1 with named stages, and a
  * cancel at any step: ENVL_ERR_CANCELLED, nothing returned, nothing written (a file already
  * there kept as it was). envl_compute, envl_products_export, envl_lights_compute,
- * envl_envmap_load, envl_envmap_to_layout. */
+ * envl_envmap_load, envl_envmap_to_layout; and the polls inside a long step (issue 30, 4.4). */
 #include "envlight.h"
 #include "check.h"
 
@@ -9,13 +9,21 @@
 
 typedef struct record {
     int calls, rising, cancel_at; /* cancel_at: the call that cancels (0: never) */
+    int polls;                    /* calls repeating the last step (the polls inside it) */
     double last;
-    char stages[1024];
+    char stages[1024], last_stage[96];
 } record;
 
 static int on_progress(void *user, double fraction, const char *stage)
 {
     record *r = user;
+    /* a long step's loops poll: the last step again, at most every 0.1 s (a slow machine or
+     * a sanitizer makes some); they cancel as the step they repeat */
+    if (r->calls && fraction == r->last && !strcmp(stage, r->last_stage)) {
+        r->polls++;
+        return r->cancel_at && r->calls >= r->cancel_at;
+    }
+    snprintf(r->last_stage, sizeof r->last_stage, "%s", stage);
     r->calls++;
     r->rising &= fraction >= r->last && fraction >= 0 && fraction <= 1;
     r->last = fraction;
@@ -138,6 +146,21 @@ int main(void)
             CHECK(px == NULL && cc.calls == at);
         }
     }
+    /* inside one long step (the exact irradiance at 1024 normals of a 1024 x 512 map, a
+     * second or more): the loops poll, and a cancel from a poll stops it (issue 30, 4.4) */
+    envl_sky_options big = {.width = 1024};
+    envl_envmap *b;
+    CHECK_OK(envl_envmap_sky(&big, &b));
+    double *dirs = malloc(sizeof(double) * 3 * 1024), *e = malloc(sizeof(double) * 3 * 1024);
+    for (int i = 0; i < 1024; i++)
+        envl_fibonacci_direction(i, 1024, dirs + 3 * i);
+    record poll = {.rising = 1, .cancel_at = 1};
+    envl_set_progress(on_progress, &poll);
+    CHECK_RC(envl_irradiance_exact(b, 1024, dirs, e), ENVL_ERR_CANCELLED);
+    CHECK(poll.calls == 1 && strstr(envl_last_error(), "cancelled during the computation"));
+    envl_set_progress(NULL, NULL);
+    free(dirs), free(e);
+    envl_envmap_free(b);
     /* unset: the callback set before is called no more */
     record none = {.rising = 1};
     envl_set_progress(on_progress, &none);

@@ -16,6 +16,7 @@ import contextlib
 import ctypes
 import math
 import numbers
+import threading
 from ctypes import byref, c_double, c_float, c_int32, c_void_p, pointer
 from dataclasses import dataclass
 from typing import Optional, Tuple
@@ -341,23 +342,50 @@ def cosine_lobe(l):
 # ---- handles ---------------------------------------------------------------------------------
 
 class _Handle:
+    """A library object. Every call on it goes through _use(), which counts the calls running
+    (the library may run for seconds, without the GIL): close() waits for those of other
+    threads and refuses one of its own thread's (a progress callback inside the call), so the
+    object is never freed under a running call (issue 30, 4.3: a use after free)."""
     _free = None
 
     def __init__(self, handle):
         self._h = handle
+        self._calls = threading.Condition()
+        self._running = {}  # thread id -> calls of that thread running on the object
 
     @property
     def closed(self):
         return self._h is None or not self._h.value
 
-    def _handle(self):
-        if self.closed:
-            raise ValueError("%s is closed" % type(self).__name__)
-        return self._h
+    @contextlib.contextmanager
+    def _use(self):
+        """The handle, for library calls within the block (ValueError when closed)."""
+        me = threading.get_ident()
+        with self._calls:
+            if self.closed:
+                raise ValueError("%s is closed" % type(self).__name__)
+            self._running[me] = self._running.get(me, 0) + 1
+        try:
+            yield self._h
+        finally:
+            with self._calls:
+                self._running[me] -= 1
+                if not self._running[me]:
+                    del self._running[me]
+                self._calls.notify_all()
 
     def close(self):
-        """Releases the library object now (idempotent)."""
-        h, self._h = self._h, None
+        """Releases the library object now (idempotent). A call on it running in another
+        thread is waited for; from within one of this thread's (its progress callback) closing
+        is refused: ValueError (which, raised in the callback, cancels that call)."""
+        with self._calls:
+            if threading.get_ident() in self._running:
+                raise ValueError("%s.close: a call on it is running in this thread (from its "
+                                 "progress callback?): close it once the call has returned"
+                                 % type(self).__name__)
+            while self._running:
+                self._calls.wait()
+            h, self._h = self._h, None
         if h is not None and h.value:
             getattr(lib, self._free)(h)
 
@@ -409,16 +437,19 @@ class Envmap(_Handle):
 
     @property
     def width(self):
-        return lib.envl_envmap_width(self._handle())
+        with self._use() as h:
+            return lib.envl_envmap_width(h)
 
     @property
     def height(self):
-        return lib.envl_envmap_height(self._handle())
+        with self._use() as h:
+            return lib.envl_envmap_height(h)
 
     def info(self):
         """What was read and what the map holds, as a dict (envl_info's fields)."""
         i = _lib.Info()
-        _check(lib.envl_envmap_info(self._handle(), byref(i)))
+        with self._use() as h:
+            _check(lib.envl_envmap_info(h, byref(i)))
         return {
             "file": _str(i.file), "format": _str(i.format),
             "layout": _str(lib.envl_layout_name(i.layout)), "layout_guessed": bool(i.layout_guessed),
@@ -438,24 +469,25 @@ class Envmap(_Handle):
 
     def pixels(self):
         """A copy of the map: (height, width, 3) float32 numpy array (flat list without numpy)."""
-        h = self._handle()
-        return _image(lib.envl_envmap_pixels(h), lib.envl_envmap_width(h),
-                      lib.envl_envmap_height(h))
+        with self._use() as h:
+            return _image(lib.envl_envmap_pixels(h), lib.envl_envmap_width(h),
+                          lib.envl_envmap_height(h))
 
     def solid_angle(self, row):
         """Solid angle of a pixel of row 0..height-1 (sr)."""
-        h = self._handle()
-        row = A.integer(row, "Envmap.solid_angle: row", 0, lib.envl_envmap_height(h) - 1)
-        return lib.envl_envmap_solid_angle(h, row)
+        with self._use() as h:
+            row = A.integer(row, "Envmap.solid_angle: row", 0, lib.envl_envmap_height(h) - 1)
+            return lib.envl_envmap_solid_angle(h, row)
 
     def direction(self, column, row):
         """Unit direction of the centre of pixel (column 0..width-1, row 0..height-1)."""
-        h = self._handle()
-        column = A.integer(column, "Envmap.direction: column", 0, lib.envl_envmap_width(h) - 1)
-        row = A.integer(row, "Envmap.direction: row", 0, lib.envl_envmap_height(h) - 1)
-        d = (c_double * 3)()
-        lib.envl_envmap_direction(h, column, row, d)
-        return tuple(d)
+        with self._use() as h:
+            column = A.integer(column, "Envmap.direction: column", 0,
+                               lib.envl_envmap_width(h) - 1)
+            row = A.integer(row, "Envmap.direction: row", 0, lib.envl_envmap_height(h) - 1)
+            d = (c_double * 3)()
+            lib.envl_envmap_direction(h, column, row, d)
+            return tuple(d)
 
     def pixel_of(self, direction):
         """Continuous (column, row) of a direction in this map."""
@@ -469,41 +501,47 @@ class Envmap(_Handle):
         """Exact irradiance E(n) = sum L dw max(0, n.d) for (N, 3) normals -> (N, 3)."""
         n, buf = _vectors(normals, "Envmap.irradiance: normals")
         out = (c_double * (3 * n))()
-        _check(lib.envl_irradiance_exact(self._handle(), n, buf, out))
+        with self._use() as h:
+            _check(lib.envl_irradiance_exact(h, n, buf, out))
         return _rows(out, n, 3)
 
     def reference_irradiance(self):
         """Exact irradiance at the error measure's 1024 Fibonacci normals (cached)."""
         p = ctypes.POINTER(c_double)()
-        _check(lib.envl_envmap_reference_irradiance(self._handle(), byref(p)))
-        return _rows(p, _lib.ENVL_ERROR_NORMALS, 3)
+        with self._use() as h:
+            _check(lib.envl_envmap_reference_irradiance(h, byref(p)))
+            return _rows(p, _lib.ENVL_ERROR_NORMALS, 3)
 
     def drop_caches(self, which=_lib.ENVL_CACHE_SAT | _lib.ENVL_CACHE_REFERENCE):
         """Drops the cached tables: which = ENVL_CACHE_SAT | ENVL_CACHE_REFERENCE bits (0..3)."""
         which = A.integer(which, "Envmap.drop_caches: which", 0,
                           _lib.ENVL_CACHE_SAT | _lib.ENVL_CACHE_REFERENCE)
-        lib.envl_envmap_drop_caches(self._handle(), which)
+        with self._use() as h:
+            lib.envl_envmap_drop_caches(h, which)
 
     def save(self, path, format=None, half=False):
         """Writes the canonical map (.hdr, .exr, .pfm by extension or format), atomically."""
         p = A.path(path, "Envmap.save: path")
         o = _save_options("Envmap.save", format, half)
-        _check(lib.envl_envmap_save(self._handle(), p, byref(o)))
+        with self._use() as h:
+            _check(lib.envl_envmap_save(h, p, byref(o)))
 
     def ground_plane(self, albedo):
         """The map as a scene on a ground plane (canonical z = 0) of this albedo sees it: a new
         Envmap whose lower hemisphere is the plane's radiance albedo E_up / pi (E_up: the exact
         irradiance at +Z), and that radiance (rgb). -> (Envmap, [r, g, b])"""
         albedo = A.real(albedo, "Envmap.ground_plane: albedo", 0.0, 1.0)
-        h, rgb = c_void_p(), (c_double * 3)()
-        _check(lib.envl_ground_plane_map(self._handle(), albedo, 0, byref(h), rgb))
-        return Envmap(h), list(rgb)
+        g, rgb = c_void_p(), (c_double * 3)()
+        with self._use() as h:
+            _check(lib.envl_ground_plane_map(h, albedo, 0, byref(g), rgb))
+        return Envmap(g), list(rgb)
 
     def sky_hemisphere(self):
         """A new Envmap with the lower hemisphere black (the sky over a ground plane)."""
-        h = c_void_p()
-        _check(lib.envl_sky_hemisphere_map(self._handle(), 0, byref(h)))
-        return Envmap(h)
+        g = c_void_p()
+        with self._use() as h:
+            _check(lib.envl_sky_hemisphere_map(h, 0, byref(g)))
+        return Envmap(g)
 
     def to_layout(self, layout, size):
         """The map rendered into another layout (not 'auto') -> (height, width, 3) array (or
@@ -512,8 +550,8 @@ class Envmap(_Handle):
         size = A.integer(size, "Envmap.to_layout: size", 1, A.INT32_MAX)
         p = ctypes.POINTER(c_float)()
         w, h = c_int32(), c_int32()
-        _check(lib.envl_envmap_to_layout(self._handle(), layout, size, byref(p),
-                                         byref(w), byref(h)))
+        with self._use() as m:
+            _check(lib.envl_envmap_to_layout(m, layout, size, byref(p), byref(w), byref(h)))
         try:
             return _image(p, w.value, h.value)
         finally:
@@ -538,11 +576,11 @@ class Envmap(_Handle):
         o.measure = 1 if A.flag(measure, "Envmap.lights: measure") else 0
         o.skip_residual = 0 if A.flag(residual, "Envmap.lights: residual") else 1
         h = c_void_p()
-        m = self._handle()
-        _check(lib.envl_lights_compute(m, byref(o), byref(h)))
-        # the residual has the map's size (the lights object does not export it)
-        return LightsResult(h, lib.envl_envmap_width(m), lib.envl_envmap_height(m),
-                            kept=not o.skip_residual)
+        with self._use() as m:
+            _check(lib.envl_lights_compute(m, byref(o), byref(h)))
+            # the residual has the map's size (the lights object does not export it)
+            size = lib.envl_envmap_width(m), lib.envl_envmap_height(m)
+        return LightsResult(h, *size, kept=not o.skip_residual)
 
     def gltf(self, path, size=256, mips=None, lights="sun", n=None, measure=True):
         """Writes a glTF 2.0 file (.glb or .gltf), as `envlight gltf`: the suns (lights: 'sun',
@@ -563,7 +601,8 @@ class Envmap(_Handle):
         o.lights = pointer(lo)
         o.measure = 1 if A.flag(measure, "Envmap.gltf: measure") else 0
         s = _lib.GltfSummary()
-        _check(lib.envl_gltf_export(self._handle(), p, byref(o), byref(s)))
+        with self._use() as h:
+            _check(lib.envl_gltf_export(h, p, byref(o), byref(s)))
         measured = s.diffuse_error >= 0
         return {"lights": s.lights, "face_size": s.face_size, "mips": s.mips,
                 "intensity": s.intensity,
@@ -585,7 +624,8 @@ class Envmap(_Handle):
                           lib.envl_window_name)
         o.measure = 1 if A.flag(measure, "Envmap.sh: measure") else 0
         h = c_void_p()
-        _check(lib.envl_sh_compute(self._handle(), byref(o), byref(h)))
+        with self._use() as m:
+            _check(lib.envl_sh_compute(m, byref(o), byref(h)))
         return SHResult(h)
 
     def pov_include(self, path=None, recipe=None, scene=None, ground=None, method=None,
@@ -655,7 +695,8 @@ class Envmap(_Handle):
         o.threads = _threads(threads, f + ": threads")
         out = A.path(path, f + ": path") if path is not None else None
         res = _lib.PovResult()
-        rc = lib.envl_pov_include_write(self._handle(), byref(o), out, byref(res))
+        with self._use() as h:
+            rc = lib.envl_pov_include_write(h, byref(o), out, byref(res))
         try:
             _check(rc)
             return _pov_result(res)
@@ -667,7 +708,7 @@ class Envmap(_Handle):
     def _prefilter_options(f, levels=None, width=None, min_width=None, samples=None,
                            unfiltered=False, irradiance_method="resampled",
                            irradiance_width=None, irradiance_order=2, threads=None,
-                           sun_lights=False):
+                           sun_lights=False, half=False):
         """envl_prefilter_options for function f; None = the library's default (envlight.h, docs/design.md)."""
         o = _lib.PrefilterOptions()
         o.levels = A.integer(levels, f + ": levels", 1, A.PREFILTER_MAX_LEVELS, 0, "the default 6")
@@ -683,6 +724,7 @@ class Envmap(_Handle):
         o.irradiance_order = _order(irradiance_order, f + ": irradiance_order", A.SH_MAX_ORDER)
         o.threads = _threads(threads, f + ": threads")
         o.sun_lights = A.flag(sun_lights, f + ": sun_lights")
+        o.half = A.flag(half, f + ": half")
         return o
 
     def prefilter(self, roughness=None, chain=False, mirror=False, irradiance=False,
@@ -692,7 +734,8 @@ class Envmap(_Handle):
         roughness: GGX roughness values (one specular level each); chain: all K levels
         (options: levels, width, min_width, samples, unfiltered, irradiance_method
         'resampled'|'sh'|'exact', irradiance_width, irradiance_order, threads, sun_lights: the
-        sun as lights, left out of the irradiance map and glossy levels); mirror: the
+        sun as lights, left out of the irradiance map and glossy levels; half: measured as
+        half floats hold them, for export(format='ktx2')); mirror: the
         roughness-0 level; irradiance: an irradiance map; diffuse: SH irradiance of sh_order;
         brdf: the split-sum table; shadows: that many lights for shadows (shadows_method
         'fit' (None: the default)|'median'|'variance'|'sun'; 0: none); measure: also the glossy /
@@ -725,7 +768,8 @@ class Envmap(_Handle):
         req.brdf.size = A.integer(brdf_size, f + ": brdf_size", 1, A.BRDF_MAX_SIZE, 0, "the default 128")
         req.brdf.multiscatter = A.flag(multiscatter, f + ": multiscatter")
         h = c_void_p()
-        _check(lib.envl_compute(self._handle(), byref(req), byref(h)))
+        with self._use() as m:
+            _check(lib.envl_compute(m, byref(req), byref(h)))
         return Products(h)
 
     def specular(self, roughness, width=None, **options):
@@ -738,8 +782,9 @@ class Envmap(_Handle):
         o = self._prefilter_options(f, **options)
         p = ctypes.POINTER(c_float)()
         st = _lib.Level()
-        _check(lib.envl_prefilter_specular(self._handle(), roughness, width, byref(o),
-                                           byref(p), byref(st)))
+        with self._use() as h:
+            _check(lib.envl_prefilter_specular(h, roughness, width, byref(o), byref(p),
+                                               byref(st)))
         try:
             return _image(p, st.width, st.height), _level_dict(st, with_rgb=False)
         finally:
@@ -865,7 +910,8 @@ class Products(_Handle):
     def find_level(self, roughness):
         """The level of exactly this roughness (0..1), or None."""
         roughness = A.real(roughness, "Products.find_level: roughness", 0.0, 1.0)
-        i = lib.envl_products_find_level(self._handle(), roughness)
+        with self._use() as h:
+            i = lib.envl_products_find_level(h, roughness)
         return self.levels[i] if i >= 0 else None
 
     def export(self, directory, format="exr", layout="latlong", frame="blender"):
@@ -878,7 +924,8 @@ class Products(_Handle):
                           lib.envl_export_layout_name)
         o.frame = A.enum(frame, "Products.export: frame", lib.envl_frame_from_name,
                          lib.envl_frame_name)
-        _check(lib.envl_products_export(self._handle(), d, byref(o)))
+        with self._use() as h:
+            _check(lib.envl_products_export(h, d, byref(o)))
 
 
 class LightsResult(_Handle):
@@ -941,18 +988,19 @@ class LightsResult(_Handle):
         if self._residual is None:
             if not self._kept:
                 raise ArgumentError("LightsResult.residual: none was kept (lights(residual=False))")
-            h = self._handle()
-            p = lib.envl_lights_residual(h)
-            if not p:
-                raise Error(6, "ENVL_ERR_MEMORY", "envl_lights_residual: out of memory")
-            self._residual = _image(p, *self._wh)
+            with self._use() as h:
+                p = lib.envl_lights_residual(h)
+                if not p:
+                    raise Error(6, "ENVL_ERR_MEMORY", "envl_lights_residual: out of memory")
+                self._residual = _image(p, *self._wh)
         return self._residual
 
     def irradiance(self, normals):
         """Irradiance the lights (+ remainder) predict for (N, 3) normals -> (N, 3)."""
         n, buf = _vectors(normals, "LightsResult.irradiance: normals")
         out = (c_double * (3 * n))()
-        _check(lib.envl_lights_irradiance(self._handle(), n, buf, out))
+        with self._use() as h:
+            _check(lib.envl_lights_irradiance(h, n, buf, out))
         return _rows(out, n, 3)
 
     def save_residual(self, path, format=None, half=False):
@@ -1006,12 +1054,14 @@ class SHResult(_Handle):
         """Radiance of the (windowed) expansion in (N, 3) directions -> (N, 3)."""
         n, buf = _vectors(directions, "SHResult.eval_radiance: directions")
         out = (c_double * (3 * n))()
-        _check(lib.envl_sh_eval_radiance(self._handle(), n, buf, out))
+        with self._use() as h:
+            _check(lib.envl_sh_eval_radiance(h, n, buf, out))
         return _rows(out, n, 3)
 
     def eval_irradiance(self, normals):
         """Irradiance of the (windowed) expansion for (N, 3) normals -> (N, 3)."""
         n, buf = _vectors(normals, "SHResult.eval_irradiance: normals")
         out = (c_double * (3 * n))()
-        _check(lib.envl_sh_eval_irradiance(self._handle(), n, buf, out))
+        with self._use() as h:
+            _check(lib.envl_sh_eval_irradiance(h, n, buf, out))
         return _rows(out, n, 3)

@@ -175,6 +175,7 @@ class PrefilterOptions(Structure):
         ("irradiance_order", c_int32),
         ("threads", c_int32),
         ("sun_lights", c_int32),
+        ("half", c_int32),
     ]
 
 
@@ -247,6 +248,8 @@ class ProductsSummary(Structure):
         ("seconds_irradiance", c_double),
         ("seconds_lights", c_double),
         ("seconds_brdf", c_double),
+        ("prefiltered_width", c_int32),
+        ("prefiltered_height", c_int32),
     ]
 
 
@@ -418,6 +421,7 @@ FUNCTIONS = {
                                    POINTER(c_int32)]),
     "envl_free": (None, [c_void_p]),
     "envl_file_write_atomic": (_R, [c_char_p, c_void_p, c_size_t]),
+    "envl_outputs_check": (_R, [POINTER(c_char_p), c_int32, POINTER(c_char_p), c_int32]),
     "envl_irradiance_exact": (_R, [_map, c_int32, _pd, _pd]),
     "envl_fibonacci_direction": (None, [c_int32, c_int32, _pd]),
     "envl_relative_rms_luminance": (c_double, [c_int32, _pd, _pd]),

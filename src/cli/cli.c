@@ -5,6 +5,7 @@
 #include "json.h"
 
 #include <errno.h>
+#include <math.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -237,6 +238,39 @@ int cli_load(const char *file, const cli_common *c, envl_envmap **out)
         fprintf(stderr, "envlight: %s: %d x %d read as layout '%s' (--layout-in to choose)\n",
                 file, info.source_width, info.source_height, envl_layout_name(info.layout));
     return CLI_OK;
+}
+
+int cli_outputs_ok(const char *const *inputs, int n_inputs, const char *const *outputs,
+                   int n_outputs)
+{
+    int n = n_inputs + n_outputs;
+    const char **names = malloc(sizeof *names * (size_t)(n > 0 ? n : 1));
+    if (!names) {
+        cli_error("out of memory");
+        return CLI_FAIL;
+    }
+    for (int i = 0; i < n; i++) {
+        const char *s = i < n_inputs ? inputs[i] : outputs[i - n_inputs];
+        names[i] = s && strcmp(s, "-") ? s : NULL;
+    }
+    envl_result rc = envl_outputs_check(names, n_inputs, names + n_inputs, n_outputs);
+    free(names);
+    return rc ? cli_fail() : CLI_OK;
+}
+
+void cli_half_warning(const char *what, const float *v, size_t n, int quiet)
+{
+    size_t over = 0;
+    double largest = 0;
+    for (size_t i = 0; v && i < n; i++)
+        if (fabs(v[i]) > ENVL_HALF_MAX) {
+            over++;
+            largest = fmax(largest, fabs(v[i]));
+        }
+    if (over && !quiet)
+        cli_error("warning: %s: %zu values above %g (the largest half float) written as %g: the "
+                  "largest was %g (%.1f %% lower)", what, over, ENVL_HALF_MAX, ENVL_HALF_MAX,
+                  largest, 100 * (1 - ENVL_HALF_MAX / largest));
 }
 
 int cli_output_open(cli_output *o, const char *path)

@@ -115,6 +115,17 @@ int cli_interrupted(void);
  * needs no note), 0 if it was a real guess (a square image, or an unusual aspect). */
 int cli_layout_evident(const envl_info *in);
 
+/* No output replaces an input or another output (envl_outputs_check; "-" and NULL, stdin's
+ * sky and stdout, are skipped): CLI_OK, else the message and CLI_FAIL. Called before the map
+ * is read, so a refused run computes nothing. */
+int cli_outputs_ok(const char *const *inputs, int n_inputs, const char *const *outputs,
+                   int n_outputs);
+
+/* A file of IEEE half floats holds at most ENVL_HALF_MAX: unless quiet, says on stderr how
+ * many of the n values (RGB floats) of `what` go above it, and the largest (how much lower it
+ * is written). */
+void cli_half_warning(const char *what, const float *v, size_t n, int quiet);
+
 /* Output: a memory stream whose contents are written atomically to `path`, or stdout when
  * path is NULL or "-". */
 typedef struct cli_output {

@@ -98,7 +98,7 @@ int cli_gltf(int argc, char **argv)
                             .lights = &lo, .samples = samples, .measure = !no_error,
                             .threads = c.load.threads};
     envl_envmap *map;
-    if (cli_load(file, &c, &map))
+    if (cli_outputs_ok(&file, 1, &out, 1) || cli_load(file, &c, &map))
         return CLI_FAIL;
     envl_gltf_summary s;
     int rc = CLI_OK;

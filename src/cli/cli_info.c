@@ -159,7 +159,7 @@ int cli_convert(int argc, char **argv)
     if (!in || !out)
         return cli_usage("convert", "needs IN and OUT");
     envl_envmap *map;
-    if (cli_load(in, &c, &map))
+    if (cli_outputs_ok(&in, 1, &out, 1) || cli_load(in, &c, &map))
         return CLI_FAIL;
     /* progress (on a terminal): the library reports reading and resampling, this the writing */
     char stage[80];
@@ -167,6 +167,10 @@ int cli_convert(int argc, char **argv)
     envl_result rc = ENVL_OK;
     int cancelled = 0; /* the display's cancel before writing: nothing written */
     if (layout_out == ENVL_LAYOUT_LATLONG && !size) {
+        if (so.pixel_type == ENVL_PIXEL_HALF)
+            cli_half_warning(out, envl_envmap_pixels(map),
+                             3 * (size_t)envl_envmap_width(map) * envl_envmap_height(map),
+                             c.quiet);
         if (!(cancelled = cli_progress(0.0, stage)))
             rc = envl_envmap_save(map, out, &so);
     } else {
@@ -180,6 +184,8 @@ int cli_convert(int argc, char **argv)
         if (layout_out == ENVL_LAYOUT_EXR_LATLONG || layout_out == ENVL_LAYOUT_EXR_CUBE)
             so.envmap = layout_out;
         rc = envl_envmap_to_layout(map, layout_out, (int32_t)size, &px, &w, &h);
+        if (rc == ENVL_OK && so.pixel_type == ENVL_PIXEL_HALF)
+            cli_half_warning(out, px, 3 * (size_t)w * h, c.quiet);
         if (rc == ENVL_OK && !(cancelled = cli_progress(0.0, stage)))
             rc = envl_image_save(out, px, w, h, &so);
         envl_free(px);

@@ -168,8 +168,9 @@ int cli_lights(int argc, char **argv)
                               .skip_residual = !residual}; /* kept only to be saved */
     if (!cli_light_count_ok("lights", &lo)) /* once every option is read: any order */
         return CLI_USAGE;
+    const char *outputs[2] = {out, residual};
     envl_envmap *map;
-    if (cli_load(file, &c, &map))
+    if (cli_outputs_ok(&file, 1, outputs, 2) || cli_load(file, &c, &map))
         return CLI_FAIL;
     envl_lights *ls;
     if (envl_lights_compute(map, &lo, &ls)) {

@@ -181,6 +181,10 @@ int cli_pov(int argc, char **argv)
         return rc == CLI_HELP ? CLI_OK : rc;
     if ((rc = pov_usage_checks(&a)) != CLI_OK)
         return rc;
+    /* the library checks the sky image it names itself (envl_pov_include_write) */
+    const char *inputs[2] = {a.file, a.o.scene_path}, *outputs[2] = {a.out, a.o.sky_image};
+    if (cli_outputs_ok(inputs, 2, outputs, 2))
+        return CLI_FAIL;
     char *command = pov_command(argc, argv);
     if (!command) {
         cli_error("pov: out of memory");

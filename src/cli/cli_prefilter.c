@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 static const cli_command prefilter_command = {
     "prefilter",
@@ -108,6 +109,47 @@ static int ktx2_levels_fit(const char *format, int32_t face, int32_t levels)
               "%d-texel cube faces (at most %d: log2(%d) + 1); give --levels %d or less, or a "
               "larger --size", format, (int)levels, (int)face, (int)most, (int)face, (int)most);
     return 1;
+}
+
+/* A map too coarse for the GGX sums was prefiltered from a finer copy: say so. */
+static void coarse_note(const envl_envmap *map, const envl_products *p, int quiet)
+{
+    envl_products_summary s;
+    envl_products_get_summary(p, &s);
+    int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
+    if (quiet || (s.prefiltered_width == w && s.prefiltered_height == h))
+        return;
+    envl_info info;
+    envl_envmap_info(map, &info);
+    char how[96];
+    if (s.prefiltered_width % w == 0 && s.prefiltered_height % h == 0)
+        snprintf(how, sizeof how, "each pixel split into %d x %d, the same map",
+                 (int)(s.prefiltered_width / w), (int)(s.prefiltered_height / h));
+    else
+        snprintf(how, sizeof how, "area-resampled");
+    cli_error("%s: %d x %d pixels are too coarse for the GGX levels, which sum each pixel at "
+              "its centre: prefiltered from a %d x %d copy (%s)", info.file, (int)w, (int)h,
+              (int)s.prefiltered_width, (int)s.prefiltered_height, how);
+}
+
+/* Half floats (ktx2): the values each map loses above ENVL_HALF_MAX, on stderr. */
+static void half_warnings(const envl_envmap *map, const envl_products *p, int quiet)
+{
+    envl_info info;
+    envl_envmap_info(map, &info);
+    char what[1200];
+    envl_irradiance_map irr;
+    if (envl_products_irradiance(p, &irr) == ENVL_OK) {
+        snprintf(what, sizeof what, "%s: the irradiance map", info.file);
+        cli_half_warning(what, irr.rgb, 3 * (size_t)irr.width * irr.height, quiet);
+    }
+    for (int32_t i = 0; i < envl_products_level_count(p); i++) {
+        envl_level l;
+        envl_products_level(p, i, &l);
+        snprintf(what, sizeof what, "%s: specular level %d (r %.3f)", info.file, (int)i,
+                 l.roughness);
+        cli_half_warning(what, l.rgb, 3 * (size_t)l.width * l.height, quiet);
+    }
 }
 
 /* The table of what was written: the products, their errors and seconds. */
@@ -283,6 +325,7 @@ int cli_prefilter(int argc, char **argv)
                           eo.layout == ENVL_EXPORT_ATLAS);
     q.brdf.threads = c.load.threads;
     q.measure = measure;
+    q.prefilter.half = eo.format && !strcmp(eo.format, "ktx2"); /* measured as written */
 
     envl_envmap *map;
     if (cli_load(file, &c, &map)) {
@@ -296,13 +339,19 @@ int cli_prefilter(int argc, char **argv)
         rc = cli_fail();
         goto done;
     }
-    if (mkdir(dir, 0777) != 0 && errno != EEXIST) {
+    coarse_note(map, p, c.quiet);
+    if (q.prefilter.half)
+        half_warnings(map, p, c.quiet);
+    int created = mkdir(dir, 0777) == 0; /* a folder this run made goes if it fails */
+    if (!created && errno != EEXIST) {
         cli_error("%s: cannot create the directory: %s", dir, strerror(errno));
         rc = CLI_FAIL;
         goto done;
     }
     if (envl_products_export(p, dir, &eo)) {
         rc = cli_fail();
+        if (created)
+            rmdir(dir); /* empty: the export removed its temporaries */
         goto done;
     }
     if (json) {

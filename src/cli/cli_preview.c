@@ -83,7 +83,7 @@ int cli_preview(int argc, char **argv)
     if (!out || !strcmp(out, "-"))
         return cli_usage("preview", "-o OUT.png is required");
     envl_envmap *map;
-    if (cli_load(file, &c, &map))
+    if (cli_outputs_ok(&file, 1, &out, 1) || cli_load(file, &c, &map))
         return CLI_FAIL;
     po.title = file && strcmp(file, "-") ? file : "built-in sky";
     int32_t w = 0, h = 0;

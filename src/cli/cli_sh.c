@@ -101,7 +101,7 @@ int cli_sh(int argc, char **argv)
     envl_sh_options so = {.order = order ? order : ENVL_ORDER_0, .window = window,
                           .measure = !no_error};
     envl_envmap *map;
-    if (cli_load(file, &c, &map))
+    if (cli_outputs_ok(&file, 1, &out, 1) || cli_load(file, &c, &map))
         return CLI_FAIL;
     envl_sh *sh;
     if (envl_sh_compute(map, &so, &sh)) {

@@ -4,6 +4,7 @@
 
 #include "envlight.h"
 
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -97,9 +98,24 @@ envl_result envl__write_exr(const char *path, const float *rgb, int32_t w, int32
                             int32_t pixel_type, int32_t envmap);
 envl_result envl__write_pfm(const char *path, const float *rgb, int32_t w, int32_t h);
 
+/* ---- file names (paths.c) ---- */
+/* `name` made absolute, the symbolic links of the part that exists resolved, ".", ".." and
+ * repeated slashes of the rest taken out (malloc'd; NULL when out of memory). */
+char *envl__normalised_path(const char *name);
+/* The path of `to` relative to the folder `from`, both normalised ("../x/y.hdr"; "." for the
+ * folder itself). malloc'd; NULL when out of memory. */
+char *envl__relative_path(const char *from, const char *to);
+
 /* ---- files (io.c) ---- */
 /* Reads a whole regular file (refuses directories, larger than max_bytes). Caller frees. */
 envl_result envl__read_file(const char *path, size_t max_bytes, uint8_t **data, size_t *size);
+/* Every temporary file of the writers is DIR/.envl-PID-..., PID the writing process's. */
+#define ENVL__TEMP_PREFIX ".envl-"
+/* Removes the temporaries in `dir` (NULL or "": the working folder) that processes which are
+ * gone left behind (a SIGKILL): this user's regular files named .envl-PID-..., PID not this
+ * process's and either not running on this host or unchanged for a day (io.c). Best effort:
+ * nothing is reported. Called by every writer before it writes into a folder. */
+void envl__remove_stale_temporaries(const char *dir);
 /* Atomic replace: *tmp_path gets a fresh unique name in path's directory (caller frees). */
 envl_result envl__atomic_begin(const char *path, char **tmp_path);
 /* Renames tmp over path (on failure removes tmp). `ok` false: just removes tmp. */
@@ -183,6 +199,12 @@ int32_t envl__threads(int32_t requested);
 void envl__light_set_angle(envl_light *l);
 
 /* ---- envmap (envmap.c) ---- */
+/* The file the map was read from (envl_envmap_load), in full; NULL for the sky and pixels from
+ * memory. */
+const char *envl__envmap_source(const envl_envmap *m);
+/* envl_outputs_check of `outputs` against the map's file and `other_input` (may be NULL). */
+envl_result envl__outputs_of_map(const envl_envmap *m, const char *other_input,
+                                 const char *const *outputs, int32_t n_outputs);
 /* Takes ownership of img (img->px is moved). */
 envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *options,
                                     const char *file, envl_envmap **out);
@@ -198,5 +220,16 @@ envl_result envl__sh_rotate(int32_t order, const double R[9], int32_t channels, 
 /* Reports fraction (0..1) and stage to the calling thread's progress callback; its cancel as
  * ENVL_ERR_CANCELLED (progress.c). */
 envl_result envl__progress(double fraction, const char *stage);
+/* Inside a step's long loop: the last step reported again, at most every 0.1 s, so that a
+ * cancel is seen within that (ENVL_ERR_CANCELLED); ENVL_OK without a callback (every worker
+ * thread: the callback is the calling thread's). */
+envl_result envl__progress_poll(void);
+/* A cancel shared by the threads of one parallel loop, zero-initialised: each item calls
+ * envl__cancel_check, 1 (stop) once the caller's thread has seen a cancel in its poll; the
+ * loop's caller then returns ENVL_ERR_CANCELLED (the message is its thread's). */
+typedef struct envl_cancel {
+    atomic_int stop;
+} envl_cancel;
+int envl__cancel_check(envl_cancel *c);
 
 #endif

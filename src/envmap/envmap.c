@@ -268,6 +268,8 @@ envl_result envl_envmap_load(const char *path, const envl_load_options *options,
         return rc;
     }
     rc = envl__envmap_from_image(&img, options, path, out);
+    if (!rc && !((*out)->source_path = strdup(path)))
+        rc = envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", path);
     if (!rc && (rc = envl__progress(1.0, "done"))) {
         envl_envmap_free(*out);
         *out = NULL;
@@ -323,6 +325,7 @@ void envl_envmap_free(envl_envmap *m)
     if (!m)
         return;
     free(m->px);
+    free(m->source_path);
     free(m->row_omega);
     free(m->row_cos);
     free(m->row_sin);
@@ -333,6 +336,7 @@ void envl_envmap_free(envl_envmap *m)
     free(m->region_table);
     free(m->mip_px);
     free(m->cells);
+    envl_envmap_free(m->points_copy);
     free(m);
 }
 
@@ -382,12 +386,80 @@ void envl_envmap_direction(const envl_envmap *m, int32_t c, int32_t r, double d[
     d[2] = m->row_sin[r];
 }
 
+/* ---- maps too coarse for the GGX sums (envmap_impl.h) ---- */
+
+static int too_coarse(int32_t w, int32_t h)
+{
+    return w < 16 || h < 8 || w < h || w > 4 * (int64_t)h;
+}
+
+envl_result envl__points_copy(const envl_envmap *m, envl_envmap **copy)
+{
+    *copy = NULL;
+    int32_t w = m->width, h = m->height;
+    if (!too_coarse(w, h))
+        return ENVL_OK;
+    /* each pixel split into k x j: at least 64 x 32, pixels within [1/2, 2] in aspect */
+    int64_t k = (64 + w - 1) / w, j = (32 + h - 1) / h;
+    if (w * k < h * j)
+        k = (h * j + w - 1) / w;
+    if (w * k > 4 * h * j)
+        j = (w * k + 4 * (int64_t)h - 1) / (4 * (int64_t)h);
+    int64_t cw = w * k, ch = h * j;
+    if (cw * ch > 1024 * 512) /* too many: area-resampled (a mean of rows or columns) */
+        cw = 1024, ch = 512;
+    /* rows and columns apart (area weights separate), the pass that leaves fewer pixels first:
+     * one pass would resample every one of 16384 rows of a 1 x 16384 map to the full width */
+    int rows_first = (int64_t)w * ch <= cw * (int64_t)h;
+    int32_t mw = rows_first ? w : (int32_t)cw, mh = rows_first ? (int32_t)ch : h;
+    float *mid, *px = NULL;
+    envl_result rc = envl__latlong_resample(m->px, w, h, mw, mh, 0.0, &mid);
+    if (!rc)
+        rc = envl__latlong_resample(mid, mw, mh, (int32_t)cw, (int32_t)ch, 0.0, &px);
+    free(mid);
+    if (rc)
+        return rc;
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads};
+    rc = envl_envmap_from_pixels(px, (int32_t)cw, (int32_t)ch, 3, &lo, copy);
+    free(px);
+    if (!rc) /* messages about the copy name the map */
+        memcpy((*copy)->info.file, m->info.file, sizeof m->info.file);
+    return rc;
+}
+
+envl_result envl__points_map(envl_envmap *m, envl_envmap **out)
+{
+    *out = m;
+    if (!too_coarse(m->width, m->height))
+        return ENVL_OK;
+    if (!m->points_copy) {
+        envl_result rc = envl__points_copy(m, &m->points_copy);
+        if (rc)
+            return rc;
+    }
+    *out = m->points_copy;
+    return ENVL_OK;
+}
+
+const char *envl__envmap_source(const envl_envmap *m)
+{
+    return m->source_path;
+}
+
+envl_result envl__outputs_of_map(const envl_envmap *m, const char *other_input,
+                                 const char *const *outputs, int32_t n_outputs)
+{
+    const char *inputs[2] = {m->source_path, other_input};
+    return envl_outputs_check(inputs, 2, outputs, n_outputs);
+}
+
 envl_result envl_envmap_save(const envl_envmap *m, const char *path,
                              const envl_save_options *options)
 {
     if (!m)
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_save: map is NULL");
-    return envl_image_save(path, m->px, m->width, m->height, options);
+    envl_result rc = envl__outputs_of_map(m, NULL, &path, 1);
+    return rc ? rc : envl_image_save(path, m->px, m->width, m->height, options);
 }
 
 envl_result envl_envmap_to_layout(const envl_envmap *m, int32_t layout, int32_t size,

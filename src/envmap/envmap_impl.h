@@ -13,6 +13,9 @@ struct envl_envmap {
     double *col_cos;      /* cos(phi) at each column's centre */
     double *col_sin;      /* sin(phi) */
     envl_info info;
+    char *source_path;    /* the file it was read from (envl_envmap_load), in full; NULL for the
+                             sky and pixels from memory: an input no output may replace
+                             (envl_outputs_check) */
     int32_t apply_exposure; /* the load option apply_exposure was given: the pixels may be the
                                file's divided by its EXPOSURE (the POV-Ray include then does
                                not name the file as its sky) */
@@ -29,7 +32,21 @@ struct envl_envmap {
     size_t mip_offset[40];
     /* cells.c: the cached cell pyramid of the specular levels (one malloc'd block) or NULL */
     void *cells;
+    /* envl__points_map: the finer copy a map too coarse for the GGX sums is split into, or
+     * NULL (none made yet, or none needed) */
+    struct envl_envmap *points_copy;
 };
+
+/* The GGX sums (the levels' cell pyramid, the glossy reference) take each pixel as a point at
+ * its centre. A map whose pixels are too coarse for that (fewer than 16 columns or 8 rows, or
+ * pixels more than twice as wide as tall or as tall as wide: a map one pixel wide puts every
+ * point on one meridian) is prefiltered from a copy with each pixel split evenly into k x j
+ * pixels (the same function) of at least 64 x 32 with pixels within that aspect; a copy that
+ * would exceed 1024 x 512 pixels is the map area-resampled to 1024 x 512 instead.
+ * envl__points_copy: *copy NULL when m is fine as it is, else that copy (the caller frees it);
+ * envl__points_map: m itself or the copy, cached on m (envl_envmap_drop_mips frees it). */
+envl_result envl__points_copy(const envl_envmap *m, envl_envmap **copy);
+envl_result envl__points_map(envl_envmap *m, envl_envmap **out);
 
 /* ---- the lights' region table (region_table.c): sums over pixel rectangles ---- */
 #define ENVL_TABLE_BLOCK 32 /* columns per block of the table */

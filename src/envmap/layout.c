@@ -773,25 +773,33 @@ envl_result envl__latlong_to_layout(const envl_image *latlong, int32_t layout, i
         return rc;
     if (!out || size <= 0)
         return envl__fail(ENVL_ERR_ARGUMENT, "layout conversion: bad size %d", (int)size);
-    int32_t w, h;
+    /* the sides in 64 bits: 6 x size does not fit 32 */
+    int64_t s = size, w64, h64;
     switch (layout) {
     case ENVL_LAYOUT_LATLONG:
-    case ENVL_LAYOUT_EXR_LATLONG: w = size, h = size / 2 > 0 ? size / 2 : 1; break;
+    case ENVL_LAYOUT_EXR_LATLONG: w64 = s, h64 = s / 2 > 0 ? s / 2 : 1; break;
     case ENVL_LAYOUT_ANGULAR:
-    case ENVL_LAYOUT_MIRRORBALL: w = h = size; break;
-    case ENVL_LAYOUT_CROSS_V: w = 3 * size, h = 4 * size; break;
-    case ENVL_LAYOUT_CROSS_H: w = 4 * size, h = 3 * size; break;
+    case ENVL_LAYOUT_MIRRORBALL: w64 = h64 = s; break;
+    case ENVL_LAYOUT_CROSS_V: w64 = 3 * s, h64 = 4 * s; break;
+    case ENVL_LAYOUT_CROSS_H: w64 = 4 * s, h64 = 3 * s; break;
     case ENVL_LAYOUT_STRIP_H:
-    case ENVL__LAYOUT_GL_STRIP: w = 6 * size, h = size; break;
+    case ENVL__LAYOUT_GL_STRIP: w64 = 6 * s, h64 = s; break;
     case ENVL_LAYOUT_STRIP_V:
-    case ENVL_LAYOUT_EXR_CUBE: w = size, h = 6 * size; break;
+    case ENVL_LAYOUT_EXR_CUBE: w64 = s, h64 = 6 * s; break;
     default:
         return envl__fail(ENVL_ERR_ARGUMENT, "layout conversion: unknown layout %d",
                           (int)layout);
     }
-    if ((int64_t)w * h > ENVL_DEFAULT_MAX_PIXELS || w <= 0 || h <= 0)
-        return envl__fail(ENVL_ERR_LIMIT, "layout conversion: %s of size %d is too large",
-                          envl_layout_name(layout), (int)size);
+    const char *name = layout == ENVL__LAYOUT_GL_STRIP ? "cube faces" : envl_layout_name(layout);
+    if (w64 > INT32_MAX || h64 > INT32_MAX)
+        return envl__fail(ENVL_ERR_ARGUMENT, "layout conversion: %s of size %d would be %lld x "
+                          "%lld pixels: a side does not fit 32 bits", name, (int)size,
+                          (long long)w64, (long long)h64);
+    if (w64 * h64 > ENVL_DEFAULT_MAX_PIXELS)
+        return envl__fail(ENVL_ERR_LIMIT, "layout conversion: %s of size %d would be %lld x "
+                          "%lld pixels: more than the limit of %lld", name, (int)size,
+                          (long long)w64, (long long)h64, (long long)ENVL_DEFAULT_MAX_PIXELS);
+    int32_t w = (int32_t)w64, h = (int32_t)h64;
     if (layout == ENVL_LAYOUT_LATLONG) {
         float *px = NULL;
         rc = envl__latlong_resample(latlong->px, latlong->width, latlong->height, w, h, 0.0,

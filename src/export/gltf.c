@@ -251,17 +251,20 @@ static void write_image_based(json_writer *j, const ibl *b)
     json_object_end(j);
 }
 
-/* The scene (its image-based light) and one node per punctual light. */
+/* The scene (its image-based light) and one node per punctual light. Without a light the
+ * scene has no "nodes" (optional in glTF 2.0; an empty array is an error: EMPTY_ENTITY). */
 static void write_scene(json_writer *j, const envl_lights *ls, int32_t nl)
 {
     json_int(j, "scene", 0);
     json_array(j, "scenes");
     json_object(j, NULL);
     json_string(j, "name", "envlight");
-    json_array(j, "nodes");
-    for (int32_t i = 0; i < nl; i++)
-        json_int(j, NULL, i);
-    json_array_end(j);
+    if (nl) {
+        json_array(j, "nodes");
+        for (int32_t i = 0; i < nl; i++)
+            json_int(j, NULL, i);
+        json_array_end(j);
+    }
     json_object(j, "extensions");
     json_object(j, "EXT_lights_image_based");
     json_int(j, "light", 0);
@@ -491,6 +494,8 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
     if (!map)
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_gltf_export: NULL map");
     envl_result rc = check_options(path, o, &glb, &face, &mips);
+    if (!rc) /* the map's file is not replaced */
+        rc = envl__outputs_of_map(map, NULL, &path, 1);
     if (rc)
         return rc;
     double t0 = envl__seconds();

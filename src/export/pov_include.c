@@ -344,9 +344,45 @@ static int ends_with(const char *s, const char *suffix)
     return a >= b && !strcmp(s + a - b, suffix);
 }
 
+static int ascii(const char *s)
+{
+    for (; *s; s++)
+        if ((unsigned char)*s >= 0x80)
+            return 0;
+    return 1;
+}
+
+/* POV-Ray 3.7 opens no file name with a byte outside ASCII (tried with Debian's 3.7.0.10: an
+ * image or #include named by an absolute or a relative path, or found through +L, fails; an
+ * ASCII name relative to a working folder with such bytes opens). The name of `file` as the
+ * include can give it: absolute when that is ASCII, else relative to the include's folder
+ * (*relative set: the scene is rendered from there) when that is; NULL when neither is. */
+static char *pov_name(const char *file, const char *include_path, int *relative)
+{
+    *relative = 0;
+    char *abs = envl__normalised_path(file);
+    if (!abs || ascii(abs))
+        return abs;
+    char *dir = envl__normalised_path(include_path ? include_path : ".");
+    if (dir && include_path) {
+        char *slash = strrchr(dir, '/');
+        slash[slash == dir ? 1 : 0] = '\0'; /* the include's folder */
+    }
+    char *rel = dir ? envl__relative_path(dir, abs) : NULL;
+    free(dir);
+    free(abs);
+    if (rel && ascii(rel)) {
+        *relative = 1;
+        return rel;
+    }
+    free(rel);
+    return NULL;
+}
+
 /* Where the sky image goes: the lat-long .hdr the map was read from, as it is, else the
- * name given, else next to the include. Decided before the computation. */
-static envl_result sky_name(const pov_plan *p, const char *path, pov_work *w)
+ * name given, else next to the include; and its name in the include. Decided before the
+ * computation. */
+static envl_result sky_name(pov_plan *p, const char *path, pov_work *w)
 {
     if (!p->sky)
         return ENVL_OK;
@@ -354,6 +390,8 @@ static envl_result sky_name(const pov_plan *p, const char *path, pov_work *w)
     w->sky_use_input = !p->sky_residual && !p->sky_image && !strcmp(in->format, "hdr") &&
                        in->layout == ENVL_LAYOUT_LATLONG && !w->map->apply_exposure &&
                        strlen(in->file) + 1 < sizeof in->file; /* not truncated */
+    if (w->sky_use_input && path && !(w->sky_pov = pov_name(in->file, path, &w->sky_relative)))
+        w->sky_use_input = 0; /* a name POV-Ray cannot open: a copy next to the include */
     if (w->sky_use_input) {
         w->sky_path = strdup(in->file);
         w->sky_rotate = in->rotate_degrees;
@@ -372,7 +410,18 @@ static envl_result sky_name(const pov_plan *p, const char *path, pov_work *w)
     }
     if (!w->sky_path)
         return out_of_memory();
-    return pov_string_ok(w->sky_path) ? ENVL_OK : bad_name();
+    if (!pov_string_ok(w->sky_path))
+        return bad_name();
+    if (!w->sky_pov && !(w->sky_pov = pov_name(w->sky_path, path, &w->sky_relative)))
+        return envl__fail(ENVL_ERR_ARGUMENT, "pov: the sky image %s: POV-Ray 3.7 cannot open a "
+                          "file name with bytes outside ASCII, and this one has them both as an "
+                          "absolute path and relative to the include's folder (sky_image, "
+                          "--sky-image: give it an ASCII name)", w->sky_path);
+    if (w->sky_relative)
+        warn(p, "pov: warning: POV-Ray 3.7 cannot open a file name with bytes outside ASCII: "
+             "the include names the sky image %s relative to its own folder, as \"%s\": render "
+             "from that folder", w->sky_path, w->sky_pov);
+    return ENVL_OK;
 }
 
 /* Writes the canonical map (rotation applied) or the residual, unless the input is used as
@@ -399,6 +448,19 @@ static envl_result sky_write(const pov_plan *p, pov_work *w)
         free(absolute);
     }
     return ENVL_OK;
+}
+
+/* No output replaces the map's file, the scene or the other output (envl_outputs_check); a
+ * sky image named after the include says so. */
+static envl_result outputs_check(const envl_envmap *map, const envl_pov_options *o,
+                                 const pov_plan *p, const char *path, const pov_work *w)
+{
+    const char *outputs[2] = {path, w->sky_use_input ? NULL : w->sky_path};
+    envl_result r = envl__outputs_of_map(map, o->scene_path, outputs, 1);
+    if (!r && (r = envl__outputs_of_map(map, o->scene_path, outputs, 2)) && !p->sky_image)
+        envl__fail_prefix(r, "pov: the sky image, named after the include (sky_image, "
+                          "--sky-image, names it)");
+    return r;
 }
 
 /* ---- the call ---- */
@@ -446,7 +508,10 @@ static envl_result pov_run(envl_envmap *map, const envl_pov_options *o, const ch
     r = plan_recipe(o, p);
     if (res)
         fill_plan(p, res);
-    if (r || (r = sky_name(p, path, w)) || (r = compute(p, o->threads, w)) || (r = sky_write(p, w)))
+    if (r || (r = sky_name(p, path, w)))
+        return r;
+    if ((r = outputs_check(map, o, p, path, w)) || (r = compute(p, o->threads, w)) ||
+        (r = sky_write(p, w)))
         return r;
     char *text = NULL;
     size_t size = 0;
@@ -492,6 +557,7 @@ envl_result envl_pov_include_write(envl_envmap *map, const envl_pov_options *opt
         free(warnings);
     free(w.emit);
     free(w.sky_path);
+    free(w.sky_pov);
     envl_sh_free(w.sh);
     envl_envmap_free(w.residual);
     envl_envmap_free(w.grounded);

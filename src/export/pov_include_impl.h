@@ -63,6 +63,8 @@ typedef struct pov_work {
     double error, amb_least, exposure_auto, seconds;
     int amb_negative;
     char *sky_path;           /* the sky image, NULL without a sky */
+    char *sky_pov;            /* its name in the include, as POV-Ray 3.7 can open it */
+    int sky_relative;         /* 1: sky_pov is relative to the include's folder (render there) */
     int sky_use_input;        /* 1: the map's own .hdr file is the sky image */
     double sky_rotate;
 } pov_work;

@@ -311,8 +311,11 @@ static void text_include_envlight(FILE *f)
 static void text_tail(FILE *f, const pov_plan *p, const pov_work *w)
 {
     if (p->sky) {
+        if (w->sky_relative)
+            fputs("// POV-Ray 3.7 opens no file name with bytes outside ASCII: the sky image is "
+                  "named\n// relative to this include's folder; render from there\n", f);
         fputs("#declare EnvLight_Sky_File = ", f);
-        pov_string(f, w->sky_path);
+        pov_string(f, w->sky_pov);
         fprintf(f, ";%s\n#declare EnvLight_Sky_Rotate = %.9g;\n",
                 p->sky_residual ? " // the residual: what the lights did not take" : "",
                 w->sky_rotate);

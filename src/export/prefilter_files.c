@@ -69,7 +69,8 @@ static envl_result add_pending(exporter *x, const char *name, char **tmp_out)
         return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
     }
     snprintf(fin, ln, "%s/%s", x->dir, name);
-    snprintf(tmp, ln, "%s/.envl-%ld-%d-%s", x->dir, (long)getpid(), (int)x->n, name);
+    snprintf(tmp, ln, "%s/" ENVL__TEMP_PREFIX "%ld-%d-%s", x->dir, (long)getpid(), (int)x->n,
+             name);
     x->files[x->n].tmp = tmp;
     x->files[x->n].final = fin;
     x->n++;
@@ -126,6 +127,20 @@ static envl_result put_in_place(exporter *x)
     }
     free(old);
     free(state);
+    return rc;
+}
+
+/* No file of the set replaces the map's file (envl_outputs_check). */
+static envl_result outputs_check(const exporter *x, const envl_products *p)
+{
+    const char **finals = malloc(sizeof *finals * (size_t)(x->n > 0 ? x->n : 1));
+    if (!finals)
+        return envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    for (int32_t i = 0; i < x->n; i++)
+        finals[i] = x->files[i].final;
+    const char *input = p->source_path;
+    envl_result rc = envl_outputs_check(&input, 1, finals, x->n);
+    free(finals);
     return rc;
 }
 
@@ -462,6 +477,26 @@ static envl_result check_export(const envl_products *p, const char *dir,
     return ENVL_OK;
 }
 
+/* What the stated errors are of: the values as this format holds them, or as computed. */
+static const char *errors_of(const envl_products *p, const char *fmt, int rgbm, int32_t vk)
+{
+    int half = vk == ENVL__VK_FORMAT_R16G16B16A16_SFLOAT;
+    if (half && p->opt.half)
+        return "the maps as written: rounded to half floats, values above 65504 written as "
+               "65504";
+    if (half)
+        return "the maps in 32-bit floats, before their rounding to half floats "
+               "(envl_prefilter_options.half measures them as written)";
+    if (p->opt.half)
+        return "the maps rounded to half floats (envl_prefilter_options.half), not as written "
+               "here: 32-bit floats";
+    if (rgbm)
+        return "the maps in 32-bit floats, before RGBM's 8 bits";
+    if (!strcmp(fmt, "hdr"))
+        return "the maps in 32-bit floats, before RGBE's 8-bit mantissas";
+    return "the maps as written: 32-bit floats";
+}
+
 /* The sidecar's conventions: frame, lat-long formula, format and layout, KTX2, cube faces,
  * RGBM, GGX and the roughness mapping, sun lights. */
 static void write_conventions(json_writer *j, const envl_products *p,
@@ -485,6 +520,7 @@ static void write_conventions(json_writer *j, const envl_products *p,
     json_string(j, "units", "radiance as in the source (irradiance map: irradiance)");
     /* false: every error below is null (--no-error) */
     json_bool(j, "errors_measured", p->measured);
+    json_string(j, "errors_of", errors_of(p, fmt, rgbm, vk));
     if (vk) {
         json_object(j, "ktx2");
         json_int(j, "vk_format", vk);
@@ -577,6 +613,7 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
         return rc;
     exporter x = {.dir = dir, .format = rgbm ? "png" : vk ? "ktx2" : fmt, .rgbm = rgbm,
                   .vk_format = vk};
+    envl__remove_stale_temporaries(dir);
     x.json = open_memstream(&x.json_buf, &x.json_size);
     if (!x.json)
         return envl__fail(ENVL_ERR_MEMORY, "export: cannot buffer the sidecar");
@@ -650,6 +687,7 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
     }
     free(x.json_buf);
     rc = rc ? rc : envl__progress(1.0, "done");
+    rc = rc ? rc : outputs_check(&x, p);
     rc = rc ? rc : put_in_place(&x);
     for (int32_t i = 0; i < x.n; i++) {
         if (rc)

@@ -1129,10 +1129,14 @@ envl_result envl_preview_write(envl_envmap *map, const envl_preview_options *opt
     if (!options_ok(o))
         return envl__fail(ENVL_ERR_ARGUMENT, "preview: an option is out of range "
                           "(envlight.h, envl_preview_options)");
+    /* the map's file is not replaced */
+    envl_result rc = envl__outputs_of_map(map, NULL, &path, 1);
+    if (rc)
+        return rc;
     preview_data d;
     float *rgb = NULL;
     int32_t w = 0, h = 0;
-    envl_result rc = preview_compute(map, o, notes, &d);
+    rc = preview_compute(map, o, notes, &d);
     if (!rc)
         rc = preview_compose(map, o, &d, &rgb, &w, &h);
     if (!rc)

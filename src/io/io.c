@@ -5,7 +5,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <dirent.h>
+#include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 /* Fault injection (internal.h): one thread-local increment and compare per write step. */
@@ -58,15 +62,61 @@ envl_result envl__read_file(const char *path, size_t max_bytes, uint8_t **data, 
     return ENVL_OK;
 }
 
+/* ---- temporaries: DIR/.envl-PID-REST, PID the writing process ---- */
+
+/* A temporary is stale when its process is gone: this host has no such PID, or (the PID
+ * reused since, or a process of another host sharing the folder) it has not changed for a day.
+ * Only this user's regular files are touched, never this process's own. */
+#define STALE_SECONDS (24 * 3600.0)
+
+static int stale_temporary(int dirfd, const char *name, time_t now)
+{
+    if (strncmp(name, ENVL__TEMP_PREFIX, strlen(ENVL__TEMP_PREFIX)))
+        return 0;
+    const char *digits = name + strlen(ENVL__TEMP_PREFIX);
+    char *end;
+    errno = 0;
+    long long pid = strtoll(digits, &end, 10);
+    if (end == digits || *end != '-' || errno || pid <= 0 || pid > INT32_MAX ||
+        pid == (long long)getpid())
+        return 0;
+    struct stat st;
+    if (fstatat(dirfd, name, &st, AT_SYMLINK_NOFOLLOW) != 0 || !S_ISREG(st.st_mode) ||
+        st.st_uid != geteuid())
+        return 0;
+    if (kill((pid_t)pid, 0) != 0 && errno == ESRCH)
+        return 1;
+    return difftime(now, st.st_mtime) > STALE_SECONDS;
+}
+
+void envl__remove_stale_temporaries(const char *dir)
+{
+    DIR *d = opendir(dir && *dir ? dir : ".");
+    if (!d)
+        return;
+    time_t now = time(NULL);
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (stale_temporary(dirfd(d), e->d_name, now))
+            unlinkat(dirfd(d), e->d_name, 0);
+    closedir(d);
+}
+
 envl_result envl__atomic_begin(const char *path, char **tmp_path)
 {
     *tmp_path = NULL;
-    size_t n = strlen(path);
-    char *tmp = malloc(n + 16);
+    /* Same directory as the target, so rename() is atomic: DIR/.envl-PID-NAME.tmp-XXXXXX, the
+     * name cut to 100 bytes (a long target name stays within NAME_MAX) */
+    const char *slash = strrchr(path, '/');
+    int dir_len = slash ? (int)(slash - path + 1) : 0;
+    size_t n = strlen(path) + 64;
+    char *tmp = malloc(n);
     if (!tmp)
         return envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", path);
-    /* Same directory as the target, so rename() is atomic. Hidden-ish suffix. */
-    snprintf(tmp, n + 16, "%s.tmp-XXXXXX", path);
+    snprintf(tmp, n, "%.*s", dir_len > 1 ? dir_len - 1 : dir_len, path);
+    envl__remove_stale_temporaries(dir_len ? tmp : ".");
+    snprintf(tmp, n, "%.*s%s%ld-%.100s.tmp-XXXXXX", dir_len, path, ENVL__TEMP_PREFIX,
+             (long)getpid(), path + dir_len);
     int fd = envl__io_fault() ? -1 : mkstemp(tmp);
     if (fd < 0) {
         envl_result rc = envl__fail(ENVL_ERR_IO, "%s: cannot create a file there: %s", path,

@@ -84,6 +84,14 @@ static int32_t level_size(int32_t size, int32_t k)
     return s > 0 ? s : 1;
 }
 
+float *envl__half_rounded(const float *v, size_t n)
+{
+    float *out = malloc(sizeof(float) * (n ? n : 1));
+    for (size_t i = 0; out && i < n; i++)
+        out[i] = envl__float_from_half(envl__half_from_float(v[i]));
+    return out;
+}
+
 /* One float as stored: finite, clamped as the header says; counted in rep. */
 static void put_value(uint8_t *p, float v, int half, envl__ktx2_report *rep)
 {

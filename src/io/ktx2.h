@@ -15,6 +15,9 @@
 uint16_t envl__half_from_float(float f);
 /* binary16 to binary32 (exact). */
 float envl__float_from_half(uint16_t h);
+/* A copy of n floats each rounded to binary16 and back, as a half-float file holds them
+ * (envl__half_from_float: clamped at +-65504); NULL when out of memory. */
+float *envl__half_rounded(const float *v, size_t n);
 
 /* What to write. Level k (0 = the largest) has faces of max(1, size >> k) texels square;
  * rgb[k] holds its `faces` images one after another, each rows of 3 floats from the top row

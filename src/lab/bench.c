@@ -863,6 +863,8 @@ int cli_bench(int argc, char **argv)
             fprintf(stderr, "envlight bench: %s absent: the built-in sky only\n", dir);
         }
     }
+    if (cli_outputs_ok(files, nfiles, &csv_path, 1))
+        return CLI_FAIL;
     if (!only)
         only = TABLES | SPEED | LOAD | MEMORY;
     progress.total = ((only & TABLES) ? nfiles * map_cases(&o) : 0) +

@@ -335,6 +335,7 @@ typedef struct quad_job {
     int32_t w, h;             /* the level */
     float *out;
     int64_t *terms;           /* cells summed, per output row */
+    envl_cancel cancel;       /* a cancel seen between rows or directions */
 } quad_job;
 
 typedef struct texel {
@@ -411,7 +412,7 @@ static void cut_at(const quad_job *J, const double R[3], float out[3], int64_t *
 static void quad_rows(void *ctx, int64_t begin, int64_t end)
 {
     quad_job *J = ctx;
-    for (int64_t r = begin; r < end; r++) {
+    for (int64_t r = begin; r < end && !envl__cancel_check(&J->cancel); r++) {
         double latR = ENVL_PI * (0.5 - (r + 0.5) / J->h), sR = sin(latR), cR = cos(latR);
         int64_t terms = 0;
         for (int32_t col = 0; col < J->w; col++) {
@@ -484,6 +485,10 @@ envl_result envl__cells_level(const envl_cells *C, double alpha, double rho, int
     if (!J.terms)
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
     envl__parallel_for(h, threads, quad_rows, &J);
+    if (atomic_load(&J.cancel.stop)) {
+        free(J.terms);
+        return ENVL_ERR_CANCELLED; /* the message: envl__progress_poll's */
+    }
     double t = 0;
     for (int32_t r = 0; r < h; r++)
         t += (double)J.terms[r];
@@ -501,7 +506,7 @@ typedef struct dirs_job {
 static void dirs_range(void *ctx, int64_t begin, int64_t end)
 {
     dirs_job *d = ctx;
-    for (int64_t i = begin; i < end; i++) {
+    for (int64_t i = begin; i < end && !envl__cancel_check(&d->J.cancel); i++) {
         float o[3];
         int64_t terms = 0;
         cut_at(&d->J, d->dirs + 3 * i, o, &terms);
@@ -516,7 +521,8 @@ envl_result envl__cells_at(const envl_cells *C, const cut_accuracy *a, double al
     dirs_job d = {.dirs = dirs, .out = out};
     quad_setup(&d.J, C, a, alpha);
     envl__parallel_for(count, threads, dirs_range, &d);
-    return ENVL_OK;
+    /* the message of a cancel: envl__progress_poll's */
+    return atomic_load(&d.J.cancel.stop) ? ENVL_ERR_CANCELLED : ENVL_OK;
 }
 
 void envl__cells_energy(const envl_cells *C, double e[3])

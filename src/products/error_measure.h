@@ -26,7 +26,12 @@ envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const dou
 envl_result envl__sh_measure(envl_envmap *m, envl_sh *sh);
 envl_result envl__lights_measure(envl_envmap *m, envl_lights *ls);
 
-/* The map, or its copy area-resampled to ENVL_REFERENCE_WIDTH when wider (cached in it). */
+/* The slices envl_irradiance_exact took across the horizon's pixels on this thread (its cost
+ * beyond one multiply-add a pixel): for tests, as envl__io_calls. */
+extern _Thread_local int64_t envl__horizon_slices;
+
+/* The map, or its copy area-resampled to ENVL_REFERENCE_WIDTH when wider (cached in it); a
+ * map of pixels far from square split into square ones first (envl__points_map). */
 envl_result envl__reference_copy(envl_envmap *m, const envl_envmap **out);
 /* The references' irradiance: envl__irradiance_fast at ENVL_REFERENCE_TOLERANCE, or on maps
  * of at most 256 x 128 pixels envl_irradiance_exact itself. */

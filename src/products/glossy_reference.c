@@ -15,6 +15,7 @@ typedef struct ref_job {
     const double *dirs;
     double *out;
     int failed;
+    envl_cancel cancel;       /* a cancel seen between directions */
 } ref_job;
 
 static void ref_range(void *ctx, int64_t begin, int64_t end)
@@ -26,7 +27,7 @@ static void ref_range(void *ctx, int64_t begin, int64_t end)
         j->failed = 1;
         return;
     }
-    for (int64_t i = begin; i < end; i++) {
+    for (int64_t i = begin; i < end && !envl__cancel_check(&j->cancel); i++) {
         const double *R = j->dirs + 3 * i;
         double *o = j->out + 3 * i;
         if (j->a2 == 0) {
@@ -73,8 +74,15 @@ envl_result envl_prefilter_reference(const envl_envmap *m, double roughness, int
     if (!m || count < 0 || (count && (!dirs || !out)) || !(roughness >= 0 && roughness <= 1))
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_prefilter_reference: bad arguments");
     double a = roughness * roughness;
-    ref_job j = {m, a * a, dirs, out, 0};
+    envl_envmap *copy; /* a too coarse map split first, as the levels are */
+    envl_result rc = envl__points_copy(m, &copy);
+    if (rc)
+        return rc;
+    ref_job j = {copy ? copy : m, a * a, dirs, out, 0, {0}};
     envl__parallel_for(count, m->threads, ref_range, &j);
+    envl_envmap_free(copy);
+    if (atomic_load(&j.cancel.stop))
+        return ENVL_ERR_CANCELLED; /* the message: envl__progress_poll's */
     return j.failed ? envl__fail(ENVL_ERR_MEMORY, "prefilter reference: out of memory")
                     : ENVL_OK;
 }
@@ -138,8 +146,13 @@ envl_result envl_glossy_error(const envl_envmap *m, double roughness, const floa
     double *ref = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
     envl_result rc = !dirs || !ref ? envl__fail(ENVL_ERR_MEMORY, "glossy error: out of memory")
                                    : ENVL_OK;
+    envl_envmap *copy = NULL; /* a too coarse map split first, as the levels are */
     if (!rc)
-        rc = envl__glossy_reference(m, NULL, roughness, ENVL_ERROR_NORMALS, dirs, ref);
+        rc = envl__points_copy(m, &copy);
+    if (!rc)
+        rc = envl__glossy_reference(copy ? copy : m, NULL, roughness, ENVL_ERROR_NORMALS, dirs,
+                                    ref);
+    envl_envmap_free(copy);
     if (!rc)
         rc = envl__sampled_error(dirs, ref, rgb, w, h, NULL, 0, roughness, error);
     free(dirs);

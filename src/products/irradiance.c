@@ -23,7 +23,16 @@
  * over [t0, t1] clipped to the lit side. Only azimuth is sampled: `sub` slices per pixel (at
  * least SUB_MIN, and more for wide pixels so that a slice is at most SUB_DEGREES wide). The
  * plain midpoint sum L dw max(0, n.d_centre) is off by O(h^2); this leaves O((h/sub)^2) on the
- * horizon's pixels only. */
+ * horizon's pixels only.
+ *
+ * A pixel wider than it is tall (at its widest latitude: a map narrower than twice its height)
+ * is integrated the other way round, so that its cost does not grow with its width (a map one
+ * pixel wide took 256 slices of every pixel, for every normal): exact in azimuth, in slices of
+ * elevation at most SUB_DEGREES high (at least one). At elevation t, n.d = a cos(phi - phi_n)
+ * + b with a = |n_xy| cos t, b = n_z sin t is lit on the arc |phi - phi_n| < acos(-b / a), and
+ *   integral of (a cos(phi - phi_n) + b) dphi = a sin(phi - phi_n) + b phi
+ * over [phi0, phi1] clipped to that arc; each slice is that at its middle elevation times
+ * cos t dt. */
 #define SUB_MIN 4
 #define SUB_MAX 256
 #define SUB_DEGREES 0.25
@@ -34,6 +43,8 @@ typedef struct irradiance_tables {
     double *ccos, *csin;    /* per column: cos, sin of the centre phi */
     double *ri, *rz;        /* per row: I, (phi1 - phi0)(sin^2 t1 - sin^2 t0) / 2 */
     double *rho;            /* per row: angular radius of a pixel (+ margin) */
+    double *wide;           /* per row: 0, or the elevation slices of a pixel wider than tall
+                               (exact in azimuth) */
     double *t0, *t1, *s0, *c0, *s1, *c1; /* per row: edges, their sin and cos */
     double *subc, *subs;    /* per column x sub slices: cos, sin of the slice's centre phi */
 } irradiance_tables;
@@ -45,7 +56,7 @@ static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
     int32_t w = m->width, h = m->height;
     int32_t sub = (int32_t)fmin(SUB_MAX, fmax(SUB_MIN, ceil(360.0 / w / SUB_DEGREES)));
     t->sub = sub;
-    size_t n = (size_t)4 * w + 9 * (size_t)h + 2 * (size_t)w * sub;
+    size_t n = (size_t)4 * w + 10 * (size_t)h + 2 * (size_t)w * sub;
     double *mem = malloc(sizeof(double) * n);
     if (!mem)
         return envl__fail(ENVL_ERR_MEMORY, "irradiance: out of memory");
@@ -59,6 +70,7 @@ static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
     t->ri = q, q += h;
     t->rz = q, q += h;
     t->rho = q, q += h;
+    t->wide = q, q += h;
     t->t0 = q, q += h;
     t->t1 = q, q += h;
     t->s0 = q, q += h;
@@ -98,17 +110,63 @@ static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
             widest = 1.0;
         double dt = t1 - t0, dw = dphi * widest;
         t->rho[r] = 0.5 * sqrt(dt * dt + dw * dw) * 1.0001 + 1e-12;
+        t->wide[r] = dw > dt ? fmin(SUB_MAX, fmax(1, ceil(dt * 180 / ENVL_PI / SUB_DEGREES))) : 0;
     }
     return ENVL_OK;
 }
 
-/* Integral of max(0, n.d) over pixel (c, r): exact in elevation, `sub` slices in azimuth. */
+_Thread_local int64_t envl__horizon_slices;
+
+/* Integral of a cos x + b over [x0, x1] clipped to where it is positive, |x0|, |x1| within
+ * 3 pi: the lit arcs are |x - 2 pi k| < acos(-b / a) (a > 0), k = -1, 0, 1. */
+static double lit_arc_integral(double a, double b, double x0, double x1)
+{
+    if (!(a > 1e-300))
+        return b > 0 ? b * (x1 - x0) : 0.0;
+    double k = -b / a;
+    if (k >= 1)
+        return 0.0;
+    double psi = k <= -1 ? ENVL_PI : acos(k), acc = 0;
+    for (int j = -1; j <= 1; j++) {
+        double lo = fmax(x0, 2 * ENVL_PI * j - psi), hi = fmin(x1, 2 * ENVL_PI * j + psi);
+        if (hi > lo)
+            acc += a * (sin(hi) - sin(lo)) + b * (hi - lo);
+    }
+    return acc;
+}
+
+/* Integral of max(0, n.d) over pixel (c, r) wider than tall: exact in azimuth, t->wide[r]
+ * slices of elevation. */
+static double straddling_wide(const irradiance_tables *t, const double n[3], int32_t c,
+                              int32_t r)
+{
+    int32_t slices = (int32_t)t->wide[r];
+    double t0 = t->t0[r], dt = (t->t1[r] - t0) / slices;
+    double nxy = sqrt(n[0] * n[0] + n[1] * n[1]), phin = atan2(n[1], n[0]);
+    /* column c spans phi from pi (1 - 2 (c + 1) / W) to pi (1 - 2 c / W) */
+    double p0 = ENVL_PI * (1.0 - 2.0 * (c + 1.0) / t->w) - phin;
+    p0 -= 2 * ENVL_PI * floor((p0 + ENVL_PI) / (2 * ENVL_PI)); /* into [-pi, pi) */
+    double p1 = p0 + 2.0 * ENVL_PI / t->w;
+    double acc = 0.0;
+    envl__horizon_slices += slices;
+    for (int32_t s = 0; s < slices; s++) {
+        double el = t0 + (s + 0.5) * dt, ce = cos(el);
+        acc += ce * lit_arc_integral(nxy * ce, n[2] * sin(el), p0, p1);
+    }
+    return acc * dt;
+}
+
+/* Integral of max(0, n.d) over pixel (c, r): exact in elevation, `sub` slices in azimuth (or,
+ * wider than tall, the other way round). */
 static double straddling_pixel(const irradiance_tables *t, const double n[3], int32_t c,
                                int32_t r)
 {
+    if (t->wide[r])
+        return straddling_wide(t, n, c, r);
     const int32_t sub = t->sub;
     const double B = n[2], slice = 2.0 * ENVL_PI / t->w / sub;
     double acc = 0.0;
+    envl__horizon_slices += sub;
     for (int32_t j = 0; j < sub; j++) {
         size_t k = (size_t)c * sub + j;
         double A = n[0] * t->subc[k] + n[1] * t->subs[k];
@@ -180,6 +238,7 @@ typedef struct irradiance_job {
     const double *normals;
     double *out;
     int failed;
+    envl_cancel cancel;       /* a cancel seen between normals */
 } irradiance_job;
 
 static void irradiance_range(void *arg, int64_t begin, int64_t end)
@@ -190,7 +249,7 @@ static void irradiance_range(void *arg, int64_t begin, int64_t end)
         job->failed = 1; /* benign race: every writer stores 1 */
         return;
     }
-    for (int64_t i = begin; i < end; i++)
+    for (int64_t i = begin; i < end && !envl__cancel_check(&job->cancel); i++)
         irradiance_one(job->map, job->tables, job->normals + 3 * i, colfac, job->out + 3 * i);
     free(colfac);
 }
@@ -206,9 +265,11 @@ envl_result envl_irradiance_exact(const envl_envmap *m, int32_t count, const dou
         return rc;
     /* Each normal is computed by one thread from start to end: the result does not depend on
      * the thread count. */
-    irradiance_job job = {m, &tables, normals, rgb_out, 0};
+    irradiance_job job = {m, &tables, normals, rgb_out, 0, {0}};
     envl__parallel_for(count, m->threads, irradiance_range, &job);
     free_tables(&tables);
+    if (atomic_load(&job.cancel.stop))
+        return ENVL_ERR_CANCELLED; /* the message: envl__progress_poll's */
     return job.failed ? envl__fail(ENVL_ERR_MEMORY, "envl_irradiance_exact: out of memory")
                       : ENVL_OK;
 }
@@ -330,6 +391,7 @@ typedef struct fast_job {
     double limit[3];           /* the promised bound: tolerance x the mean of E */
     const double *normals;
     double *out, *bound;
+    envl_cancel cancel;       /* a cancel seen between normals */
 } fast_job;
 
 /* Each normal is summed with the allowance tol, and again with half of it while its bound
@@ -338,7 +400,7 @@ typedef struct fast_job {
 static void fast_range(void *arg, int64_t begin, int64_t end)
 {
     fast_job *j = arg;
-    for (int64_t i = begin; i < end; i++) {
+    for (int64_t i = begin; i < end && !envl__cancel_check(&j->cancel); i++) {
         irradiance_kernel k = j->kernel;
         ktree_kernel kn = {irradiance_block, irradiance_pixels, &k};
         double e[KTREE_MAX_CHANNELS], b[KTREE_MAX_CHANNELS];
@@ -372,13 +434,15 @@ envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const dou
     if (!rc) {
         double total[KTREE_MAX_CHANNELS];
         envl__ktree_total(tree, total);
-        fast_job j = {tree, {m, &tables, tree, {0}}, {0}, normals, rgb_out, bound_out};
+        fast_job j = {tree, {m, &tables, tree, {0}}, {0}, normals, rgb_out, bound_out, {0}};
         /* the mean of E(n) over the sphere is S / 4 (the mean of max(0, n.d) is 1/4) */
         for (int c = 0; c < 3; c++) {
             j.limit[c] = tolerance * total[c] / 4;
             j.kernel.tol[c] = 0.5 * j.limit[c];
         }
         envl__parallel_for(count, m->threads, fast_range, &j);
+        if (atomic_load(&j.cancel.stop))
+            rc = ENVL_ERR_CANCELLED; /* the message: envl__progress_poll's */
     }
     envl__ktree_free(tree);
     free_tables(&tables);
@@ -430,17 +494,20 @@ double envl_relative_rms_luminance(int32_t count, const double *approx, const do
 
 /* Maps wider than ENVL_REFERENCE_WIDTH are resampled (exactly, by area) to that width: the
  * clamped cosine is smooth, so this changes E by at most ~4 pi h^2 relative (h = pi / 512:
- * 1.5e-4), and keeps the reference fast for huge maps. The copy is cached in the map (the
- * fit's target sums over it too). */
+ * 1.5e-4), and keeps the reference fast for huge maps. A map whose pixels are far from square
+ * (envl__points_map: one pixel wide, say) is split into near-square pixels first, the same
+ * function (beyond 1024 x 512, area-resampled to it), so that its cost follows its pixels and
+ * the tree serves it. The copy is cached in the map (the fit's target sums over it too). */
 envl_result envl__reference_copy(envl_envmap *m, const envl_envmap **out)
 {
-    *out = m;
-    if (m->width <= ENVL_REFERENCE_WIDTH)
-        return ENVL_OK;
+    envl_envmap *src;
+    envl_result rc = envl__points_map(m, &src);
+    *out = src;
+    if (rc || src->width <= ENVL_REFERENCE_WIDTH)
+        return rc;
     if (!m->reference_copy) {
-        envl_result rc = envl__envmap_resampled(m->px, m->width, m->height,
-                                                ENVL_REFERENCE_WIDTH, m->threads,
-                                                &m->reference_copy);
+        rc = envl__envmap_resampled(src->px, src->width, src->height, ENVL_REFERENCE_WIDTH,
+                                    m->threads, &m->reference_copy);
         if (rc)
             return rc;
     }

@@ -85,6 +85,8 @@ void envl_envmap_drop_mips(envl_envmap *m)
     m->mip_levels = 0;
     free(m->cells);
     m->cells = NULL;
+    envl_envmap_free(m->points_copy);
+    m->points_copy = NULL;
 }
 
 envl_result envl__map_cells(envl_envmap *m, int32_t base, const envl_cells **out, int *built)

@@ -95,6 +95,7 @@ envl_result envl__prefilter_resolve(const envl_prefilter_options *o, const envl_
     r->irr_order = envl__order(o->irradiance_order, ENVL_DEFAULT_ORDER);
     r->threads = o->threads > 0 ? o->threads : m ? m->threads : envl__threads(0);
     r->sun_lights = o->sun_lights != 0;
+    r->half = o->half != 0;
     if (r->sun_lights && r->unfiltered)
         return envl__fail(ENVL_ERR_ARGUMENT, "prefilter: sun lights need the filtered levels "
                           "(the unfiltered baseline samples the map as it is)");

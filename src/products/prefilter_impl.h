@@ -46,6 +46,10 @@ void envl__sun_lights_add(const envl_light *l, int32_t n, double roughness, int3
 envl_result envl__specular_level(envl_envmap *m, const resolved *o, double roughness,
                                  int32_t width, const split *sp, float **out, envl_level *st);
 
+/* ENVL_OK when every value of a level is finite; else frees *px (sets it NULL) and fails with
+ * ENVL_ERR_NONFINITE naming the map's file and the roughness. */
+envl_result envl__level_finite(const envl_envmap *m, const envl_level *st, float **px);
+
 /* ---- irradiance maps (irradiance_map.c) ---- */
 /* `sh` may be given (an SH object of the right order, shared with the diffuse product);
  * *projected is set when an SH projection was made here. */
@@ -72,6 +76,7 @@ struct envl_products {
     float *brdf;
     int32_t brdf_size, brdf_multiscatter, brdf_samples;
     char file[1024];
+    char *source_path;        /* the map's file in full (envl__envmap_source), or NULL */
 };
 
 #endif

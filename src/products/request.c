@@ -2,6 +2,7 @@
  * repeats, one SH projection shared with an SH irradiance map, one pyramid, one split of the
  * bright pixels), measures them when asked, and hands them out. */
 #include "prefilter_impl.h"
+#include "ktx2.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -23,6 +24,7 @@ void envl_products_free(envl_products *p)
     envl_lights_free(p->lights);
     free(p->sun);
     free(p->brdf);
+    free(p->source_path);
     free(p);
 }
 
@@ -199,11 +201,9 @@ static envl_result compute_levels(envl_envmap *m, envl_products *p, plan *pl)
             return rc;
         double t = envl__seconds();
         envl_level *l = &p->levels[i];
-        rc = envl__specular_level(m, &p->opt, pl->want[i], 0, &pl->sp,
-                                              &p->level_px[i], l);
-        if (!rc && !envl__floats_finite(p->level_px[i], 3 * (size_t)l->width * l->height))
-            rc = envl__fail(ENVL_ERR_NONFINITE, "%s: the specular level of roughness %g "
-                            "overflows the float range", m->info.file, pl->want[i]);
+        rc = envl__specular_level(m, &p->opt, pl->want[i], 0, &pl->sp, &p->level_px[i], l);
+        if (!rc)
+            rc = envl__level_finite(m, l, &p->level_px[i]);
         if (rc)
             return rc;
         l->rgb = p->level_px[i];
@@ -232,8 +232,23 @@ static envl_result compute_brdf(const envl_request *q, envl_products *p)
     return ENVL_OK;
 }
 
+/* The error of a w x h map against ref at the error directions, as written: with half floats
+ * (options.half) the map rounded to half first, values above ENVL_HALF_MAX as it. */
+static envl_result written_error(const envl_products *p, const double *dirs, const double *ref,
+                                 const float *px, int32_t w, int32_t h, int32_t n_sun,
+                                 double roughness, double *error)
+{
+    float *half = p->opt.half ? envl__half_rounded(px, 3 * (size_t)w * h) : NULL;
+    if (p->opt.half && !half)
+        return envl__fail(ENVL_ERR_MEMORY, "error measure: out of memory");
+    envl_result rc = envl__sampled_error(dirs, ref, half ? half : px, w, h, p->sun, n_sun,
+                                         roughness, error);
+    free(half);
+    return rc;
+}
+
 /* The glossy error of every level and the diffuse error of the irradiance map (the sun lights
- * added as the renderer adds them). */
+ * added as the renderer adds them), each as written. */
 static envl_result measure(envl_envmap *m, envl_products *p)
 {
     double *dirs = envl__fibonacci_dirs();
@@ -255,9 +270,8 @@ static envl_result measure(envl_envmap *m, envl_products *p)
         envl_level *l = &p->levels[i];
         rc = envl__glossy_reference(m, C, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
         if (!rc)
-            rc = envl__sampled_error(dirs, ref, l->rgb, l->width, l->height, p->sun,
-                                     l->roughness > 0 ? p->n_sun : 0, l->roughness,
-                                     &l->glossy_error);
+            rc = written_error(p, dirs, ref, l->rgb, l->width, l->height,
+                               l->roughness > 0 ? p->n_sun : 0, l->roughness, &l->glossy_error);
     }
     if (!rc && p->sh)
         rc = envl__sh_measure(m, p->sh);
@@ -267,26 +281,36 @@ static envl_result measure(envl_envmap *m, envl_products *p)
         const double *eref;
         rc = envl_envmap_reference_irradiance(m, &eref);
         if (!rc)
-            rc = envl__sampled_error(dirs, eref, p->irr_px, p->irr.width, p->irr.height, p->sun,
-                                     p->n_sun, -1, &p->irr.diffuse_error);
+            rc = written_error(p, dirs, eref, p->irr_px, p->irr.width, p->irr.height, p->n_sun,
+                               -1, &p->irr.diffuse_error);
     }
     free(dirs);
     free(ref);
     return rc;
 }
 
-envl_result envl_compute(envl_envmap *m, const envl_request *q, envl_products **out)
+envl_result envl_compute(envl_envmap *map, const envl_request *q, envl_products **out)
 {
-    if (!m || !q || !out || q->n_roughness < 0 || (q->n_roughness && !q->roughness))
+    if (!map || !q || !out || q->n_roughness < 0 || (q->n_roughness && !q->roughness))
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_compute: bad arguments");
     *out = NULL;
     double t0 = envl__seconds();
     envl_products *p = calloc(1, sizeof *p);
     if (!p)
         return envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
-    snprintf(p->file, sizeof p->file, "%s", m->info.file);
+    snprintf(p->file, sizeof p->file, "%s", map->info.file);
     plan pl = {0};
-    envl_result rc = envl__prefilter_resolve(&q->prefilter, m, &p->opt);
+    envl_result rc = ENVL_OK;
+    if (map->source_path && !(p->source_path = strdup(map->source_path)))
+        rc = envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
+    /* every product from the map the GGX sums can take (a too coarse one split first) */
+    envl_envmap *m = map;
+    if (!rc)
+        rc = envl__points_map(map, &m);
+    p->summary.prefiltered_width = m->width;
+    p->summary.prefiltered_height = m->height;
+    if (!rc)
+        rc = envl__prefilter_resolve(&q->prefilter, m, &p->opt);
     if (!rc)
         rc = plan_levels(q, p, &pl);
     pl.steps = (q->diffuse != 0) + (q->irradiance_map != 0) + (q->shadows != 0) + pl.n_want +

@@ -279,18 +279,34 @@ envl_result envl__specular_level(envl_envmap *m, const resolved *o, double rough
     return ENVL_OK;
 }
 
+envl_result envl__level_finite(const envl_envmap *m, const envl_level *st, float **px)
+{
+    if (envl__floats_finite(*px, 3 * (size_t)st->width * st->height))
+        return ENVL_OK;
+    free(*px);
+    *px = NULL;
+    return envl__fail(ENVL_ERR_NONFINITE, "%s: the specular level of roughness %g overflows "
+                      "the float range", m->info.file[0] ? m->info.file : "the map",
+                      st->roughness);
+}
+
 envl_result envl_prefilter_specular(envl_envmap *m, double roughness, int32_t width,
                                     const envl_prefilter_options *options, float **rgb,
                                     envl_level *stats)
 {
     if (!m || !rgb)
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_prefilter_specular: NULL argument");
+    *rgb = NULL;
     resolved o;
-    envl_result rc = envl__prefilter_resolve(options, m, &o);
+    envl_result rc = envl__points_map(m, &m); /* a too coarse map split first */
+    if (!rc)
+        rc = envl__prefilter_resolve(options, m, &o);
     if (rc)
         return rc;
     envl_level st;
     rc = envl__specular_level(m, &o, roughness, width, NULL, rgb, &st);
+    if (!rc) /* never silently non-finite */
+        rc = envl__level_finite(m, &st, rgb);
     if (rc == ENVL_OK && stats) {
         st.rgb = *rgb;
         *stats = st;
