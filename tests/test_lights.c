@@ -833,7 +833,7 @@ static void test_take(void)
         envl_lights ls = {.lights = got[t], .residual = t < 2 ? res[t] : NULL, .width = W,
                           .height = H};
         ls.summary.count = K;
-        CHECK_OK(envl__take_lights(maps[t], &ls, takes[t]));
+        CHECK_OK(envl__take_lights(maps[t], maps[t], &ls, takes[t]));
     }
     CHECK(memcmp(got[0], got[1], sizeof got[0]) == 0);
     CHECK(memcmp(takes[0], takes[1], sizeof takes[0]) == 0);

@@ -23,6 +23,7 @@
 /* A light must find its light nearby: its luminance irradiance may not exceed the luminance
  * power within FIT_CONE_DEGREES of it (no light "opposite the sun" that only fits numbers). */
 #define FIT_CONE_DEGREES 45.0
+#define FIT_CAP_WIDTH 256   /* counted on a copy of the map this wide (1.4-degree pixels) */
 /* A light points along the moment of what it took unless that raises the fit's error by more
  * than this fraction of it (or FIT_MIN_GAIN, when more: point_along_takes). */
 #define FIT_MOMENT_SLACK 0.05
@@ -351,6 +352,13 @@ envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_
                 p.sh[(size_t)j * p.m + i] = ysh[j] * (i == FIT_NORMALS ? p.up_weight : 1.0);
         }
     }
+    /* the caps (cone_power) are counted on a copy FIT_CAP_WIDTH wide, as the take starts */
+    envl_envmap *coarse = NULL;
+    if (fm->width > FIT_CAP_WIDTH &&
+        (rc = envl__envmap_resampled(fm->px, fm->width, fm->height, FIT_CAP_WIDTH, m->threads,
+                                     &coarse)))
+        goto done;
+    const envl_envmap *cm = coarse ? coarse : fm;
     int32_t nc = 0;
     rc = fit_candidates(m, fm, cand, &nc);
     if (rc)
@@ -367,7 +375,7 @@ envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_
         goto done;
     }
     for (int32_t c = 0; c < nc; c++)
-        cand_avail[c] = cone_power(fm, cand + 3 * c, NULL);
+        cand_avail[c] = cone_power(cm, cand + 3 * c, NULL);
     double avail[ENVL_NNLS_MAX];
     double ymean = 0;
     for (int32_t i = 0; i < FIT_NORMALS; i++)
@@ -438,7 +446,7 @@ envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_
                     light_column(&p, d, cols[K]);
                     double *saved = cols[i], saved_avail = avail[i];
                     cols[i] = cols[K];
-                    avail[i] = cone_power(fm, d, NULL);
+                    avail[i] = cone_power(cm, d, NULL);
                     double r = solve_bounded(&p, K, cols, p.target_y, avail, x);
                     cols[i] = saved;
                     if (r < cur * (1 - 1e-12)) {
@@ -478,7 +486,7 @@ envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_
             ls->lights[i].rgb[c] = x[i]; /* luminance x: grey of that luminance */
     }
     envl__take takes[ENVL_NNLS_MAX];
-    if ((rc = envl__progress(0.6, "the lights' takes")) || (rc = envl__take_lights(m, ls, takes)))
+    if ((rc = envl__progress(0.6, "the lights' takes")) || (rc = envl__take_lights(m, cm, ls, takes)))
         goto done;
     point_along_takes(&p, ymean, K, cols, takes, ls);
     if (!p.nsh)
@@ -498,6 +506,7 @@ envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_
             ls->remainder[3 * j + c] = x[j];
     }
 done:
+    envl_envmap_free(coarse);
     free(cand);
     free(p.normals);
     free(p.target);

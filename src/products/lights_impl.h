@@ -114,9 +114,11 @@ envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_
 /* The fit's take (lights_take.c): each of ls's lights, aimed along its direction with its
  * luminance as the target, takes the light above a smooth level around it from what the
  * lights before it left; its rgb, size (about its direction) and rect become those of its
- * take, and out (may be NULL) gets each light's moment and extent. ls->residual: a copy of m's
+ * take, and out (may be NULL) gets each light's moment and extent. coarse: a copy of m
+ * area-resampled smaller, where the solve starts (or m itself). ls->residual: a copy of m's
  * pixels, made the residual; or NULL: none is kept (the lights are the same). */
-envl_result envl__take_lights(envl_envmap *m, envl_lights *ls, envl__take *out);
+envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_lights *ls,
+                              envl__take *out);
 
 /* ---- sun (lights_sun.c) ---- */
 /* The map's n brightest suns as lights, the rest the residual map. */

@@ -43,13 +43,13 @@
 #define TAKE_SPREAD_DEGREES 15.0
 #define TAKE_FADE_DEGREES 2.0
 #define TAKE_SHIFT_DEGREES 60.0
-#define TAKE_COARSE_WIDTH 256
+#define TAKE_MID_WIDTH 512
 #define TAKE_CHUNKS 64
 #define TAKE_THREAD_PIXELS (1 << 17) /* passes over fewer pixels run on one thread */
 #define TAKE_STEPS_FIRST 12          /* tilt steps on the coarsest level, then on each finer */
-#define TAKE_STEPS_NEXT 3
-#define TAKE_HALVINGS 6
-#define TAKE_TOLERANCE 1e-9          /* the luminance taken, relative to the target */
+#define TAKE_STEPS_NEXT 1
+#define TAKE_HALVINGS 4
+#define TAKE_TOLERANCE 1e-8          /* the luminance taken, relative to the target */
 #define TAKE_TILT_TOLERANCE 1e-6     /* the moment's angle from the aim, radians */
 
 /* One light's level: its aim and unknowns. */
@@ -410,21 +410,25 @@ void envl__light_size(const envl__take *t, envl_light *l)
     envl__light_set_angle(l);
 }
 
-envl_result envl__take_lights(envl_envmap *m, envl_lights *ls, envl__take *out)
+envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_lights *ls,
+                              envl__take *out)
 {
     int32_t K = ls->summary.count, order[ENVL_NNLS_MAX];
     if (K <= 0)
         return ENVL_OK;
-    /* the levels: a 256-wide copy, the reference copy, the map (each only when finer) */
+    /* the levels: the coarse copy, one TAKE_MID_WIDTH wide, the reference copy, the map (each
+     * only when finer than the one before) */
     const envl_envmap *ref = NULL;
-    envl_envmap *coarse = NULL;
-    take_map tms[3];
+    envl_envmap *mid = NULL;
+    take_map tms[4];
     int32_t nlev = 0;
     envl_result rc = envl__reference_copy(m, &ref);
-    if (!rc && ref->width > TAKE_COARSE_WIDTH)
-        rc = envl__envmap_resampled(ref->px, ref->width, ref->height, TAKE_COARSE_WIDTH,
-                                    m->threads, &coarse);
-    if (!rc && coarse && !(rc = take_map_make(coarse, NULL, 1, &tms[nlev])))
+    if (!rc && coarse != ref && coarse != m && !(rc = take_map_make(coarse, NULL, 1, &tms[nlev])))
+        nlev++;
+    if (!rc && ref->width > TAKE_MID_WIDTH && coarse->width < TAKE_MID_WIDTH &&
+        !(rc = envl__envmap_resampled(ref->px, ref->width, ref->height, TAKE_MID_WIDTH,
+                                      m->threads, &mid)) &&
+        !(rc = take_map_make(mid, NULL, 1, &tms[nlev])))
         nlev++;
     if (!rc && ref != m && !(rc = take_map_make(ref, NULL, 1, &tms[nlev])))
         nlev++;
@@ -452,8 +456,10 @@ envl_result envl__take_lights(envl_envmap *m, envl_lights *ls, envl__take *out)
             take_job j = {.tm = &tms[v], .levels = levels, .light = i,
                           .rows = (tms[v].m->height + TAKE_CHUNKS - 1) / TAKE_CHUNKS,
                           .kappa = kappa, .sin_fade = sin_h, .chunks = chunks};
-            if (t[i] > 0)
+            if (t[i] > 0 && (v < nlev - 1 || nlev == 1))
                 align(&j, q, t[i], v == 0 ? TAKE_STEPS_FIRST : TAKE_STEPS_NEXT, emax);
+            else if (t[i] > 0) /* on the map itself, after coarser levels: its luminance only */
+                solve_lb(&j, q, t[i], &s);
             take_pass(&j, 1, &s); /* this level's residual */
         }
         if (out)
@@ -467,6 +473,6 @@ envl_result envl__take_lights(envl_envmap *m, envl_lights *ls, envl__take *out)
         if (tms[v].res != ls->residual)
             free(tms[v].res);
     }
-    envl_envmap_free(coarse);
+    envl_envmap_free(mid);
     return rc;
 }
