@@ -1,7 +1,8 @@
 /* The lights' insides, shared by their files (not installed):
  *   lights.c      the call (envl_lights_compute), evaluation, the error, the accessors
  *   lights_cut.c  median cut and variance cut: regions of the map, one light each
- *   lights_fit.c  K fitted lights + an SH remainder, and the fit's residual (cones)
+ *   lights_fit.c  K fitted lights + an SH remainder
+ *   lights_take.c what the fitted lights take from the map: their colour, size, the residual
  *   lights_sun.c  the map's suns split off exactly (sun_split.c), the rest a residual map
  * Energy of a pixel = luminance x its solid angle. */
 #ifndef ENVL_LIGHTS_IMPL_H
@@ -17,7 +18,7 @@ struct envl_lights {
     envl_light *lights;
     double *remainder;      /* irradiance SH, (order+1)^2 x 3, or NULL */
     int32_t width, height;
-    float *residual;        /* width x height x 3 (fit: what the cones left; sun: the map
+    float *residual;        /* width x height x 3 (fit: what the takes left; sun: the map
                                less the suns' excess); for the cuts (which take everything)
                                made, all zero, only when asked for */
     int32_t residual_skipped; /* fit with options.skip_residual: there is none */
