@@ -17,12 +17,8 @@ import math
 import os
 import sys
 
-import numpy as np
-
-import envlight
-
-LUM = np.array([0.2126, 0.7152, 0.0722])
 FIT_NORMALS = 1031
+np = envlight = None  # imported by main(), after --help
 
 
 def solve(cols, sh, target):
@@ -76,13 +72,17 @@ def main():
     ap.add_argument("-n", type=int, default=4)
     ap.add_argument("--docs", help="write DIR/fit_floor.md")
     a = ap.parse_args()
+    global np, envlight
+    import numpy as np
+    import envlight
+    lum = np.array([0.2126, 0.7152, 0.0722])
     load0, lines = os.getloadavg(), []
     rng = np.random.default_rng(1)
     normals = np.array(envlight.fibonacci_directions(FIT_NORMALS))
     sh = np.array([envlight.sh_basis(2, tuple(n)) for n in normals])
     for path in a.maps:
         with (envlight.sky() if path == "-" else envlight.load(path)) as env:
-            target = np.array(env.irradiance(normals)) @ LUM
+            target = np.array(env.irradiance(normals)) @ lum
             ymean = np.mean(np.abs(target))
             with env.lights(a.n, residual=False, measure=False) as res:
                 fit = np.array([l.direction for l in res.lights])
@@ -93,7 +93,7 @@ def main():
             d = np.stack([np.cos(theta)[:, None] * np.cos(phi)[None, :],
                           np.cos(theta)[:, None] * np.sin(phi)[None, :],
                           np.broadcast_to(np.sin(theta)[:, None], (h, w))], -1).reshape(-1, 3)
-            energy = (px @ LUM * np.cos(theta)[:, None]).reshape(-1)
+            energy = (px @ lum * np.cos(theta)[:, None]).reshape(-1)
             bright = d[np.argsort(-energy)[:3000]]
             uniform = np.array(envlight.fibonacci_directions(1000))
         _, fit_err = refine(fit, normals, sh, target, ymean, steps=0)

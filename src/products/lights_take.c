@@ -7,31 +7,32 @@
  *
  *     lambda(d) = exp(lb + kappa (1 - d.l) - e1 (d.t1) - e2 (d.t2) + h(d))
  *
- * (t1, t2 a tangent frame of l), and the pixel keeps min(Y, lambda) / Y of each channel: the
- * same fraction of R, G and B (its hue is kept), continuous in d (no edge), and never below
- * the level (no hole darker than it). kappa = 1 / (1 - cos TAKE_SPREAD_DEGREES): the level
- * rises e-fold that far from l. h is the horizon: infinite on the other side of it from l (a
- * light above the horizon takes nothing below it, so a ground plane's normal +Z sees all it
- * took), sin(fade) / z' - 1 within TAKE_FADE_DEGREES of it on l's side (z' = |d_z|), 0
- * beyond: the take fades out continuously towards the horizon.
+ * (t1, t2 a tangent frame of l; envl__aim_shape), and the pixel keeps min(Y, lambda) / Y of each
+ * channel: the same fraction of R, G and B (its hue is kept), continuous in d (the residual's
+ * log luminance is the least of the map's and the levels': no edge), never below the level (no
+ * hole darker than it). kappa = 1 / (1 - cos TAKE_SPREAD_DEGREES): the level rises e-fold that
+ * far from l. h is the horizon: 0 on l's side of it, depth / sin(TAKE_HORIZON_DEGREES) on the
+ * other (depth = |d_z|): a light above the horizon takes from below it only a source crossing
+ * it, whose light a ground plane's normal +Z nearly sees whole.
  *
  * lb solves for the luminance taken, sum (Y - lambda)+ dw = t, the light's target (its fitted
  * luminance), by safeguarded Newton; the tilt (e1, e2) by Newton on the first moment of what
  * it takes, V = sum (Y - lambda)+ d dw, having no component along t1 or t2, with lb solved at
  * every step and |e| at most kappa tan(TAKE_SHIFT_DEGREES) (the level's lowest point stays
- * within that of l): the light points along V where the fit aimed it (a disc light of
- * irradiance |V| along it, a Blender sun, then gives a surface that sees all of it exactly
- * what was taken). Where no such level can (the light nearby lies on one side of l) the best
- * point is kept and the light points along its V. The rgb of a light is what it took, per
- * channel: the map's power is kept exactly (lights + residual), and the fit's remainder is
- * solved for these lights (lights_fit.c).
+ * within that of l): V lies along l (a disc light of irradiance V . l along l, a Blender sun,
+ * then gives a surface that sees all of it exactly what was taken). Where no such level can
+ * (the light nearby lies on one side of l) the best point is kept; lights_fit.c then points
+ * the light along V where the fit allows it. The rgb of a light is what it took, per channel:
+ * the map's power is kept exactly (lights + residual), and the fit's remainder is solved for
+ * these lights (lights_fit.c).
  *
- * The solve runs on a 256-wide area-resampled copy, then on the fit's reference copy (at most
- * 1024 wide), then on the map, each from the coarser one's solution; each level keeps its own
- * residual. A pass visits only the rows and columns where the level can fall below the map's
- * luminance. Sums are per fixed chunk of rows, combined in chunk order: the same result at any
- * thread count. With no residual kept, each pixel's residual is replayed through the lights
- * before, with the same float roundings as the kept one. */
+ * The solve starts on the fit's coarse copy (256 wide), goes on on a 512-wide one and the
+ * reference copy (at most 1024 wide), each from the coarser one's solution, and on the map
+ * itself solves lb alone; each level keeps its own residual. A pass visits only the rows and
+ * columns where the level can fall below the map's luminance. Sums are per fixed chunk of
+ * rows, combined in chunk order: the same result at any thread count. With no residual kept,
+ * each pixel's residual is replayed through the lights before, with the same float roundings
+ * as the kept one. */
 #include "lights_impl.h"
 #include "error_measure.h"
 #include "nnls.h"
@@ -41,7 +42,7 @@
 #include <string.h>
 
 #define TAKE_SPREAD_DEGREES 15.0
-#define TAKE_FADE_DEGREES 2.0
+#define TAKE_HORIZON_DEGREES 2.0
 #define TAKE_SHIFT_DEGREES 60.0
 #define TAKE_MID_WIDTH 512
 #define TAKE_CHUNKS 64
@@ -82,16 +83,16 @@ typedef struct take_job {
     int32_t light;            /* this light's index in levels */
     int32_t rows;             /* rows per chunk */
     int apply;                /* 0: the solve's sums; 1: take */
-    double kappa, sin_fade;
+    double kappa, sin_h;
     envl__cone_geom g;        /* the pixels the pass visits */
     take_sums *chunks;
 } take_job;
 
 /* Light q's log level at direction (x, y, z), and d.t1, d.t2. */
-static inline double log_level(const take_level *q, double kappa, double sin_fade, double x,
+static inline double log_level(const take_level *q, double kappa, double sin_h, double x,
                                double y, double z, double *u1, double *u2)
 {
-    return q->lb + envl__aim_shape(&q->a, kappa, sin_fade, x, y, z, u1, u2) - q->e1 * *u1 -
+    return q->lb + envl__aim_shape(&q->a, kappa, sin_h, x, y, z, u1, u2) - q->e1 * *u1 -
            q->e2 * *u2;
 }
 
@@ -100,7 +101,7 @@ static inline double log_level(const take_level *q, double kappa, double sin_fad
 static inline double take_step(const take_level *q, const take_job *j, double x, double y,
                                double z, double log_max, float v[3], double *u1, double *u2)
 {
-    double a = log_level(q, j->kappa, j->sin_fade, x, y, z, u1, u2);
+    double a = log_level(q, j->kappa, j->sin_h, x, y, z, u1, u2);
     if (!(a < log_max))
         return -1.0;
     double lam = exp(a), Y = envl__lum(v[0], v[1], v[2]);
@@ -441,7 +442,7 @@ envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_li
     double kappa = 1.0 / (1.0 - cos(TAKE_SPREAD_DEGREES * ENVL_PI / 180.0));
     double emax = kappa * tan(TAKE_SHIFT_DEGREES * ENVL_PI / 180.0);
     take_order(ls, order);
-    double t[ENVL_NNLS_MAX], sin_h = sin(TAKE_FADE_DEGREES * ENVL_PI / 180.0);
+    double t[ENVL_NNLS_MAX], sin_h = sin(TAKE_HORIZON_DEGREES * ENVL_PI / 180.0);
     for (int32_t i = 0; !rc && i < K; i++) {
         envl_light *l = &ls->lights[order[i]];
         take_level *q = &levels[i];
@@ -455,7 +456,7 @@ envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_li
         for (int32_t v = 0; v < nlev; v++) {
             take_job j = {.tm = &tms[v], .levels = levels, .light = i,
                           .rows = (tms[v].m->height + TAKE_CHUNKS - 1) / TAKE_CHUNKS,
-                          .kappa = kappa, .sin_fade = sin_h, .chunks = chunks};
+                          .kappa = kappa, .sin_h = sin_h, .chunks = chunks};
             if (t[i] > 0 && (v < nlev - 1 || nlev == 1))
                 align(&j, q, t[i], v == 0 ? TAKE_STEPS_FIRST : TAKE_STEPS_NEXT, emax);
             else if (t[i] > 0) /* on the map itself, after coarser levels: its luminance only */
