@@ -26,7 +26,7 @@
 #define FIT_CAP_WIDTH 256   /* counted on a copy of the map this wide (1.4-degree pixels) */
 /* A light points along the moment of what it took unless that raises the fit's error by more
  * than this fraction of it (or FIT_MIN_GAIN, when more: point_along_takes). */
-#define FIT_MOMENT_SLACK 0.05
+#define FIT_MOMENT_SLACK 0.03
 /* A light is added only if it lowers the relative RMS irradiance error by at least this. */
 #define FIT_MIN_GAIN 2e-4
 
