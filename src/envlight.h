@@ -62,7 +62,7 @@ enum { ENVL_RESULT_TABLE(ENVL_RESULT_ENUM_) };
 ENVL_API int32_t envl_abi_version(void);
 ENVL_API const char *envl_version_string(void);
 /* Progress of the long calls made from this thread: envl_compute (per product and level),
- * envl_lights_compute (fit, cones, measure), envl_products_export (per map),
+ * envl_lights_compute (fit, takes, measure), envl_products_export (per map),
  * envl_envmap_load (reading the file, the canonical frame) and envl_envmap_to_layout (the
  * resampling). fn(user, fraction, stage) is called on the calling thread between steps, the
  * fraction (0..1) rising to 1 at the end of each call; a nonzero return cancels: the call

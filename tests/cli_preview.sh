@@ -42,15 +42,15 @@ png b.png 64
 # Notes on stderr without --quiet, printed once all is computed: one line per approximation
 # with the picture's texts (the count the method returned, "err X%" under each sphere it
 # serves) and docs/design.md's diffuse error, which is the number `lights --json` reports. The fit
-# returns 2 lights on this sky where -k asks 4 (docs/methods.md, "Lights"); --diffuse oren-nayar once
+# returns 5 lights on this sky where -k asks 6 (docs/methods.md, "Lights"); --diffuse oren-nayar once
 # printed the irradiance map's error as -100 % before it was set.
 json_count_error() { "$ENVLIGHT" lights - --sky-width 128 --quiet --json "$@" | python3 -c '
 import json, sys; j = json.load(sys.stdin); print(j["count"], "%.3f" % (100 * j["error"]["diffuse"]))'; }
-read -r fit_n fit_e <<<"$(json_count_error --method fit -n 4)"
+read -r fit_n fit_e <<<"$(json_count_error --method fit -n 6)"
 read -r med_n med_e <<<"$(json_count_error --method median -n 16)"
-checks=$((checks + 1)); [ "${fit_n:-4}" -lt 4 ] || fail "the fit returned ${fit_n:-?} lights: no test of the count"
+checks=$((checks + 1)); [ "${fit_n:-6}" -lt 6 ] || fail "the fit returned ${fit_n:-?} lights: no test of the count"
 run "$ENVLIGHT" preview - -o c.png --sky-width 128 --reference-width 64 --sphere-size 48 \
-  --diffuse oren-nayar -k 4
+  --diffuse oren-nayar -k 6
 has err.txt "^envlight preview: median cut $med_n lights: diffuse err [0-9.]*% .*, glossy 0.50 err [0-9.]*% [^,]*, docs/design.md diffuse error $med_e %$"
 has err.txt "^envlight preview: fit $fit_n lights + SH order 2: diffuse err [0-9.]*% .*, docs/design.md diffuse error $fit_e %$"
 has err.txt "^envlight preview: SH order 2: diffuse err [0-9.]*% [^,]*, docs/design.md diffuse error [0-9.]* %$"

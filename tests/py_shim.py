@@ -314,8 +314,8 @@ def test_progress_and_cancel():
                 assert len(res.lights) >= 1
         fractions = [f for f, _ in seen]
         assert fractions == sorted(fractions) and fractions[-1] == 1.0
-        assert any("cones" in s for _, s in seen)
-        with envlight.progress(lambda f, s: "cones" in s):
+        assert any("takes" in s for _, s in seen)
+        with envlight.progress(lambda f, s: "takes" in s):
             with pytest.raises(envlight.Error) as e:
                 env.lights(2)
         assert e.value.name == "ENVL_ERR_CANCELLED"
@@ -391,11 +391,12 @@ def test_one_bright_pixel_light_points_at_it():
 @pytest.mark.parametrize("source", ["sky", "rooitou"])
 def test_fit_lights_give_a_ground_its_exact_irradiance(source):
     """Over a ground (the map's sky half: Envmap.sky_hemisphere), every pixel a fit light takes
-    has d_z >= 0, so the ground's normal +Z sees all of it: E(+Z) = sum_i |V_i| l_i.z +
-    E_residual(+Z) exactly, with each light along the first moment V_i of what it took and
-    |V_i| = rgb_i (1 - w_i / 4 pi) (lights.c; a Blender sun of that energy). Pointed at the
-    fit's lobe centres, the lights gave kiara_1_dawn's ground 3 % too much.
-    Tolerance: float sums over a 1K map (1e-4 relative)."""
+    has d_z >= 0, so the ground's normal +Z sees all of it: E(+Z) = sum_i (V_i . l_i) l_i.z +
+    E_residual(+Z), exact where each light points along the first moment V_i of what it took
+    (lights_take.c aims its take so, lights_fit.c points it so wherever the fit allows: here
+    every light), with V_i . l_i = rgb_i (1 - w_i / 4 pi) (a Blender sun of that energy).
+    Pointed at the fit's lobe centres with cones taken about them, the lights gave
+    kiara_1_dawn's ground 3 % too much. Tolerance: float sums over a 1K map (1e-4 relative)."""
     if source == "sky":
         m = envlight.sky(width=512)
     else:

@@ -103,13 +103,13 @@ int main(void)
     CHECK_OK(envl_products_export(p, dir, &(envl_export_options){.format = "pfm"}));
     CHECK(w.rising && w.last == 1.0 && files_in(dir) == 1 + 1 + 6);
     envl_products_free(p);
-    /* lights: a cancel at the cones */
+    /* lights: a cancel at the takes */
     record l = {.rising = 1, .cancel_at = 2};
     envl_set_progress(on_progress, &l);
     envl_lights *ls = NULL;
     CHECK_RC(envl_lights_compute(m, &(envl_lights_options){.measure = 1}, &ls),
              ENVL_ERR_CANCELLED);
-    CHECK(ls == NULL && strstr(l.stages, "cones") != NULL);
+    CHECK(ls == NULL && strstr(l.stages, "takes") != NULL);
     /* load: reading, the canonical frame, done; a cancel at each: no map */
     const char *file = ENVL_TEST_TMP "/progress_load.hdr";
     envl_set_progress(NULL, NULL);

@@ -127,7 +127,6 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
     s->method = o->method;
     s->remainder_order = -1;
     memcpy(s->power, m->info.power, sizeof s->power);
-    size_t npx = (size_t)m->width * m->height * 3;
     double t0 = envl__seconds();
     if (!(envl__lum(s->power[0], s->power[1], s->power[2]) > 0)) {
         /* A black map: no lights, an all-zero residual, no error. */
@@ -137,22 +136,9 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
         return ENVL_OK;
     }
     if (o->method == ENVL_METHOD_FIT) {
-        /* the residual after the fit, whose own tables are freed by then (peak memory) */
-        if (!(rc = envl__progress(0.0, "fitting the lights")))
-            rc = envl__fit_lights(m, n, order, ls);
         ls->residual_skipped = options && options->skip_residual;
-        if (rc == ENVL_OK && !ls->residual_skipped) {
-            if ((ls->residual = malloc(sizeof(float) * npx)))
-                memcpy(ls->residual, m->px, sizeof(float) * npx);
-            else
-                rc = envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the residual map");
-        }
-        const envl_envmap *coarse = NULL;
-        /* the fit's copy (cached) points the cones' search: one pass over 1024 columns, not
-         * over the map */
-        if (rc == ENVL_OK && !(rc = envl__reference_copy(m, &coarse)) &&
-            !(rc = envl__progress(0.6, "the lights' cones")))
-            rc = envl__take_cones(m, coarse != m ? coarse : NULL, ls);
+        if (!(rc = envl__progress(0.0, "fitting the lights")))
+            rc = envl__fit_lights(m, n, order, !ls->residual_skipped, ls);
     } else if (o->method == ENVL_METHOD_SUN) {
         rc = envl__sun_lights(m, n, ls);
     } else {

@@ -1,7 +1,8 @@
 /* The lights' insides, shared by their files (not installed):
  *   lights.c      the call (envl_lights_compute), evaluation, the error, the accessors
  *   lights_cut.c  median cut and variance cut: regions of the map, one light each
- *   lights_fit.c  K fitted lights + an SH remainder, and the fit's residual (cones)
+ *   lights_fit.c  K fitted lights + an SH remainder
+ *   lights_take.c what the fitted lights take from the map: their colour, size, the residual
  *   lights_sun.c  the map's suns split off exactly (sun_split.c), the rest a residual map
  * Energy of a pixel = luminance x its solid angle. */
 #ifndef ENVL_LIGHTS_IMPL_H
@@ -10,12 +11,14 @@
 #include "clock.h"
 #include "envmap_impl.h"
 
+#include <math.h>
+
 struct envl_lights {
     envl_lights_summary summary;
     envl_light *lights;
     double *remainder;      /* irradiance SH, (order+1)^2 x 3, or NULL */
     int32_t width, height;
-    float *residual;        /* width x height x 3 (fit: what the cones left; sun: the map
+    float *residual;        /* width x height x 3 (fit: what the takes left; sun: the map
                                less the suns' excess); for the cuts (which take everything)
                                made, all zero, only when asked for */
     int32_t residual_skipped; /* fit with options.skip_residual: there is none */
@@ -36,6 +39,66 @@ static inline double envl__clamped_dot(const double a[3], const double b[3])
     return d > 0 ? d : 0;
 }
 
+/* A tangent frame (t1, t2) of the unit vector d: d, t1, t2 right-handed. */
+static inline void envl__tangents(const double d[3], double t1[3], double t2[3])
+{
+    double a[3] = {fabs(d[0]) < 0.9 ? 1.0 : 0.0, fabs(d[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+    t1[0] = a[1] * d[2] - a[2] * d[1];
+    t1[1] = a[2] * d[0] - a[0] * d[2];
+    t1[2] = a[0] * d[1] - a[1] * d[0];
+    double l = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+    for (int i = 0; i < 3; i++)
+        t1[i] /= l;
+    t2[0] = d[1] * t1[2] - d[2] * t1[1];
+    t2[1] = d[2] * t1[0] - d[0] * t1[2];
+    t2[2] = d[0] * t1[1] - d[1] * t1[0];
+}
+
+/* ---- the fit's take (lights_take.c) ---- */
+/* A light's aim: its direction l, a tangent frame (t1, t2), the side of the horizon it is on
+ * (+1 above or on it, -1 below). */
+typedef struct envl__aim {
+    double l[3], t1[3], t2[3];
+    double side;
+} envl__aim;
+
+/* The shape of a light's level at direction (x, y, z): kappa (1 - d.l), plus depth / sin_h
+ * across the horizon from l (depth = |d_z| there); u1, u2 = d.t1, d.t2. */
+static inline double envl__aim_shape(const envl__aim *a, double kappa, double sin_h, double x,
+                                     double y, double z, double *u1, double *u2)
+{
+    double zs = z * a->side;
+    *u1 = x * a->t1[0] + y * a->t1[1] + z * a->t1[2];
+    *u2 = x * a->t2[0] + y * a->t2[1] + z * a->t2[2];
+    double dl = x * a->l[0] + y * a->l[1] + z * a->l[2];
+    return kappa * (1.0 - dl) + (zs < 0.0 ? -zs / sin_h : 0.0);
+}
+
+/* What a light took, beyond its rgb: V = sum e d dw (e its luminance taken) and its pixels' own
+ * extent, sum e dw^2 / 4 pi. */
+typedef struct envl__take {
+    double moment[3];
+    double own;
+} envl__take;
+/* A light's solid_angle and angle: the uniform disc about its direction with the spread of
+ * what it took (rgb set). */
+void envl__light_size(const envl__take *t, envl_light *l);
+
+/* ---- cones about a direction (lights_fit.c) ---- */
+/* The pixels within `radius` (radians) of the unit vector dir, and a pixel more: rows r0..r1
+ * (none when r0 > r1), in each a run of columns around the axis (envl__cone_span). */
+typedef struct envl__cone_geom {
+    int full;               /* the whole map */
+    double cos_r, z, xy;    /* cos of the visited radius; the axis' z and |(x, y)| */
+    double col;             /* the axis' column, c = (1 - phi / pi) W / 2 - 1/2 */
+    int32_t r0, r1;
+} envl__cone_geom;
+envl__cone_geom envl__cone_geometry(const envl_envmap *m, const double dir[3], double radius);
+/* Columns lo..hi (wrapping: c mod W, lo may be negative, hi past W) of row r within the
+ * cone; 0 if none. */
+int envl__cone_span(const envl_envmap *m, const envl__cone_geom *g, int32_t r, int32_t *lo,
+                    int32_t *hi);
+
 /* ---- cuts (lights_cut.c) ---- */
 /* Cuts the map into n regions (median or variance cut); *out malloc'd, *count of them. The
  * first region starts at the darkest column, so a sun on the seam is never cut in two. */
@@ -44,16 +107,19 @@ envl_result envl__cut_regions(envl_envmap *m, int32_t method, int32_t n, region 
 /* One light per region: rgb = sum of L dw, at the energy-weighted centroid of its directions. */
 void envl__region_lights(const envl_envmap *m, const region *rs, int32_t k, envl_light *out);
 
-/* ---- fit (lights_fit.c) ---- */
-/* At most K lights + an SH remainder of `order` (-1: none) into ls (ls->residual holds a copy
- * of the map). */
-envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, envl_lights *ls);
-/* The fit's residual: each light takes its rgb from the smallest cone around it that holds
- * that much light. coarse (may be NULL): a copy of m area-resampled smaller, whose rings
- * point the search at each cone (the result is the same: the cones are decided on m).
- * ls->residual: a copy of m's pixels, made the residual; or NULL: none is kept (the lights
- * are the same). */
-envl_result envl__take_cones(const envl_envmap *m, const envl_envmap *coarse, envl_lights *ls);
+/* ---- fit (lights_fit.c, lights_take.c) ---- */
+/* At most K lights + an SH remainder of `order` (-1: none) into ls; keep_residual: ls->residual
+ * is the map less what the lights took (else none is kept; the lights are the same). */
+envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_residual,
+                             envl_lights *ls);
+/* The fit's take (lights_take.c): each of ls's lights, aimed along its direction with its
+ * luminance as the target, takes the light above a smooth level around it from what the
+ * lights before it left; its rgb, size (about its direction) and rect become those of its
+ * take, and out (may be NULL) gets each light's moment and extent. coarse: a copy of m
+ * area-resampled smaller, where the solve starts (or m itself). ls->residual: a copy of m's
+ * pixels, made the residual; or NULL: none is kept (the lights are the same). */
+envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_lights *ls,
+                              envl__take *out);
 
 /* ---- sun (lights_sun.c) ---- */
 /* The map's n brightest suns as lights, the rest the residual map. */
