@@ -312,6 +312,16 @@ typedef struct envl_light {
     double angle;             /* angular diameter 2 acos(1 - solid_angle / 2 pi), radians, <= pi */
     int32_t rect[4];          /* region's pixel rectangle x0, y0, x1, y1 (exclusive); x1 may
                                  exceed the width when the region wraps across the seam */
+    /* The light as a lamp over the residual map (ABI 5): the direction of the first moment V
+     * of what it took from the map, and the solid angle and angular diameter of the uniform
+     * disc about it with the same spread. A lamp along take_direction delivering
+     * rgb (1 - take_solid_angle / 4 pi) (= |V|) at normal incidence (envl_light_over_residual)
+     * makes lamp + residual the map's irradiance for every normal that sees all it took.
+     * median, variance, sun: the same as direction, solid_angle, angle; fit: direction is
+     * where the fit aims (the best with its SH remainder), which may differ from it. */
+    double take_direction[3];
+    double take_solid_angle;
+    double take_angle;
 } envl_light;
 
 typedef struct envl_lights_summary {
@@ -343,6 +353,11 @@ ENVL_API const double *envl_lights_remainder(const envl_lights *lights, int32_t 
 /* The residual environment (same size as the map), RGB floats owned by the lights object;
  * NULL (and an error message) for a fit computed with skip_residual. */
 ENVL_API const float *envl_lights_residual(const envl_lights *lights);
+/* The delta light that stands for `light` over the residual map (ABI 5): direction =
+ * take_direction, rgb = light->rgb (1 - take_solid_angle / 4 pi). A disc lamp of the light's
+ * take_angle (a Blender sun) takes that rgb as its irradiance at normal incidence. */
+ENVL_API void envl_light_over_residual(const envl_light *light, double direction[3],
+                                       double rgb[3]);
 /* Irradiance the lights (+ remainder) predict for `count` normals. */
 ENVL_API envl_result envl_lights_irradiance(const envl_lights *lights, int32_t count,
                                             const double *normals, double *rgb_out);

@@ -20,7 +20,7 @@ Expectations and their tolerances:
     it), to 1e-8 of the terms' magnitudes (the file's 9 significant digits);
   * the lights: each node's rotation takes -Z (where a glTF directional light shines) to -d, d
     the sun's direction from `envlight lights --method sun --frame gltf`, to 1e-8; colour x
-    intensity = its rgb.
+    intensity = its rgb (1 - w / 4 pi), w its solid angle (envl_light_over_residual).
 """
 import json
 import math
@@ -274,7 +274,13 @@ def test_the_lights_are_the_suns(sky):
         light = lights[node_["extensions"]["KHR_lights_punctual"]["light"]]
         assert light["type"] == "directional"
         assert max(light["color"]) == pytest.approx(1, abs=1e-8)
-        assert np.allclose(np.array(light["color"]) * light["intensity"], sun["rgb"], rtol=1e-8)
+        # the light over the residual the IBL holds (envl_light_over_residual): a sun's take is
+        # the sun itself (take_direction = direction), its disc of solid angle w delivering
+        # rgb (1 - w / 4 pi) at normal incidence
+        assert sun["take_direction"] == sun["direction"]
+        keep = 1 - sun["take_solid_angle"] / (4 * np.pi)
+        assert np.allclose(np.array(light["color"]) * light["intensity"],
+                           np.array(sun["rgb"]) * keep, rtol=1e-8)
         qx, qy, qz, qw = node_["rotation"]
         assert qx * qx + qy * qy + qz * qz + qw * qw == pytest.approx(1, abs=1e-8)
         # the rotated -Z: R v for v = (0, 0, -1)

@@ -480,7 +480,7 @@ def _collection(scene):
 
 
 def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLight Light",
-                specular=True, shadow_resolution=None):
+                specular=True, shadow_resolution=None, over_residual=False):
     """Sun lamps in the EnvLight collection: energy * color = strength * rgb * (1 - w / 4 pi)
     (energy = the largest channel, so colour <= 1), w = the light's solid angle: a Blender sun
     is given by its irradiance at normal incidence, which for a disc of solid angle w holding
@@ -490,11 +490,18 @@ def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLig
     specular False: no specular in EEVEE (Light.specular_factor 0). shadow_resolution: EEVEE-
     Next's finest shadow texel (Light.shadow_maximum_resolution, m): the dome's many soft
     lamps need no fine one, and at the default 1 mm 32 of them overflow EEVEE's shadow pool
-    ("Shadow buffer full ... (3284 / 2048)": shadows missing)."""
+    ("Shadow buffer full ... (3284 / 2048)": shadows missing). over_residual: the world is
+    the residual the lights left, so each lamp stands for what its light took: along
+    take_direction, of take_solid_angle and take_angle (the library's envl_light; for the fit
+    its direction is where the fit aims with its SH remainder, which may differ)."""
     coll = _collection(scene)
     made = []
     for i, light in enumerate(lights):
-        rgb = [strength * c * (1.0 - light.solid_angle / (4.0 * math.pi)) for c in light.rgb]
+        direction, solid_angle, angle = light.direction, light.solid_angle, light.angle
+        if over_residual and hasattr(light, "take_direction"):
+            direction = light.take_direction
+            solid_angle, angle = light.take_solid_angle, light.take_angle
+        rgb = [strength * c * (1.0 - solid_angle / (4.0 * math.pi)) for c in light.rgb]
         energy = max(rgb)
         if energy <= 0:
             continue
@@ -506,7 +513,7 @@ def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLig
             data.specular_factor = 0.0
         if shadow_resolution and hasattr(data, "shadow_maximum_resolution"):
             data.shadow_maximum_resolution = shadow_resolution
-        data.angle = light.angle if shadows == "SOFT" else 0.0
+        data.angle = angle if shadows == "SOFT" else 0.0
         cast = shadows != "NONE"
         if hasattr(data, "use_shadow"):
             data.use_shadow = cast
@@ -518,10 +525,10 @@ def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLig
             obj.visible_glossy = glossy
         obj["envlight_index"] = i
         obj["envlight_rgb"] = rgb
-        obj["envlight_solid_angle"] = light.solid_angle
+        obj["envlight_solid_angle"] = solid_angle
         obj.rotation_mode = "XYZ"
-        obj.rotation_euler = sun_rotation(rot @ mathutils.Vector(light.direction))
-        obj.location = rot @ mathutils.Vector(light.direction) * 10.0
+        obj.rotation_euler = sun_rotation(rot @ mathutils.Vector(direction))
+        obj.location = rot @ mathutils.Vector(direction) * 10.0
         coll.objects.link(obj)
         made.append(obj)
     return made
@@ -1055,7 +1062,7 @@ def create_lights(context, settings, progress=None, force=False):
     n_suns = len(suns) if plan.suns else 0
     suns += create_suns(scene, lights, rot, strength, plan.shadows, glossy=not glossy_hdr,
                         shadow_resolution=eevee_dome.shadow_resolution(scene)
-                        if plan.dome else None)
+                        if plan.dome else None, over_residual=mode == "RESIDUAL")
     glossy_image = None
     if glossy_pixels is not None and glossy_hdr:
         glossy_image = pixels_to_image(glossy_pixels, "EnvLight Glossy")

@@ -407,12 +407,35 @@ class _Handle:
 class Light:
     """One directional light (canonical frame). rgb: irradiance at normal incidence (sum of
     L dw); solid_angle of its region (sr); angle: angular diameter 2 acos(1 - omega / 2 pi),
-    radians, <= pi; rect: the region's pixel rectangle (x0, y0, x1, y1), x1 may pass the seam."""
+    radians, <= pi; rect: the region's pixel rectangle (x0, y0, x1, y1), x1 may pass the seam.
+    take_direction, take_solid_angle, take_angle: the light as a lamp over the residual map
+    (the direction of the first moment of what it took, and the disc about it; envlight.h's
+    envl_light): the same as direction, solid_angle, angle but for 'fit', whose direction is
+    where the fit aims (the best with its SH remainder)."""
     direction: Tuple[float, float, float]
     rgb: Tuple[float, float, float]
     solid_angle: float
     angle: float
     rect: Tuple[int, int, int, int]
+    take_direction: Tuple[float, float, float]
+    take_solid_angle: float
+    take_angle: float
+
+    @classmethod
+    def _of(cls, c):
+        """From an envl_light structure."""
+        return cls(_t(c.direction), _t(c.rgb), c.solid_angle, c.angle, _t(c.rect),
+                   _t(c.take_direction), c.take_solid_angle, c.take_angle)
+
+    def over_residual(self):
+        """(direction, rgb): the delta light that stands for this one over the residual map
+        (envl_light_over_residual): along take_direction, rgb (1 - take_solid_angle / 4 pi); a
+        disc lamp of take_angle (a Blender sun) takes that rgb at normal incidence."""
+        d, rgb = (c_double * 3)(), (c_double * 3)()
+        c = _lib.Light(self.direction, self.rgb, self.solid_angle, self.angle, self.rect,
+                       self.take_direction, self.take_solid_angle, self.take_angle)
+        lib.envl_light_over_residual(byref(c), d, rgb)
+        return _t(d), _t(rgb)
 
     def blender_sun(self, mode="max"):
         """(energy, color) of a Blender sun lamp with energy * color == rgb (docs/design.md).
@@ -428,7 +451,9 @@ class Light:
 
     def as_dict(self):
         return {"direction": list(self.direction), "rgb": list(self.rgb),
-                "solid_angle": self.solid_angle, "angle": self.angle, "rect": list(self.rect)}
+                "solid_angle": self.solid_angle, "angle": self.angle, "rect": list(self.rect),
+                "take_direction": list(self.take_direction),
+                "take_solid_angle": self.take_solid_angle, "take_angle": self.take_angle}
 
 
 class Envmap(_Handle):
@@ -896,8 +921,7 @@ class Products(_Handle):
         n_sun = c_int32()
         sp = lib.envl_products_sun_lights(handle, byref(n_sun))
         #: with sun_lights: the split-off sun as a list of Light (rect unused), else []
-        self.sun_lights = [Light(_t(sp[i].direction), _t(sp[i].rgb), sp[i].solid_angle,
-                                 sp[i].angle, _t(sp[i].rect)) for i in range(n_sun.value)]
+        self.sun_lights = [Light._of(sp[i]) for i in range(n_sun.value)]
         size, ms = c_int32(), c_int32()
         bp = lib.envl_products_brdf(handle, byref(size), byref(ms))
         self.brdf = None
@@ -950,8 +974,7 @@ class LightsResult(_Handle):
         one = _lib.Light()
         for i in range(lib.envl_lights_count(handle)):
             _check(lib.envl_lights_get(handle, i, byref(one)))
-            lights.append(Light(_t(one.direction), _t(one.rgb), one.solid_angle, one.angle,
-                                _t(one.rect)))
+            lights.append(Light._of(one))
         #: list of Light, strongest first as the library orders them
         self.lights = lights
         order = c_int32(-1)

@@ -122,6 +122,9 @@ class Light(Structure):
         ("solid_angle", c_double),
         ("angle", c_double),
         ("rect", c_int32 * 4),
+        ("take_direction", c_double * 3),
+        ("take_solid_angle", c_double),
+        ("take_angle", c_double),
     ]
 
 
@@ -438,6 +441,7 @@ FUNCTIONS = {
     "envl_lights_remainder": (_pd, [_lts, POINTER(c_int32)]),
     "envl_lights_residual": (_pf, [_lts]),
     "envl_lights_irradiance": (_R, [_lts, c_int32, _pd, _pd]),
+    "envl_light_over_residual": (None, [POINTER(Light), _pd, _pd]),
     "envl_window_name": (c_char_p, [c_int32]),
     "envl_window_from_name": (c_int32, [c_char_p]),
     "envl_sh_compute": (_R, [_map, POINTER(SHOptions), POINTER(_sh)]),

@@ -23,6 +23,7 @@ static void light_in(const envl_lights *ls, int32_t i, int frame, envl_light *l)
 {
     envl_lights_get(ls, i, l);
     envl_frame_vector(frame, l->direction, l->direction);
+    envl_frame_vector(frame, l->take_direction, l->take_direction);
 }
 
 static void write_json(FILE *f, const envl_info *info, const envl_lights *ls, int frame)
@@ -48,6 +49,9 @@ static void write_json(FILE *f, const envl_info *info, const envl_lights *ls, in
         json_number(&j, "angle_degrees", l.angle * 180.0 / ENVL_PI);
         double rect[4] = {l.rect[0], l.rect[1], l.rect[2], l.rect[3]};
         json_numbers(&j, "rect", rect, 4);
+        json_numbers(&j, "take_direction", l.take_direction, 3);
+        json_number(&j, "take_solid_angle", l.take_solid_angle);
+        json_number(&j, "take_angle", l.take_angle);
         json_object_end(&j);
     }
     json_array_end(&j);

@@ -203,10 +203,12 @@ static void write_punctual(json_writer *j, const envl_lights *ls, int32_t nl)
     for (int32_t i = 0; i < nl; i++) {
         envl_light l;
         envl_lights_get(ls, i, &l);
-        double m = fmax(l.rgb[0], fmax(l.rgb[1], l.rgb[2]));
+        double d[3], rgb[3]; /* over the residual the IBL holds (envl_light_over_residual) */
+        envl_light_over_residual(&l, d, rgb);
+        double m = fmax(rgb[0], fmax(rgb[1], rgb[2]));
         double color[3] = {1, 1, 1};
         for (int k = 0; m > 0 && k < 3; k++)
-            color[k] = l.rgb[k] / m;
+            color[k] = rgb[k] / m;
         char name[32];
         snprintf(name, sizeof name, "sun_%d", (int)i);
         json_object(j, NULL);
@@ -215,8 +217,8 @@ static void write_punctual(json_writer *j, const envl_lights *ls, int32_t nl)
         json_numbers(j, "color", color, 3);
         json_number(j, "intensity", m);
         json_object(j, "extras");
-        json_number(j, "angular_diameter", l.angle);
-        json_number(j, "solid_angle", l.solid_angle);
+        json_number(j, "angular_diameter", l.take_angle);
+        json_number(j, "solid_angle", l.take_solid_angle);
         json_object_end(j);
         json_object_end(j);
     }
@@ -278,8 +280,9 @@ static void write_scene(json_writer *j, const envl_lights *ls, int32_t nl)
     for (int32_t i = 0; i < nl; i++) {
         envl_light l;
         envl_lights_get(ls, i, &l);
-        double d[3], q[4];
-        envl_frame_vector(ENVL_FRAME_GLTF, l.direction, d);
+        double d[3], rgb[3], q[4];
+        envl_light_over_residual(&l, d, rgb);
+        envl_frame_vector(ENVL_FRAME_GLTF, d, d);
         light_rotation(d, q);
         char name[32];
         snprintf(name, sizeof name, "sun_%d", (int)i);
@@ -450,11 +453,13 @@ static envl_result diffuse_error(envl_envmap *map, const envl_lights *ls, const 
     for (int32_t i = 0; !rc && ls && i < envl_lights_count(ls); i++) {
         envl_light l;
         envl_lights_get(ls, i, &l);
+        double d[3], rgb[3];
+        envl_light_over_residual(&l, d, rgb);
         for (int32_t k = 0; k < ENVL_ERROR_NORMALS; k++) {
             const double *v = n + 3 * k;
-            double c = v[0] * l.direction[0] + v[1] * l.direction[1] + v[2] * l.direction[2];
+            double c = v[0] * d[0] + v[1] * d[1] + v[2] * d[2];
             for (int ch = 0; c > 0 && ch < 3; ch++)
-                e[3 * k + ch] += l.rgb[ch] * c;
+                e[3 * k + ch] += rgb[ch] * c;
         }
     }
     if (!rc)

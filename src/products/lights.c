@@ -58,6 +58,16 @@ envl_result envl_lights_irradiance(const envl_lights *ls, int32_t count, const d
 
 /* ---- the call ---- */
 
+void envl_light_over_residual(const envl_light *l, double direction[3], double rgb[3])
+{
+    /* |V| = rgb (1 - w / 4 pi) along V (lights_take.c, envl__light_size) */
+    double keep = 1.0 - l->take_solid_angle / (4.0 * ENVL_PI);
+    for (int k = 0; k < 3; k++) {
+        direction[k] = l->take_direction[k];
+        rgb[k] = l->rgb[k] * keep;
+    }
+}
+
 /* Every number the lights carry is finite: their directions, colours and sizes, the SH
  * remainder, the residual map (float) and the summary (a map near FLT_MAX could overflow). */
 static int lights_finite(const envl_lights *ls)
@@ -70,8 +80,10 @@ static int lights_finite(const envl_lights *ls)
     for (int32_t i = 0; ok && i < s->count; i++) {
         const envl_light *l = ls->lights + i;
         for (int k = 0; k < 3; k++)
-            ok &= isfinite(l->direction[k]) && isfinite(l->rgb[k]);
-        ok &= isfinite(l->solid_angle) && isfinite(l->angle);
+            ok &= isfinite(l->direction[k]) && isfinite(l->rgb[k]) &&
+                  isfinite(l->take_direction[k]);
+        ok &= isfinite(l->solid_angle) && isfinite(l->angle) && isfinite(l->take_solid_angle) &&
+              isfinite(l->take_angle);
     }
     int32_t nsh = s->remainder_order >= 0 ? (s->remainder_order + 1) * (s->remainder_order + 1)
                                           : 0;
@@ -160,6 +172,14 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
     if (rc)
         goto fail;
     s->seconds = envl__seconds() - t0;
+    if (o->method != ENVL_METHOD_FIT)
+        for (int32_t i = 0; i < s->count; i++) {
+            /* a cut's region and a sun: what the light took is what it stands for */
+            envl_light *l = &ls->lights[i];
+            memcpy(l->take_direction, l->direction, sizeof l->direction);
+            l->take_solid_angle = l->solid_angle;
+            l->take_angle = l->angle;
+        }
 
     for (int32_t i = 0; i < s->count; i++)
         for (int k = 0; k < 3; k++)

@@ -306,8 +306,10 @@ static void point_along_takes(fit_problem *p, double ymean, int32_t K, double *c
         if (!(lights_error(p, ymean, K, cols, ls) <= limit))
             memcpy(l->direction, aim, sizeof aim);
     }
-    for (int32_t i = 0; i < K; i++)
+    for (int32_t i = 0; i < K; i++) {
         envl__light_size(&takes[i], &ls->lights[i]);
+        envl__light_take_size(&takes[i], &ls->lights[i]);
+    }
 }
 
 envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_residual,

@@ -83,6 +83,9 @@ typedef struct envl__take {
 /* A light's solid_angle and angle: the uniform disc about its direction with the spread of
  * what it took (rgb set). */
 void envl__light_size(const envl__take *t, envl_light *l);
+/* A light's take_direction, take_solid_angle and take_angle: the direction of its take's moment
+ * V and the disc about it (envl__light_size about V); the direction when it took nothing. */
+void envl__light_take_size(const envl__take *t, envl_light *l);
 
 /* ---- cones about a direction (lights_fit.c) ---- */
 /* The pixels within `radius` (radians) of the unit vector dir, and a pixel more: rows r0..r1

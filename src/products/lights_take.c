@@ -411,6 +411,20 @@ void envl__light_size(const envl__take *t, envl_light *l)
     envl__light_set_angle(l);
 }
 
+void envl__light_take_size(const envl__take *t, envl_light *l)
+{
+    /* the same disc as envl__light_size's, about V itself: its spread is the least */
+    double len = sqrt(t->moment[0] * t->moment[0] + t->moment[1] * t->moment[1] +
+                      t->moment[2] * t->moment[2]);
+    envl_light about = *l;
+    for (int k = 0; len > 0 && k < 3; k++)
+        about.direction[k] = t->moment[k] / len;
+    envl__light_size(t, &about);
+    memcpy(l->take_direction, about.direction, sizeof about.direction);
+    l->take_solid_angle = about.solid_angle;
+    l->take_angle = about.angle;
+}
+
 envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_lights *ls,
                               envl__take *out)
 {

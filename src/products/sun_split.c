@@ -178,6 +178,9 @@ envl_result envl__sun_split_lights(const envl_envmap *m, envl_sun_split *s, envl
         for (int k = 0; k < 3; k++)
             li.rgb[k] = a[k];
         envl__light_set_angle(&li);
+        memcpy(li.take_direction, li.direction, sizeof li.direction); /* what it took */
+        li.take_solid_angle = li.solid_angle;
+        li.take_angle = li.angle;
         int keep = li.angle <= SUN_MAX_ANGLE && li.solid_angle <= SUN_MIN_FILL * a[8] &&
                    a[6] >= SUN_MIN_SHARE * map_power(m);
         light[g] = keep ? nl : -1;
