@@ -430,7 +430,7 @@ def reference_cache(spec, blender_version):
     """The file that holds (or will hold) the reference renders of spec's map and scene, or None
     without spec["ref_cache"]: keyed by the map's bytes, the scene, the samples, the image
     size, the Blender version and the source of everything that builds and renders the
-    scene (_in_blender up to the reference), so a changed scene or setting never reuses one.
+    scene (the Bench class), so a changed scene or setting never reuses one.
     The reference is the plain HDR world: no recipe changes it, and it is most of a run's
     time (scene_bench.py --tmp keeps the cache between runs)."""
     import hashlib
@@ -442,155 +442,241 @@ def reference_cache(spec, blender_version):
         h.update(f.read())
     h.update(json.dumps([spec["scene"], spec["ref_spp"], list(spec["image"]),
                          blender_version]).encode())
-    h.update(inspect.getsource(_in_blender).split("# the reference")[0].encode())
+    h.update(inspect.getsource(Bench).encode())
     os.makedirs(spec["ref_cache"], exist_ok=True)
     return os.path.join(spec["ref_cache"], "ref_%s.npz" % h.hexdigest()[:24])
+
+
+LUMINANCE = (0.2126, 0.7152, 0.0722)
+
+
+class Bench:
+    """One scene of the benchmark in the running Blender (spec: the map, scene, image size,
+    output folder): its objects, their masks, the world of the map (packed), Cycles' settings,
+    and the renders. Used by _in_blender and by blender_eevee_parts.py."""
+
+    def __init__(self, spec):
+        import bpy
+        import mathutils
+        import numpy as np
+        from blender_scene import node_material
+        self.spec = spec
+        self.scene = scene = bpy.context.scene
+        for o in list(bpy.data.objects):
+            bpy.data.objects.remove(o, do_unlink=True)
+        kind = spec["scene"]
+
+        def diffuse(name, albedo):
+            return node_material(name, color=(albedo, albedo, albedo))
+
+        def glossy(name):
+            m = bpy.data.materials.new(name)
+            m.use_nodes = True
+            p = m.node_tree.nodes["Principled BSDF"]
+            p.inputs["Base Color"].default_value = (0.8, 0.8, 0.8, 1)
+            p.inputs["Metallic"].default_value = 1.0
+            p.inputs["Roughness"].default_value = 0.2
+            return m
+
+        def add(kind, name, mat, loc, scale=(1, 1, 1), **kw):
+            if kind == "sphere":
+                bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, location=loc,
+                                                     **kw)
+                bpy.ops.object.shade_smooth()
+            elif kind == "plane":
+                bpy.ops.mesh.primitive_plane_add(location=loc, **kw)
+            else:
+                bpy.ops.mesh.primitive_cube_add(location=loc, **kw)
+            o = bpy.context.active_object
+            o.name = name
+            o.scale = scale
+            o.data.materials.append(mat)
+            return o
+
+        #: each object's diffuse albedo (None: glossy)
+        self.albedo = {"ground": GROUND_ALBEDO}
+        objs = [add("plane", "ground", diffuse("Ground", GROUND_ALBEDO), (0, 0, 0), size=20)]
+        if kind == "a":
+            objs.append(add("sphere", "matte", diffuse("Matte", 0.8), (0, 0, 1), radius=1.0))
+        elif kind == "b":
+            objs.append(add("sphere", "matte", diffuse("Matte", 0.8), (-1.15, 0, 1),
+                            radius=1.0))
+            objs.append(add("sphere", "glossy", glossy("Glossy"), (1.15, 0, 1), radius=1.0))
+        else:
+            wall = diffuse("Wall", GROUND_ALBEDO)
+            objs.append(add("sphere", "matte", diffuse("Matte", 0.8), (0, 0.2, 0.7),
+                            radius=0.7))
+            objs.append(add("cube", "wall", wall, (0, 1.1, 1.25), scale=(2.0, 0.1, 1.25)))
+            objs.append(add("cube", "overhang", wall, (0, 0.2, 1.9), scale=(2.0, 1.0, 0.08)))
+        self.albedo.update(matte=0.8, wall=GROUND_ALBEDO, overhang=GROUND_ALBEDO, glossy=None)
+        self.objs = objs
+        cam = bpy.data.cameras.new("BenchCam")
+        co = bpy.data.objects.new("BenchCam", cam)
+        scene.collection.objects.link(co)
+        co.location = (0, -7.5, 3.0) if kind != "c" else (1.5, -6.0, 1.6)
+        target = (0, 0, 0.8) if kind != "c" else (0, 0.3, 0.9)
+        d = mathutils.Vector(target) - co.location
+        co.rotation_euler = d.to_track_quat("-Z", "Y").to_euler()
+        cam.lens = 50 if kind != "c" else 45
+        scene.camera = co
+        self.w, self.h = w, h = spec["image"]
+        scene.render.resolution_x, scene.render.resolution_y = w, h
+        scene.render.resolution_percentage = 100
+        scene.render.image_settings.file_format = "OPEN_EXR"
+        scene.render.image_settings.color_depth = "32"
+        scene.view_settings.view_transform = "Standard"
+        scene.render.threads_mode = "FIXED"
+        scene.render.threads = 2
+        self.out_dir = spec["dir"]
+
+        # the mask: each object an emission of (i + 1) / 10 under a black world, one sample
+        # at the pixel centre (no pixel filter): each pixel's value names its object
+        scene.render.engine = "CYCLES"
+        self.cy = cy = scene.cycles
+        cy.device = "CPU"
+        cy.filter_width = 0.01
+        # EEVEE's own pixel filter (Film > Filter Size, 1.5 px by default) likewise: with it,
+        # the pixels along each silhouette mix two objects and read as error (rooitou_park (a):
+        # 13.3 % with 1.5 px, 10.9 % without)
+        scene.render.filter_size = 0.01
+        cy.use_denoising = False
+        saved = []
+        for i, o in enumerate(objs):
+            em = node_material("BenchMask%d" % i, "ShaderNodeEmission", ((i + 1) / 10.0, 0, 0))
+            saved.append(o.data.materials[0])
+            o.data.materials[0] = em
+        black = bpy.data.worlds.new("BenchBlack")
+        black.color = (0, 0, 0)
+        scene.world = black
+        cy.samples = 1
+        bpy.ops.render.render()
+        red = self.grab("mask")[..., 0]
+        for o, m in zip(objs, saved):
+            o.data.materials[0] = m
+        self.masks = {}
+        for i, o in enumerate(objs):
+            m = np.abs(red - (i + 1) / 10.0) < 0.04
+            if m.sum() > 0:
+                self.masks[o.name] = m
+        self.every = np.zeros_like(red, dtype=bool)
+        for m in self.masks.values():
+            self.every |= m
+
+        # the world: the map, packed
+        self.world = world = bpy.data.worlds.new("BenchWorld")
+        scene.world = world
+        world.use_nodes = True
+        nt = world.node_tree
+        tex = nt.nodes.new("ShaderNodeTexEnvironment")
+        tex.image = bpy.data.images.load(spec["map"])
+        tex.image.pack()
+        nt.links.new(tex.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+
+        cy.use_denoising = False
+        cy.use_adaptive_sampling = False
+        cy.max_bounces = 4
+        cy.sample_clamp_direct = 0
+        cy.sample_clamp_indirect = 0
+
+    def grab(self, tag):
+        """The render result as an (h, w, 3) array, row 0 at the top."""
+        import bpy
+        import numpy as np
+        path = os.path.join(self.out_dir, "render_%s_%s.exr" % (self.spec["scene"], tag))
+        bpy.data.images["Render Result"].save_render(path)
+        img = bpy.data.images.load(path)
+        px = np.empty(self.w * self.h * 4, dtype=np.float32)
+        img.pixels.foreach_get(px)
+        bpy.data.images.remove(img)
+        os.unlink(path)
+        return px.reshape(self.h, self.w, 4)[::-1, :, :3].astype(np.float64)
+
+    def render(self, spp, seed):
+        """-> luminance image, CPU seconds of the render (all threads: less sensitive to the
+        machine's load than the wall clock). Cycles' samples and seed, or EEVEE's samples."""
+        import bpy
+        import numpy as np
+        self.cy.samples = spp
+        self.cy.seed = seed
+        if self.scene.render.engine != "CYCLES":
+            self.scene.eevee.taa_render_samples = spp
+        t = cpu()
+        bpy.ops.render.render()
+        dt = cpu() - t
+        return self.grab("%d_%d" % (spp, seed)) @ np.array(LUMINANCE), dt
+
+    def reference(self):
+        """The reference (or the same renders from an earlier run: reference_cache) ->
+        (r1, r2, CPU seconds, cached)."""
+        import bpy
+        import numpy as np
+        spec = self.spec
+        self.scene.render.engine = "CYCLES"
+        self.scene.world = self.world
+        cache = reference_cache(spec, bpy.app.version_string)
+        if cache is not None and os.path.exists(cache):
+            with np.load(cache) as z:
+                return z["r1"], z["r2"], float(z["seconds"]), True
+        r1, ta = self.render(spec["ref_spp"], 101)
+        r2, tb = self.render(spec["ref_spp"], 202)
+        if cache is not None:
+            tmp_cache = cache + ".tmp.npz"
+            np.savez(tmp_cache, r1=r1, r2=r2, seconds=ta + tb)
+            os.replace(tmp_cache, cache)
+        return r1, r2, ta + tb, False
+
+    def regions(self):
+        """(name, mask) of each object and of all of them ("objects")."""
+        return list(self.masks.items()) + [("objects", self.every)]
+
+    def install_addon(self):
+        """The add-on, installed from the zip."""
+        import bpy
+        bpy.ops.preferences.addon_install(filepath=self.spec["zip"], overwrite=True)
+        bpy.ops.preferences.addon_enable(module="envlight_addon")
+
+    def create_lights(self, settings):
+        """The add-on's Create Lights with the panel's defaults and then `settings` on the
+        bench's world (after Remove) -> (report, picked_as, library seconds); picked_as
+        "unchanged" when the add-on left the scene as it is. settings None: the plain world."""
+        import bpy
+        self.scene.world = self.world
+        bpy.ops.envlight.remove()
+        if settings is None:
+            return "", None, 0.0
+        s = self.world.envlight
+        for p in s.bl_rna.properties:   # the panel's defaults, then the recipe's own
+            if not p.is_readonly and p.identifier != "rna_type":
+                s.property_unset(p.identifier)
+        for k, v in settings.items():
+            setattr(s, k, v)
+        t = time.perf_counter()
+        r = bpy.ops.envlight.create_lights()
+        t_lib = time.perf_counter() - t
+        report = s.result_message
+        if getattr(s, "result_outcome", "") == "unchanged" or (
+                r == {"CANCELLED"} and report.startswith("nothing computed")):
+            return report, "unchanged", t_lib   # the add-on left the scene as it is
+        if r != {"FINISHED"}:
+            raise RuntimeError("Create Lights: %s (%s)" % (r, s.result_message))
+        return report, getattr(s, "result_recipe", "") or None, t_lib
+
+
+def cpu():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
 
 
 def _in_blender():
     import bpy
     import numpy as np
-    from blender_scene import node_material
-    LUM = np.array([0.2126, 0.7152, 0.0722])
     spec = json.load(open(sys.argv[sys.argv.index("--") + 1]))
-    scene = bpy.context.scene
-
-    def diffuse(name, albedo):
-        return node_material(name, color=(albedo, albedo, albedo))
-
-    def glossy(name):
-        m = bpy.data.materials.new(name)
-        m.use_nodes = True
-        p = m.node_tree.nodes["Principled BSDF"]
-        p.inputs["Base Color"].default_value = (0.8, 0.8, 0.8, 1)
-        p.inputs["Metallic"].default_value = 1.0
-        p.inputs["Roughness"].default_value = 0.2
-        return m
-
-    def add(kind, name, mat, loc, scale=(1, 1, 1), **kw):
-        if kind == "sphere":
-            bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, location=loc, **kw)
-            bpy.ops.object.shade_smooth()
-        elif kind == "plane":
-            bpy.ops.mesh.primitive_plane_add(location=loc, **kw)
-        else:
-            bpy.ops.mesh.primitive_cube_add(location=loc, **kw)
-        o = bpy.context.active_object
-        o.name = name
-        o.scale = scale
-        o.data.materials.append(mat)
-        return o
-
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o, do_unlink=True)
-    kind = spec["scene"]
-    objs = [add("plane", "ground", diffuse("Ground", GROUND_ALBEDO), (0, 0, 0), size=20)]
-    if kind == "a":
-        objs.append(add("sphere", "matte", diffuse("Matte", 0.8), (0, 0, 1), radius=1.0))
-    elif kind == "b":
-        objs.append(add("sphere", "matte", diffuse("Matte", 0.8), (-1.15, 0, 1), radius=1.0))
-        objs.append(add("sphere", "glossy", glossy("Glossy"), (1.15, 0, 1), radius=1.0))
-    else:
-        wall = diffuse("Wall", GROUND_ALBEDO)
-        objs.append(add("sphere", "matte", diffuse("Matte", 0.8), (0, 0.2, 0.7), radius=0.7))
-        objs.append(add("cube", "wall", wall, (0, 1.1, 1.25), scale=(2.0, 0.1, 1.25)))
-        objs.append(add("cube", "overhang", wall, (0, 0.2, 1.9), scale=(2.0, 1.0, 0.08)))
-    cam = bpy.data.cameras.new("BenchCam")
-    co = bpy.data.objects.new("BenchCam", cam)
-    scene.collection.objects.link(co)
-    co.location = (0, -7.5, 3.0) if kind != "c" else (1.5, -6.0, 1.6)
-    target = (0, 0, 0.8) if kind != "c" else (0, 0.3, 0.9)
-    import mathutils
-    d = mathutils.Vector(target) - co.location
-    co.rotation_euler = d.to_track_quat("-Z", "Y").to_euler()
-    cam.lens = 50 if kind != "c" else 45
-    scene.camera = co
-    w, h = spec["image"]
-    scene.render.resolution_x, scene.render.resolution_y = w, h
-    scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    scene.view_settings.view_transform = "Standard"
-    scene.render.threads_mode = "FIXED"
-    scene.render.threads = 2
-    out_dir = spec["dir"]
-
-    def grab(tag):
-        path = os.path.join(out_dir, "render_%s_%s.exr" % (spec["scene"], tag))
-        bpy.data.images["Render Result"].save_render(path)
-        img = bpy.data.images.load(path)
-        px = np.empty(w * h * 4, dtype=np.float32)
-        img.pixels.foreach_get(px)
-        bpy.data.images.remove(img)
-        os.unlink(path)
-        return px.reshape(h, w, 4)[::-1, :, :3].astype(np.float64)
-
-    # the mask: each object an emission of (i + 1) / 10 under a black world, one sample at
-    # the pixel centre (no pixel filter): each pixel's value names its object
-    scene.render.engine = "CYCLES"
-    cy = scene.cycles
-    cy.device = "CPU"
-    cy.filter_width = 0.01
-    # EEVEE's own pixel filter (Film > Filter Size, 1.5 px by default) likewise: with it, the
-    # pixels along each silhouette mix two objects and read as error (rooitou_park (a): 13.3 %
-    # with 1.5 px, 10.9 % without)
-    scene.render.filter_size = 0.01
-    cy.use_denoising = False
-    saved = []
-    for i, o in enumerate(objs):
-        em = node_material("BenchMask%d" % i, "ShaderNodeEmission", ((i + 1) / 10.0, 0, 0))
-        saved.append(o.data.materials[0])
-        o.data.materials[0] = em
-    black = bpy.data.worlds.new("BenchBlack")
-    black.color = (0, 0, 0)
-    scene.world = black
-    cy.samples = 1
-    bpy.ops.render.render()
-    red = grab("mask")[..., 0]
-    for o, m in zip(objs, saved):
-        o.data.materials[0] = m
-    masks = {}
-    for i, o in enumerate(objs):
-        m = np.abs(red - (i + 1) / 10.0) < 0.04
-        if m.sum() > 0:
-            masks[o.name] = m
-    every = np.zeros_like(red, dtype=bool)
-    for m in masks.values():
-        every |= m
-
-    # the world: the map, packed
-    world = bpy.data.worlds.new("BenchWorld")
-    scene.world = world
-    world.use_nodes = True
-    nt = world.node_tree
-    tex = nt.nodes.new("ShaderNodeTexEnvironment")
-    tex.image = bpy.data.images.load(spec["map"])
-    tex.image.pack()
-    nt.links.new(tex.outputs["Color"], nt.nodes["Background"].inputs["Color"])
-
-    cy.use_denoising = False
-    cy.use_adaptive_sampling = False
-    cy.max_bounces = 4
-    cy.sample_clamp_direct = 0
-    cy.sample_clamp_indirect = 0
-
-    def cpu():
-        r = resource.getrusage(resource.RUSAGE_SELF)
-        return r.ru_utime + r.ru_stime
-
-    def render(spp, seed):
-        """-> luminance image, CPU seconds of the render (all threads: less sensitive to the
-        machine's load than the wall clock)."""
-        cy.samples = spp
-        cy.seed = seed
-        t = cpu()
-        bpy.ops.render.render()
-        dt = cpu() - t
-        return grab("%d_%d" % (spp, seed)) @ LUM, dt
+    b = Bench(spec)
+    scene, cy, masks, out_dir = b.scene, b.cy, b.masks, b.out_dir
 
     def stats(y1, y2, yref, ref_noise):
         out = {}
-        for name, m in list(masks.items()) + [("objects", every)]:
+        for name, m in b.regions():
             mr = yref[m].mean()
             noise = np.sqrt(np.mean((y1[m] - y2[m]) ** 2) / 2) / mr
             err = np.sqrt(np.mean((y1[m] - yref[m]) ** 2)) / mr
@@ -600,30 +686,14 @@ def _in_blender():
                              floor=float(math.sqrt(max(err ** 2 - noise ** 2 - rn ** 2, 0))))
         return out
 
-    # the reference (or the same renders from an earlier run: reference_cache)
-    cache = reference_cache(spec, bpy.app.version_string)
-    cache_hit = cache is not None and os.path.exists(cache)
-    if cache_hit:
-        with np.load(cache) as z:
-            r1, r2, ref_seconds = z["r1"], z["r2"], float(z["seconds"])
-    else:
-        r1, ta = render(spec["ref_spp"], 101)
-        r2, tb = render(spec["ref_spp"], 202)
-        ref_seconds = ta + tb
-        if cache is not None:
-            tmp_cache = cache + ".tmp.npz"
-            np.savez(tmp_cache, r1=r1, r2=r2, seconds=ref_seconds)
-            os.replace(tmp_cache, cache)
+    r1, r2, ref_seconds, cache_hit = b.reference()
     yref = 0.5 * (r1 + r2)
     ref_noise = {name: float(np.sqrt(np.mean((r1[m] - r2[m]) ** 2)) / 2 / yref[m].mean())
-                 for name, m in list(masks.items()) + [("objects", every)]}
+                 for name, m in b.regions()}
     ref_img = os.path.join(out_dir, "ref_%s.npy" % spec["scene"])
     np.save(ref_img, np.stack([yref] * 3, axis=-1).astype(np.float32))
 
-    # the add-on, installed from the zip
-    bpy.ops.preferences.addon_install(filepath=spec["zip"], overwrite=True)
-    bpy.ops.preferences.addon_enable(module="envlight_addon")
-
+    b.install_addon()
     runs = []
     for recipe in spec["recipes"]:
         settings = RECIPES[recipe]
@@ -633,37 +703,17 @@ def _in_blender():
         scene.render.engine = (EEVEE_ENGINE if bpy.app.version >= (4, 2, 0)
                                else "BLENDER_EEVEE") if eevee else "CYCLES"
         cy.max_bounces = 0 if recipe == "hdr-direct" else 4   # the direct light alone
-        scene.world = world
-        bpy.ops.envlight.remove()
-        report, picked_as = "", None
-        t_lib = 0.0
-        if settings is not None:
-            s = world.envlight
-            for p in s.bl_rna.properties:   # the panel's defaults, then the recipe's own
-                if not p.is_readonly and p.identifier != "rna_type":
-                    s.property_unset(p.identifier)
-            for k, v in settings.items():
-                setattr(s, k, v)
-            t = time.perf_counter()
-            r = bpy.ops.envlight.create_lights()
-            t_lib = time.perf_counter() - t
-            report = s.result_message
-            if getattr(s, "result_outcome", "") == "unchanged" or (
-                    r == {"CANCELLED"} and report.startswith("nothing computed")):
-                picked_as = "unchanged"   # the add-on left the scene as it is
-            elif r != {"FINISHED"}:
-                raise RuntimeError("Create Lights: %s (%s)" % (r, s.result_message))
-            else:
-                picked_as = getattr(s, "result_recipe", "") or recipe
+        report, picked_as, t_lib = b.create_lights(settings)
+        if settings is not None and picked_as is None:
+            picked_as = recipe
         if eevee:   # deterministic: one render, its own time, no noise
-            scene.eevee.taa_render_samples = EEVEE_SPP
-            render(1, 1)   # shaders compiled outside the timing
-            y1, tS = render(EEVEE_SPP, 1)
+            b.render(1, 1)   # shaders compiled outside the timing
+            y1, tS = b.render(EEVEE_SPP, 1)
             y2, tone = y1, tS
         else:
-            y1, t1 = render(spec["spp"], 1)
-            y2, tS = render(spec["spp"], 2)
-            _, tone = render(1, 3)
+            y1, t1 = b.render(spec["spp"], 1)
+            y2, tS = b.render(spec["spp"], 2)
+            _, tone = b.render(1, 3)
         st = stats(y1, y2, yref, ref_noise)
         o = st["objects"]
         run = dict(recipe=recipe, picked=recipe in ("picked", "picked-eevee"),
@@ -685,7 +735,7 @@ def _in_blender():
 
     speedups(runs)
     res = dict(reference=dict(spp=spec["ref_spp"], seconds=ref_seconds, noise=ref_noise,
-                              cached=bool(cache and cache_hit),
+                              cached=bool(cache_hit),
                               image=ref_img, pixels={k: int(m.sum())
                                                      for k, m in masks.items()}),
                runs=runs)
