@@ -30,7 +30,7 @@ extern "C" {
 #endif
 
 /* Bumped whenever a struct layout or a function signature changes (the ctypes shim checks it). */
-#define ENVL_ABI_VERSION 4
+#define ENVL_ABI_VERSION 5
 
 /* pi, the one definition every part of envlight uses. */
 #define ENVL_PI 3.14159265358979323846
@@ -446,15 +446,37 @@ typedef struct envl_prefilter_options {
                                  returned as lights (envl_products_sun_lights) that the renderer
                                  adds analytically, as engines light with a sun; each product's
                                  error is measured with them added (docs/methods.md, "Prefiltered maps") */
+    int32_t layout;           /* the texels the maps are computed at (ABI 5): ENVL_EXPORT_LATLONG
+                                 (default; also ATLAS) lat-long images; ENVL_EXPORT_CUBE (or
+                                 CROSS) cube faces of width / 4 texels (irradiance_width / 4),
+                                 each texel computed at its own centre direction, held as a
+                                 horizontal strip (envl_level.layout ENVL_LAYOUT_STRIP_H): what
+                                 envl_products_export writes as cube faces, a cross or KTX2
+                                 without resampling */
 } envl_prefilter_options;
 
 /* Width of the specular level of `roughness` under `options` (height = width / 2). */
 ENVL_API int32_t envl_prefilter_level_width(const envl_prefilter_options *options,
                                             double roughness);
 
+/* The per-texel error of a map product (docs/design.md, "Error measures"): at each texel's
+ * centre direction, e = (Y - Y_exact) / max(Y_exact, ENVL_TEXEL_DARK x the mean of Y_exact
+ * over the sphere), Y luminance, Y_exact the exact value there (the brute force's, summed
+ * within a stated tolerance; roughness 0: the map's mean over the texel); the RMS weighted
+ * by the texels' solid angles, and the largest |e|. Over every texel, or over
+ * ENVL_TEXEL_SAMPLES of them spread evenly through the image when it has more. */
+#define ENVL_TEXEL_DARK 0.01
+#define ENVL_TEXEL_SAMPLES 8192
+typedef struct envl_texel_error {
+    double rms;               /* -1 when not measured */
+    double worst;             /* the largest |e| (-1 when not measured) */
+    double worst_direction[3];/* that texel's centre direction (canonical frame) */
+    int32_t measured, texels; /* texels measured, of all the product has */
+} envl_texel_error;
+
 typedef struct envl_level {
     double roughness, alpha;  /* alpha = roughness^2 */
-    int32_t width, height;    /* lat-long */
+    int32_t width, height;    /* of rgb: the lat-long map, or the strip of six faces (6F x F) */
     const float *rgb;         /* width * height * 3, row 0 = top; owned by the products */
     int32_t samples;          /* filtered: pyramid cells summed per texel (mean); unfiltered: GGX
                                  samples per texel; 0 for roughness 0 (the map resampled by area) */
@@ -464,6 +486,10 @@ typedef struct envl_level {
                                  ratio before the correction, 1 when none was needed */
     double glossy_error;      /* docs/design.md's glossy error (request.measure), else -1 */
     double seconds;           /* to compute the level (the error measure excluded) */
+    int32_t layout;           /* ENVL_LAYOUT_LATLONG, or ENVL_LAYOUT_STRIP_H: six cube faces of
+                                 height texels side by side, px nx py ny pz nz, each as
+                                 docs/design.md's face table (prefilter options.layout) */
+    envl_texel_error texel_error; /* request.measure; else rms and worst -1 */
 } envl_level;
 
 typedef struct envl_irradiance_map {
@@ -471,6 +497,8 @@ typedef struct envl_irradiance_map {
     const float *rgb;         /* owned by the products */
     double diffuse_error;     /* docs/design.md's diffuse error (request.measure), else -1 */
     double seconds;
+    int32_t layout;           /* as envl_level's */
+    envl_texel_error texel_error;
 } envl_irradiance_map;
 
 #define ENVL_BRDF_DEFAULT_SIZE 128
@@ -660,13 +688,15 @@ typedef struct envl_gltf_summary {
     double diffuse_error;     /* docs/design.md's diffuse error of the lights + the SH
                                  irradiance against the whole map's exact irradiance; -1 when
                                  not measured */
-    double glossy_error[16];  /* mip k's glossy error (its float lat-long level against the
-                                 residual's reference); -1 when not measured */
+    double glossy_error[16];  /* mip k's glossy error (its float cube faces read bilinearly,
+                                 against the residual's reference); -1 when not measured */
     double rgbd_error;        /* largest relative RMS (luminance) over the mips of the decoded
                                  RGBD faces against the float faces they encode (none clamps:
                                  intensity is the chain's largest value / 255) */
     int64_t bytes;            /* of the file */
     double seconds;           /* everything (the error measures excluded) */
+    envl_texel_error texel_error[16]; /* mip k's per-texel error (its float faces, each texel
+                                 computed at its centre, against the residual's reference) */
 } envl_gltf_summary;
 
 /* Writes `path` (.glb or .gltf) atomically. summary (may be NULL) gets the figures above. */

@@ -84,6 +84,19 @@ const char *cli_error_text(char *buf, size_t size, const char *what, double erro
     return buf;
 }
 
+const char *cli_texel_text(char *buf, size_t size, const envl_texel_error *t)
+{
+    if (!(t->rms >= 0 && t->worst >= 0))
+        snprintf(buf, size, "per texel not measured");
+    else if (t->measured < t->texels)
+        snprintf(buf, size, "per texel RMS %.3f %% worst %.3f %% (%d of %d texels)",
+                 100 * t->rms, 100 * t->worst, (int)t->measured, (int)t->texels);
+    else
+        snprintf(buf, size, "per texel RMS %.3f %% worst %.3f %%", 100 * t->rms,
+                 100 * t->worst);
+    return buf;
+}
+
 /* The layout guess (layout.c: metadata, then the aspect ratio) is evident when the file has
  * the shape of the layout it was read as: OpenEXR's envmap attribute, 2:1 lat-long, 3:4 / 4:3
  * crosses, 6:1 / 1:6 strips. A square is a guess (an angular probe or a mirror ball?), and so

@@ -92,6 +92,9 @@ const cli_option *cli_seen(const cli_option *t, int n, const char *names);
 const char *cli_frame_label(int frame);
 /* "<what> error 0.123 %", or "<what> error not measured" for a negative error. */
 const char *cli_error_text(char *buf, size_t size, const char *what, double error);
+/* "per texel RMS 0.190 % worst 1.020 %" (", 8192 of 98304 texels" when a part was measured),
+ * or "per texel not measured": docs/design.md's per-texel error. */
+const char *cli_texel_text(char *buf, size_t size, const envl_texel_error *t);
 
 /* Loads FILE, or the built-in sky for NULL or "-"; warns (unless quiet) about replaced pixels
  * and says which layout auto-detection picked when that was a real guess (not evident from

@@ -110,6 +110,16 @@ static int ktx2_levels_fit(const char *format, int32_t face, int32_t levels)
     return 1;
 }
 
+/* "512 x 256" (lat-long) or "6 x 128^2" (cube faces). */
+static const char *size_text(char *buf, size_t n, int32_t layout, int32_t w, int32_t h)
+{
+    if (layout == ENVL_LAYOUT_STRIP_H)
+        snprintf(buf, n, "6 x %d^2", (int)h);
+    else
+        snprintf(buf, n, "%d x %d", (int)w, (int)h);
+    return buf;
+}
+
 /* The table of what was written: the products, their errors and seconds. */
 static int print_summary(const envl_envmap *map, const envl_products *p, const char *dir,
                          const envl_export_options *eo)
@@ -124,22 +134,22 @@ static int print_summary(const envl_envmap *map, const envl_products *p, const c
         printf("; cell pyramid %.3f s", s.seconds_pyramid);
     printf("\n");
     envl_irradiance_map irr;
+    char e[64], t[96], size[32];
     if (envl_products_irradiance(p, &irr) == ENVL_OK) {
-        printf("irradiance   %-9s %5d x %-5d", envl_irradiance_method_name(irr.method),
-               (int)irr.width, (int)irr.height);
-        char e[64];
-        printf("  %s  %.3f s\n", cli_error_text(e, sizeof e, "diffuse", irr.diffuse_error),
-               irr.seconds);
+        printf("irradiance   %-9s %-13s", envl_irradiance_method_name(irr.method),
+               size_text(size, sizeof size, irr.layout, irr.width, irr.height));
+        printf("  %s  %s  %.3f s\n", cli_error_text(e, sizeof e, "diffuse", irr.diffuse_error),
+               cli_texel_text(t, sizeof t, &irr.texel_error), irr.seconds);
     }
     for (int32_t i = 0; i < envl_products_level_count(p); i++) {
         envl_level l;
         envl_products_level(p, i, &l);
-        printf("specular_%02d  r %.3f alpha %.4f %5d x %-5d samples %4d%s", (int)i, l.roughness,
-               l.alpha, (int)l.width, (int)l.height, (int)l.samples,
+        printf("specular_%02d  r %.3f alpha %.4f %-13s samples %4d%s", (int)i, l.roughness,
+               l.alpha, size_text(size, sizeof size, l.layout, l.width, l.height),
+               (int)l.samples,
                l.samples ? (l.filtered ? " filtered" : " plain") : " (resampled)");
-        char e[64];
-        printf("  %s  %.3f s\n", cli_error_text(e, sizeof e, "glossy", l.glossy_error),
-               l.seconds);
+        printf("  %s  %s  %.3f s\n", cli_error_text(e, sizeof e, "glossy", l.glossy_error),
+               cli_texel_text(t, sizeof t, &l.texel_error), l.seconds);
     }
     int32_t nsun;
     const envl_light *sun = envl_products_sun_lights(p, &nsun);
@@ -269,6 +279,15 @@ int cli_prefilter(int argc, char **argv)
         q.prefilter.min_width = (int32_t)min_size;
     q.prefilter.irradiance_width = (int32_t)(irr_size ? (cube ? 4 * irr_size : irr_size)
                                                       : (cube ? 128 : 64));
+    /* the maps are computed at the texels written: cube faces for cube, cross and KTX2 */
+    q.prefilter.layout = eo.layout;
+    /* the KTX2 mip chain and the atlas's slots halve at every level: no level kept wider
+     * (unless --min-size asks), so each is written as computed */
+    if ((ktx2 || eo.layout == ENVL_EXPORT_ATLAS) && !min_size) {
+        int32_t k = q.prefilter.levels ? q.prefilter.levels : ENVL_DEFAULT_LEVELS;
+        q.prefilter.min_width = q.prefilter.width >> (k - 1) > 2 ? q.prefilter.width >> (k - 1)
+                                                                 : 2;
+    }
     q.prefilter.threads = c.load.threads;
     q.irradiance_map = want_irr;
     if (want_spec) {

@@ -22,6 +22,13 @@ double *envl__fibonacci_dirs(void);
 envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const double *normals,
                                   double tolerance, double *rgb_out, double *bound_out);
 
+/* The same sums, each within relative x max(base + E, floor) of envl_irradiance_exact's, per
+ * normal and channel (base: count x 3, what the caller adds to E, or NULL; floor: per channel,
+ * absolute): accurate where E is small, cheap where it is large. */
+envl_result envl__irradiance_relative(const envl_envmap *m, int32_t count, const double *normals,
+                                      double relative, const double floor[3], const double *base,
+                                      double *rgb_out);
+
 /* Sets the diffuse_error of an SH projection (sh.c) or of lights (lights.c) computed from m. */
 envl_result envl__sh_measure(envl_envmap *m, envl_sh *sh);
 envl_result envl__lights_measure(envl_envmap *m, envl_lights *ls);
@@ -44,10 +51,21 @@ int32_t envl__glossy_reference_base(double roughness, int32_t height);
 envl_result envl__glossy_reference(const envl_envmap *m, const envl_cells *C, double roughness,
                                    int32_t count, const double *dirs, double *out);
 
-/* The error of a lat-long product read bilinearly, plus n_sun sun lights as they add to P(R) at
- * `roughness` (or to E(n) for roughness < 0), against ref at dirs. */
+/* The error of a product image read bilinearly (layout ENVL_LAYOUT_LATLONG, or _STRIP_H: cube
+ * faces, across their edges), plus n_sun sun lights as they add to P(R) at `roughness` (or to
+ * E(n) for roughness < 0), against ref at dirs. */
 envl_result envl__sampled_error(const double *dirs, const double *ref, const float *rgb,
-                                int32_t w, int32_t h, const envl_light *sun, int32_t n_sun,
-                                double roughness, double *error);
+                                int32_t layout, int32_t w, int32_t h, const envl_light *sun,
+                                int32_t n_sun, double roughness, double *error);
+
+/* ---- the per-texel error (texel_error.c) ---- */
+extern const envl_texel_error envl__texel_error_none; /* not measured: rms, worst -1 */
+/* docs/design.md's per-texel error of a product image (layout, w x h; plus n_sun sun lights
+ * as they add to P(R) at `roughness`, or to E(n) for roughness < 0) against m's exact values
+ * at the texels' centres: E (roughness < 0), P(R) (roughness > 0; C: m's cell pyramid or NULL)
+ * or the map's mean over the texel (roughness 0). */
+envl_result envl__texel_error(envl_envmap *m, const envl_cells *C, const float *rgb,
+                              int32_t layout, int32_t w, int32_t h, const envl_light *sun,
+                              int32_t n_sun, double roughness, envl_texel_error *out);
 
 #endif

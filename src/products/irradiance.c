@@ -328,6 +328,8 @@ typedef struct fast_job {
     const ktree *tree;
     irradiance_kernel kernel;  /* its tol: the allowance of the first try */
     double limit[3];           /* the promised bound: tolerance x the mean of E */
+    double relative;           /* > 0: the promise is relative x max(base + E, limit) instead */
+    const double *base;        /* relative: per normal, what the caller adds to E (or NULL) */
     const double *normals;
     double *out, *bound;
 } fast_job;
@@ -341,11 +343,15 @@ static void fast_range(void *arg, int64_t begin, int64_t end)
     for (int64_t i = begin; i < end; i++) {
         irradiance_kernel k = j->kernel;
         ktree_kernel kn = {irradiance_block, irradiance_pixels, &k};
-        double e[KTREE_MAX_CHANNELS], b[KTREE_MAX_CHANNELS];
+        double e[KTREE_MAX_CHANNELS], b[KTREE_MAX_CHANNELS], lim[3];
         for (int tries = 0;; tries++) {
             envl__ktree_sum(j->tree, &kn, j->normals + 3 * i, e, b);
-            if ((b[0] <= j->limit[0] && b[1] <= j->limit[1] && b[2] <= j->limit[2]) ||
-                tries == 60)
+            for (int c = 0; c < 3; c++)
+                lim[c] = j->relative > 0
+                             ? j->relative * fmax((j->base ? j->base[3 * i + c] : 0) + e[c],
+                                                  j->limit[c])
+                             : j->limit[c];
+            if ((b[0] <= lim[0] && b[1] <= lim[1] && b[2] <= lim[2]) || tries == 60)
                 break;
             for (int c = 0; c < 3; c++)
                 k.tol[c] *= 0.5;
@@ -358,8 +364,11 @@ static void fast_range(void *arg, int64_t begin, int64_t end)
     }
 }
 
-envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const double *normals,
-                                  double tolerance, double *rgb_out, double *bound_out)
+/* The tree's sums at `count` normals: within `tolerance` x the mean of E, or (relative > 0)
+ * within relative x max(base + E, floor) per normal and channel. */
+static envl_result fast_sums(const envl_envmap *m, int32_t count, const double *normals,
+                             double tolerance, double relative, const double floor[3],
+                             const double *base, double *rgb_out, double *bound_out)
 {
     irradiance_tables tables;
     envl_result rc = make_tables(m, &tables);
@@ -372,17 +381,33 @@ envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const dou
     if (!rc) {
         double total[KTREE_MAX_CHANNELS];
         envl__ktree_total(tree, total);
-        fast_job j = {tree, {m, &tables, tree, {0}}, {0}, normals, rgb_out, bound_out};
+        fast_job j = {tree, {m, &tables, tree, {0}}, {0}, relative, base, normals, rgb_out,
+                      bound_out};
         /* the mean of E(n) over the sphere is S / 4 (the mean of max(0, n.d) is 1/4) */
         for (int c = 0; c < 3; c++) {
-            j.limit[c] = tolerance * total[c] / 4;
-            j.kernel.tol[c] = 0.5 * j.limit[c];
+            j.limit[c] = relative > 0 ? floor[c] : tolerance * total[c] / 4;
+            /* relative: the first try's allowance as if E were the mean (halved on) */
+            j.kernel.tol[c] = 0.5 * (relative > 0 ? relative * fmax(total[c] / 4, floor[c])
+                                                  : j.limit[c]);
         }
         envl__parallel_for(count, m->threads, fast_range, &j);
     }
     envl__ktree_free(tree);
     free_tables(&tables);
     return rc;
+}
+
+envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const double *normals,
+                                  double tolerance, double *rgb_out, double *bound_out)
+{
+    return fast_sums(m, count, normals, tolerance, 0, NULL, NULL, rgb_out, bound_out);
+}
+
+envl_result envl__irradiance_relative(const envl_envmap *m, int32_t count, const double *normals,
+                                      double relative, const double floor[3], const double *base,
+                                      double *rgb_out)
+{
+    return fast_sums(m, count, normals, 0, relative, floor, base, rgb_out, NULL);
 }
 
 /* Fibonacci sphere: z_i = 1 - (2i + 1)/n, phi_i = 2 pi i / golden ratio. */

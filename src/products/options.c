@@ -95,6 +95,10 @@ envl_result envl__prefilter_resolve(const envl_prefilter_options *o, const envl_
     r->irr_order = envl__order(o->irradiance_order, ENVL_DEFAULT_ORDER);
     r->threads = o->threads > 0 ? o->threads : m ? m->threads : envl__threads(0);
     r->sun_lights = o->sun_lights != 0;
+    r->faces = o->layout == ENVL_EXPORT_CUBE || o->layout == ENVL_EXPORT_CROSS;
+    if (o->layout < 0 || o->layout >= ENVL_EXPORT_COUNT)
+        return envl__fail(ENVL_ERR_ARGUMENT, "prefilter: unknown layout %d (ENVL_EXPORT_*)",
+                          (int)o->layout);
     if (r->sun_lights && r->unfiltered)
         return envl__fail(ENVL_ERR_ARGUMENT, "prefilter: sun lights need the filtered levels "
                           "(the unfiltered baseline samples the map as it is)");

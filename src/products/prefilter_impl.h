@@ -24,8 +24,8 @@
 /* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */
 envl_result envl__build_pyramid(const float *px, int32_t w, int32_t h, float **buf_out,
                                 int32_t *n_out, int32_t mw[40], int32_t mh[40], size_t off[40]);
-/* Integral of L dw of a w x h lat-long image, per channel. */
-void envl__image_energy(const float *px, int32_t w, int32_t h, double e[3]);
+/* Integral of L dw of a w x h product image (ENVL_LAYOUT_LATLONG or _STRIP_H), per channel. */
+void envl__image_energy(const float *px, int32_t layout, int32_t w, int32_t h, double e[3]);
 
 /* ---- bright pixels (bright_lobes.c) ---- */
 /* The map's split (sun_split.c) and, with sun lights, the cells of the map less the lights. */

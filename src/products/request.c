@@ -233,7 +233,7 @@ static envl_result compute_brdf(const envl_request *q, envl_products *p)
 }
 
 /* The glossy error of every level and the diffuse error of the irradiance map (the sun lights
- * added as the renderer adds them). */
+ * added as the renderer adds them), and the per-texel error of each. */
 static envl_result measure(envl_envmap *m, envl_products *p)
 {
     double *dirs = envl__fibonacci_dirs();
@@ -253,11 +253,14 @@ static envl_result measure(envl_envmap *m, envl_products *p)
         rc = envl__map_cells(m, base, &C, NULL);
     for (int32_t i = 0; !rc && i < p->n_levels; i++) {
         envl_level *l = &p->levels[i];
+        int32_t n_sun = l->roughness > 0 ? p->n_sun : 0;
         rc = envl__glossy_reference(m, C, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
         if (!rc)
-            rc = envl__sampled_error(dirs, ref, l->rgb, l->width, l->height, p->sun,
-                                     l->roughness > 0 ? p->n_sun : 0, l->roughness,
-                                     &l->glossy_error);
+            rc = envl__sampled_error(dirs, ref, l->rgb, l->layout, l->width, l->height, p->sun,
+                                     n_sun, l->roughness, &l->glossy_error);
+        if (!rc)
+            rc = envl__texel_error(m, C, l->rgb, l->layout, l->width, l->height, p->sun, n_sun,
+                                   l->roughness, &l->texel_error);
     }
     if (!rc && p->sh)
         rc = envl__sh_measure(m, p->sh);
@@ -265,10 +268,14 @@ static envl_result measure(envl_envmap *m, envl_products *p)
         rc = envl__lights_measure(m, p->lights);
     if (!rc && p->has_irradiance) {
         const double *eref;
+        envl_irradiance_map *im = &p->irr;
         rc = envl_envmap_reference_irradiance(m, &eref);
         if (!rc)
-            rc = envl__sampled_error(dirs, eref, p->irr_px, p->irr.width, p->irr.height, p->sun,
-                                     p->n_sun, -1, &p->irr.diffuse_error);
+            rc = envl__sampled_error(dirs, eref, p->irr_px, im->layout, im->width, im->height,
+                                     p->sun, p->n_sun, -1, &im->diffuse_error);
+        if (!rc)
+            rc = envl__texel_error(m, NULL, p->irr_px, im->layout, im->width, im->height, p->sun,
+                                   p->n_sun, -1, &im->texel_error);
     }
     free(dirs);
     free(ref);
