@@ -430,9 +430,10 @@ typedef struct envl_prefilter_options {
     int32_t width;            /* lat-long width of the roughness-0 level; default 512 */
     int32_t min_width;        /* no specular level narrower than this; default 64 */
     int32_t samples;          /* the filtered levels' density, default 64: a level w wide sums
-                                 pyramid cells whole from rho = sqrt(n) / 4 of their widths from R,
-                                 n = samples (width / w)^2 at most 8 x samples (rho 2, 4, 5.7 at
-                                 512, 256, <= 128 wide); unfiltered: GGX samples per texel */
+                                 pyramid cells whole from rho = 1 + sqrt(n) / 8 of their widths
+                                 from R, n = samples (width / w)^2 within 4 and 8 x samples (rho
+                                 3, 3, 3.8 at 512, 256, <= 128 wide); unfiltered: GGX samples per
+                                 texel */
     int32_t unfiltered;       /* nonzero: plain GGX importance sampling of the full-resolution
                                  map (no pyramid): the benchmark's baseline */
     int32_t irradiance_method;/* ENVL_IRRADIANCE_*; default SPLIT */
@@ -481,9 +482,11 @@ typedef struct envl_level {
     int32_t samples;          /* filtered: pyramid cells summed per texel (mean); unfiltered: GGX
                                  samples per texel; 0 for roughness 0 (the map resampled by area) */
     int32_t filtered;         /* 1: the cell pyramid's quadrature, 0: plain GGX sampling */
-    double energy_scale;      /* factor applied so that the level's integral of L dw equals the
-                                 map's (the continuous P(R) preserves it exactly); luminance
-                                 ratio before the correction, 1 when none was needed */
+    double energy_scale;      /* the level's texel sum of P dw against the map's integral of
+                                 L dw (luminance; the continuous P(R) keeps it exactly): how
+                                 well its grid resolves the lobe. Filtered levels are not scaled
+                                 by it (each texel is P at its centre, ABI 5); the unfiltered
+                                 baseline is scaled to the map's power, per channel */
     double glossy_error;      /* docs/design.md's glossy error (request.measure), else -1 */
     double seconds;           /* to compute the level (the error measure excluded) */
     int32_t layout;           /* ENVL_LAYOUT_LATLONG, or ENVL_LAYOUT_STRIP_H: six cube faces of

@@ -11,7 +11,7 @@ from ctypes import (CFUNCTYPE, POINTER, Structure, c_char, c_char_p, c_double, c
                     c_int, c_int32, c_int64, c_size_t, c_uint8, c_void_p)
 
 #: ENVL_ABI_VERSION of the envlight.h these bindings mirror.
-ABI_VERSION = 4
+ABI_VERSION = 5
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -168,6 +168,17 @@ class PrefilterOptions(Structure):
         ("irradiance_order", c_int32),
         ("threads", c_int32),
         ("sun_lights", c_int32),
+        ("layout", c_int32),
+    ]
+
+
+class TexelError(Structure):
+    _fields_ = [
+        ("rms", c_double),
+        ("worst", c_double),
+        ("worst_direction", c_double * 3),
+        ("measured", c_int32),
+        ("texels", c_int32),
     ]
 
 
@@ -183,6 +194,8 @@ class Level(Structure):
         ("energy_scale", c_double),
         ("glossy_error", c_double),
         ("seconds", c_double),
+        ("layout", c_int32),
+        ("texel_error", TexelError),
     ]
 
 
@@ -194,6 +207,8 @@ class IrradianceMap(Structure):
         ("rgb", POINTER(c_float)),
         ("diffuse_error", c_double),
         ("seconds", c_double),
+        ("layout", c_int32),
+        ("texel_error", TexelError),
     ]
 
 
@@ -274,6 +289,7 @@ class GltfSummary(Structure):
         ("rgbd_error", c_double),
         ("bytes", c_int64),
         ("seconds", c_double),
+        ("texel_error", TexelError * 16),
     ]
 
 
@@ -356,6 +372,7 @@ STRUCTS = {
     "envl_sh_options": SHOptions,
     "envl_sh_summary": SHSummary,
     "envl_prefilter_options": PrefilterOptions,
+    "envl_texel_error": TexelError,
     "envl_level": Level,
     "envl_irradiance_map": IrradianceMap,
     "envl_brdf_options": BrdfOptions,

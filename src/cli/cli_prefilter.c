@@ -120,6 +120,37 @@ static const char *size_text(char *buf, size_t n, int32_t layout, int32_t w, int
     return buf;
 }
 
+/* KTX2's mip k is face >> k and the atlas's slot k is W >> k: a level computed at another size
+ * (an explicit --min-size kept it wider, or a --roughness list skipped a size) is
+ * area-resampled there, and the errors stated are the computed level's, not the file's: says
+ * so on stderr. */
+static void note_resampled(const envl_products *p, const envl_export_options *eo, int ktx2)
+{
+    if (!ktx2 && eo->layout != ENVL_EXPORT_ATLAS)
+        return;
+    char list[256] = "";
+    size_t at = 0;
+    int32_t n = envl_products_level_count(p), count = 0;
+    envl_level l0;
+    if (n == 0 || envl_products_level(p, 0, &l0))
+        return;
+    for (int32_t i = 0; i < n; i++) {
+        envl_level l;
+        envl_products_level(p, i, &l);
+        /* the atlas's slots follow the roughness order (the CLI's chain and lists ascend) */
+        int wrong = ktx2 ? l.layout != ENVL_LAYOUT_STRIP_H || l.height != l0.height >> i
+                         : l.width != l0.width >> i;
+        if (wrong && at < sizeof list - 16)
+            at += (size_t)snprintf(list + at, sizeof list - at, "%s%d", count++ ? ", " : "", (int)i);
+    }
+    if (count)
+        fprintf(stderr, "envlight: note: level%s %s %s computed at another size than %s and "
+                "area-resampled to %s: the errors stated are the computed level%s, not the "
+                "file's (leave out --min-size)\n", count > 1 ? "s" : "", list,
+                count > 1 ? "were" : "was", ktx2 ? "their KTX2 mip" : "their atlas slot",
+                count > 1 ? "them" : "it", count > 1 ? "s'" : "'s");
+}
+
 /* The table of what was written: the products, their errors and seconds. */
 static int print_summary(const envl_envmap *map, const envl_products *p, const char *dir,
                          const envl_export_options *eo)
@@ -198,8 +229,8 @@ int cli_prefilter(int argc, char **argv)
         CLI_OPTION("--samples", "M", CLI_INT, .min = 1, .max = 1 << 20,
                    .value = &q.prefilter.samples,
                    .help = "the levels' density (default 64): a level w wide sums pyramid\n"
-                           "cells whole from sqrt(n) / 4 cell widths away, n = M (S / w)^2 at\n"
-                           "most 8 M; with --unfiltered, GGX samples per texel"),
+                           "cells whole from 1 + sqrt(n) / 8 cell widths away, n = M (S / w)^2\n"
+                           "within 4 M and 8 M; with --unfiltered, GGX samples per texel"),
         CLI_OPTION("--unfiltered", NULL, CLI_FLAG, .value = &q.prefilter.unfiltered,
                    .help = "plain GGX importance sampling of the full map (the baseline)"),
         CLI_OPTION("--sun-lights", NULL, CLI_FLAG, .value = &q.prefilter.sun_lights,
@@ -330,6 +361,8 @@ int cli_prefilter(int argc, char **argv)
         rc = print_file(path);
         goto done;
     }
+    if (!c.quiet)
+        note_resampled(p, &eo, ktx2);
     rc = print_summary(map, p, dir, &eo);
 done:
     envl_products_free(p);

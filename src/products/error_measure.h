@@ -22,6 +22,10 @@ double *envl__fibonacci_dirs(void);
 envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const double *normals,
                                   double tolerance, double *rgb_out, double *bound_out);
 
+/* The integral of max(0, n.d) dw over pixel (c, r) of a w x h lat-long map, as
+ * envl_irradiance_exact integrates a pixel across n's horizon (exact in elevation, azimuth in
+ * slices of at most 0.25 degrees). */
+double envl__pixel_cosine(int32_t w, int32_t h, int32_t c, int32_t r, const double n[3]);
 /* The same sums, each within relative x max(base + E, floor) of envl_irradiance_exact's, per
  * normal and channel (base: count x 3, what the caller adds to E, or NULL; floor: per channel,
  * absolute): accurate where E is small, cheap where it is large. */

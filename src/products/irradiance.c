@@ -102,6 +102,33 @@ static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
     return ENVL_OK;
 }
 
+/* Integral over elevations [a, b] (their sin and cos given) of max(0, A cos t + B sin t) cos t:
+ * the lit side of t* (A cos t* + B sin t* = 0, t* in [-pi/2, pi/2]) in closed form. */
+static double slice_integral(double A, double B, double a, double sa, double ca, double b,
+                             double sb, double cb)
+{
+    if (B == 0.0) {
+        if (!(A > 0))
+            return 0;
+    } else {
+        double R = sqrt(A * A + B * B);
+        double ss = (B > 0 ? -A : A) / R, cs = fabs(B) / R; /* sin t*, cos t* */
+        double ts = atan2(ss, cs);
+        if (B > 0) { /* lit above t* */
+            if (ts >= b)
+                return 0;
+            if (ts > a)
+                a = ts, sa = ss, ca = cs;
+        } else {     /* lit below t* */
+            if (ts <= a)
+                return 0;
+            if (ts < b)
+                b = ts, sb = ss, cb = cs;
+        }
+    }
+    return A * 0.5 * ((b - a) + sb * cb - sa * ca) + B * 0.5 * (sb * sb - sa * sa);
+}
+
 /* Integral of max(0, n.d) over pixel (c, r): exact in elevation, `sub` slices in azimuth. */
 static double straddling_pixel(const irradiance_tables *t, const double n[3], int32_t c,
                                int32_t r)
@@ -112,31 +139,22 @@ static double straddling_pixel(const irradiance_tables *t, const double n[3], in
     for (int32_t j = 0; j < sub; j++) {
         size_t k = (size_t)c * sub + j;
         double A = n[0] * t->subc[k] + n[1] * t->subs[k];
-        /* lit side of t* (A cos t* + B sin t* = 0, t* in [-pi/2, pi/2]) */
-        double a = t->t0[r], sa = t->s0[r], ca = t->c0[r];
-        double b = t->t1[r], sb = t->s1[r], cb = t->c1[r];
-        if (B == 0.0) {
-            if (!(A > 0))
-                continue;
-        } else {
-            double R = sqrt(A * A + B * B);
-            double ss = (B > 0 ? -A : A) / R, cs = fabs(B) / R; /* sin t*, cos t* */
-            double ts = atan2(ss, cs);
-            if (B > 0) { /* lit above t* */
-                if (ts >= b)
-                    continue;
-                if (ts > a)
-                    a = ts, sa = ss, ca = cs;
-            } else {     /* lit below t* */
-                if (ts <= a)
-                    continue;
-                if (ts < b)
-                    b = ts, sb = ss, cb = cs;
-            }
-        }
-        acc += A * 0.5 * ((b - a) + sb * cb - sa * ca) + B * 0.5 * (sb * sb - sa * sa);
+        acc += slice_integral(A, B, t->t0[r], t->s0[r], t->c0[r], t->t1[r], t->s1[r], t->c1[r]);
     }
     return acc * slice;
+}
+
+double envl__pixel_cosine(int32_t w, int32_t h, int32_t c, int32_t r, const double n[3])
+{
+    int32_t sub = (int32_t)fmin(SUB_MAX, fmax(SUB_MIN, ceil(360.0 / w / SUB_DEGREES)));
+    double p0 = ENVL_PI * (1.0 - 2.0 * (c + 1.0) / w), p1 = ENVL_PI * (1.0 - 2.0 * c / w);
+    double t1 = ENVL_PI * (0.5 - (double)r / h), t0 = ENVL_PI * (0.5 - (r + 1.0) / h);
+    double s0 = sin(t0), c0 = cos(t0), s1 = sin(t1), c1 = cos(t1), acc = 0;
+    for (int32_t j = 0; j < sub; j++) {
+        double phi = p0 + (p1 - p0) * (j + 0.5) / sub;
+        acc += slice_integral(n[0] * cos(phi) + n[1] * sin(phi), n[2], t0, s0, c0, t1, s1, c1);
+    }
+    return acc * (p1 - p0) / sub;
 }
 
 static void irradiance_one(const envl_envmap *m, const irradiance_tables *t, const double n[3],

@@ -58,7 +58,7 @@ static envl_result resampled_copy(const float *px, int32_t w, int32_t h, int32_t
 }
 
 /* The split-off pixels of one 16 x 16 block of the map: their sum of e d per channel and the
- * cap (centre, radius) that holds their directions. Where n lights the whole cap, the group
+ * cap (centre, radius) that holds them. Where n lights the whole cap, the group
  * adds n.M exactly (max(0, n.d) is linear there); where it lights none, nothing; else each of
  * its pixels is added. */
 #define LOBE_BLOCK 16
@@ -78,16 +78,29 @@ static int by_block(const void *a, const void *b)
     return x->block != y->block ? (x->block < y->block ? -1 : 1) : (x->k > y->k) - (x->k < y->k);
 }
 
-/* Adds sum over the lobes of e max(0, n.d) to e_out at the n directions. */
-static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t n, const double *dirs,
-                             double *e_out)
+/* Adds sum over the lobes of e max(0, n.d) to e_out at the n directions; a lobe whose pixel
+ * (w x h) straddles n's horizon adds its pixel's exact integral, e / dw x the integral of
+ * max(0, n.d) dw over it (there a point is off by a good part of the pixel's light). */
+static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t h, int32_t n,
+                             const double *dirs, double *e_out)
 {
     lobe_key *key = malloc(sizeof(lobe_key) * sp->n);
     lobe_group *g = calloc((size_t)sp->n, sizeof *g);
-    if (!key || !g) {
+    double *pixel_radius = malloc(sizeof(double) * 2 * h), *omega = pixel_radius + h;
+    if (!key || !g || !pixel_radius) {
         free(key);
         free(g);
+        free(pixel_radius);
         return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    }
+    for (int32_t r = 0; r < h; r++) {
+        /* a pixel's directions are within half its diagonal of its centre (the row's widest
+         * width), as irradiance.c's tables */
+        double t1 = ENVL_PI * (0.5 - (double)r / h), t0 = ENVL_PI * (0.5 - (r + 1.0) / h);
+        double widest = t0 < 0 && t1 > 0 ? 1.0 : fmax(cos(t0), cos(t1));
+        double dt = t1 - t0, dw = 2 * ENVL_PI / w * widest;
+        pixel_radius[r] = 0.5 * sqrt(dt * dt + dw * dw) * 1.0001 + 1e-12;
+        omega[r] = envl_latlong_solid_angle(w, h, r);
     }
     int64_t across = (w + LOBE_BLOCK - 1) / LOBE_BLOCK;
     for (int32_t k = 0; k < sp->n; k++)
@@ -110,11 +123,12 @@ static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t n, con
         lobe_group *q = &g[j];
         double len = sqrt(q->centre[0] * q->centre[0] + q->centre[1] * q->centre[1] +
                           q->centre[2] * q->centre[2]);
-        double radius = 0;
+        double radius = 0; /* the cap holds every pixel, not only its centre */
         for (int32_t k = q->first; k < q->first + q->count; k++) {
-            const double *d = sp->lobes[key[k].k].d;
-            double c = (q->centre[0] * d[0] + q->centre[1] * d[1] + q->centre[2] * d[2]) / len;
-            radius = fmax(radius, acos(fmin(1.0, c)) * (1 + 1e-9) + 1e-12);
+            const envl_sun_lobe *b = &sp->lobes[key[k].k];
+            double c = (q->centre[0] * b->d[0] + q->centre[1] * b->d[1] +
+                        q->centre[2] * b->d[2]) / len;
+            radius = fmax(radius, acos(fmin(1.0, c)) * (1 + 1e-9) + 1e-12 + pixel_radius[b->r]);
         }
         for (int a = 0; a < 3; a++)
             q->centre[a] /= len;
@@ -133,21 +147,28 @@ static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t n, con
                 for (int32_t k = q->first; k < q->first + q->count; k++) {
                     const envl_sun_lobe *b = &sp->lobes[key[k].k];
                     double t = d[0] * b->d[0] + d[1] * b->d[1] + d[2] * b->d[2];
-                    if (t > 0)
+                    if (fabs(t) < pixel_radius[b->r]) {
+                        double f = envl__pixel_cosine(w, h, b->c, b->r, d) / omega[b->r];
+                        for (int ch = 0; ch < 3; ch++)
+                            e[ch] += b->e[ch] * f;
+                    } else if (t > 0) {
                         for (int ch = 0; ch < 3; ch++)
                             e[ch] += b->e[ch] * t;
+                    }
                 }
             }
         }
     }
     free(key);
     free(g);
+    free(pixel_radius);
     return ENVL_OK;
 }
 
 /* The split method: E(n) = sum over the split-off pixels of e max(0, n.d) (e: their excess
  * over the threshold, L dw less T's share, at their centre: a pixel as a point, off by
- * O(pixel^2) of its own part) + the irradiance of the rest (every split pixel at the
+ * O(pixel^2) of its own part; integrated over the pixel where it straddles n's horizon) + the
+ * irradiance of the rest (every split pixel at the
  * threshold) area-averaged to 256 wide, summed through the kernel tree (irradiance.c), within
  * SPLIT_RELATIVE of each texel's E (at least ENVL_TEXEL_DARK x the mean of E): the rest's
  * sharp edges (the threshold's plateau) stay exact where an SH expansion of them rang by
@@ -171,7 +192,7 @@ static envl_result split_irradiance(envl_envmap *m, int32_t threads, size_t n,
     if (!rc)
         rc = resampled_copy(r->px, r->width, r->height, threads, &small);
     if (!rc && sp.n)
-        rc = add_lobes(&sp, m->width, (int32_t)n, dirs, lobes);
+        rc = add_lobes(&sp, m->width, m->height, (int32_t)n, dirs, lobes);
     if (!rc) {
         double floor[3]; /* the mean of E over the sphere is the power / 4 */
         for (int c = 0; c < 3; c++)
