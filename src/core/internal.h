@@ -143,7 +143,7 @@ double envl__texel_solid_angle(int32_t layout, int32_t w, int32_t h, int32_t col
 void envl__texel_footprint_mean(const envl_image *latlong, int32_t layout, int32_t w, int32_t h,
                                 int32_t col, int32_t row, int32_t n, double out[3]);
 /* Sub-texels per side for a footprint mean of texels about `texel` radians across over a
- * lat-long image h pixels tall: 4 per input pixel, 2..64. */
+ * lat-long image h pixels tall: 4 per input pixel, 4..64. */
 int32_t envl__footprint_subdivision(double texel, int32_t h);
 /* A strip of six faces (ENVL_LAYOUT_STRIP_H, face texels square) read bilinearly in direction
  * d, a tap beyond a face's edge read from the face it falls on (as layout.c's input cubes). */

@@ -877,7 +877,7 @@ double envl__texel_solid_angle(int32_t layout, int32_t w, int32_t h, int32_t col
 int32_t envl__footprint_subdivision(double texel, int32_t h)
 {
     double n = ceil(4 * texel / (ENVL_PI / h));
-    return n < 2 ? 2 : n > 64 ? 64 : (int32_t)n;
+    return n < 4 ? 4 : n > 64 ? 64 : (int32_t)n;
 }
 
 /* The pixel of a lat-long image that holds direction d (the brute force's lookup). */
