@@ -9,7 +9,8 @@
 typedef struct envl_cells envl_cells;
 /* The cells of a W x H lat-long image from level `base` up, read once on `threads` threads
  * (0: the online cores; the result does not depend on it). One malloc'd block:
- * envl__cells_free or free. */
+ * envl__cells_free or free. px must outlive the cells (a bright cell across R's horizon at
+ * the base is summed from its pixels). */
 envl_result envl__cells_build(const float *px, int32_t w, int32_t h, int32_t base,
                               int32_t threads, envl_cells **out);
 /* How finely a cut sums: a cell whole when its centroid is at least rho of its widths from R;

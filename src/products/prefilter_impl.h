@@ -32,6 +32,7 @@ void envl__image_energy(const float *px, int32_t layout, int32_t w, int32_t h, d
 typedef struct split {
     envl_sun_split sun;       /* the split-off pixels and the residual (sun_split.c) */
     envl_cells *cells;        /* the map less what the sun lights took; NULL: the map's own */
+    float *cells_px;          /* ... and that image (the cells read it) */
 } split;
 envl_result envl__split_make(const envl_envmap *m, split *s);
 void envl__split_free(split *s);

@@ -175,11 +175,10 @@ static envl_result compute_levels(envl_envmap *m, envl_products *p, plan *pl)
                 base = b < base ? b : base;
             }
         if (p->n_sun) {
-            float *px = pixels_without_sun_lights(m, &pl->sp.sun);
+            float *px = pl->sp.cells_px = pixels_without_sun_lights(m, &pl->sp.sun);
             rc = px ? envl__cells_build(px, m->width, m->height, base, m->threads,
                                       &pl->sp.cells)
                     : envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
-            free(px);
             C = pl->sp.cells;
             built = 1;
         } else {
