@@ -108,18 +108,15 @@ static void test_relayout(void)
     free(strip);
 }
 
-/* The map of the definition's cases: 1 above the horizon, 0 below (E(-Z) = 0: the floor). */
-static envl_envmap *sky_over_black(int32_t w, int32_t h)
+/* A w x h lat-long map of `above` over the horizon and `below` under it (takes px). */
+static envl_envmap *two_halves(int32_t w, int32_t h, float above, float below, float **px)
 {
-    float *px = malloc(sizeof(float) * 3 * w * h);
-    for (int32_t i = 0; i < w * h; i++)
-        for (int k = 0; k < 3; k++)
-            px[3 * i + k] = i / w < h / 2 ? 1.0f : 0.0f;
+    *px = malloc(sizeof(float) * 3 * w * h);
+    for (int32_t i = 0; i < 3 * w * h; i++)
+        (*px)[i] = i / 3 / w < h / 2 ? above : below;
     envl_envmap *m = NULL;
-    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &(envl_load_options){.layout =
-                                                                           ENVL_LAYOUT_LATLONG},
-                                     &m));
-    free(px);
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG};
+    CHECK_OK(envl_envmap_from_pixels(*px, w, h, 3, &lo, &m));
     return m;
 }
 
@@ -146,7 +143,9 @@ static float *exact_product(envl_envmap *m, int32_t layout, int32_t w, int32_t h
  * (against the floor, 1e-2 of the mean), not infinite. */
 static void test_definition(void)
 {
-    envl_envmap *m = sky_over_black(64, 32);
+    float *map_px;
+    envl_envmap *m = two_halves(64, 32, 1.0f, 0.0f, &map_px); /* E(-Z) = 0: the floor */
+    free(map_px);
     envl_info info;
     envl_envmap_info(m, &info);
     double mean = envl_luminance(info.power[0], info.power[1], info.power[2]) / 4;
@@ -193,13 +192,8 @@ static void test_definition(void)
 static void test_samples(void)
 {
     int32_t w = 256, h = 128;
-    float *px = malloc(sizeof(float) * 3 * w * h);
-    for (int32_t i = 0; i < 3 * w * h; i++)
-        px[i] = 0.5f;
-    envl_envmap *m = NULL;
-    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &(envl_load_options){.layout =
-                                                                           ENVL_LAYOUT_LATLONG},
-                                     &m));
+    float *px;
+    envl_envmap *m = two_halves(w, h, 0.5f, 0.5f, &px);
     envl_texel_error te;
     CHECK_OK(envl__texel_error(m, NULL, px, ENVL_LAYOUT_LATLONG, w, h, NULL, 0, 0.5, &te));
     CHECK(te.measured == ENVL_TEXEL_SAMPLES && te.texels == w * h);

@@ -240,10 +240,11 @@ int cli_prefilter(int argc, char **argv)
         CLI_OPTION("--irradiance-method", "M", CLI_CHOICE,
                    .value = &q.prefilter.irradiance_method,
                    .choices = "split|sh|exact|resampled", .lookup = envl_irradiance_method_from_name,
-                   .help = "split (default: the bright pixels exactly + SH order 16 of the\n"
-                           "rest; one pass and the output), sh (SH of --irradiance-order with\n"
-                           "the auto window: never negative), exact (every pixel per texel,\n"
-                           "slow), resampled (exact over the map area-averaged to 256 x 128)"),
+                   .help = "split (default: the bright pixels exactly + the rest, 256 wide,\n"
+                           "through a tree of block sums, each texel within 0.5 %), sh (SH of\n"
+                           "--irradiance-order with the auto window: never negative), exact\n"
+                           "(every pixel per texel, slow), resampled (exact over the map\n"
+                           "area-averaged to 256 x 128)"),
         CLI_OPTION("--irradiance-order", "L", CLI_INT, .min = 0, .max = 32, .value = &order,
                    .help = "SH order for --irradiance-method sh (default 2)"),
         CLI_OPTION("--irradiance-size", "S", CLI_INT, .min = 2, .max = 16384, .value = &irr_size,
