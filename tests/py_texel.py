@@ -259,3 +259,27 @@ def test_gl_faces_latlong_and_cross(name, path):
     if not np.array_equal(img[3 * n:, n:2 * n], back):
         fails.append("the cross's back face is not the cube face's texels turned")
     assert not fails, fails
+
+
+def test_python_products_hold_the_layout_and_their_figures():
+    """Envmap.prefilter(layout='cube'): the maps as a strip of six faces (F, 6 F, 3), each
+    texel the same value the command writes into its face file (the same computation), and
+    each product's texel_error as prefilter.json states it."""
+    out = os.path.join(TMP, "python_cube")
+    meta = prefilter("-", out, "--layout", "cube", "--size", "8", "--min-size", "32",
+                     "--irradiance", "--irradiance-size", "8", "--roughness", "0.5")
+    with load("-") as env, env.prefilter(roughness=[0.5], irradiance=True, measure=True,
+                                         layout="cube", width=32, min_width=32,
+                                         irradiance_width=32, irradiance_method="split") as p:
+        for got, entry, stem in ((p.irradiance, meta["irradiance"], "irradiance"),
+                                 (p.levels[0], meta["specular"][0], "specular_00")):
+            assert got["layout"] == "hstrip" and (got["width"], got["height"]) == (48, 8)
+            rgb = np.asarray(got["rgb"])
+            assert rgb.shape == (8, 48, 3)
+            for k, face in enumerate(("px", "nx", "py", "ny", "pz", "nz")):
+                want = read_pfm(os.path.join(out, "%s_%s.pfm" % (stem, face)))
+                assert np.array_equal(rgb[:, 8 * k:8 * k + 8], want), (stem, face)
+            t = got["texel_error"]
+            assert (t["texels_measured"], t["texels"]) == (384, 384)
+            assert t["rms"] == pytest.approx(entry["texel_error"]["rms"], rel=1e-6)
+            assert t["worst"] == pytest.approx(entry["texel_error"]["worst"], rel=1e-6)
