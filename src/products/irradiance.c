@@ -371,8 +371,10 @@ static void fast_range(void *arg, int64_t begin, int64_t end)
                              : j->limit[c];
             if ((b[0] <= lim[0] && b[1] <= lim[1] && b[2] <= lim[2]) || tries == 60)
                 break;
+            /* halved, and at once down to half the promise the estimate now gives (relative:
+             * a dark normal needs a far smaller allowance than the mean's) */
             for (int c = 0; c < 3; c++)
-                k.tol[c] *= 0.5;
+                k.tol[c] = fmin(0.5 * k.tol[c], 0.5 * lim[c]);
         }
         for (int c = 0; c < 3; c++) {
             j->out[3 * i + c] = e[c];
