@@ -30,7 +30,7 @@ extern "C" {
 #endif
 
 /* Bumped whenever a struct layout or a function signature changes (the ctypes shim checks it). */
-#define ENVL_ABI_VERSION 5
+#define ENVL_ABI_VERSION 6
 
 /* pi, the one definition every part of envlight uses. */
 #define ENVL_PI 3.14159265358979323846
@@ -416,7 +416,7 @@ ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l; 0 for l < 0 (no such ban
 #define ENVL_IRRADIANCE_SPLIT 0     /* default: the bright pixels (the sun split's, more than 50x
                                        the mean luminance) exactly, the rest (a 256-wide copy)
                                        through the kernel tree, each texel within 0.5 % of its
-                                       E (or of 1 % of the mean, ABI 5; SH order 16 before) */
+                                       E (or of 1 % of the mean, ABI 6; SH order 16 before) */
 #define ENVL_IRRADIANCE_SH 1        /* from the SH irradiance of order irradiance_order (fast) */
 #define ENVL_IRRADIANCE_EXACT 2     /* envl_irradiance_exact per texel (reference; slow) */
 #define ENVL_IRRADIANCE_RESAMPLED 3 /* envl_irradiance_exact per texel over an area-resampled copy
@@ -448,7 +448,7 @@ typedef struct envl_prefilter_options {
                                  returned as lights (envl_products_sun_lights) that the renderer
                                  adds analytically, as engines light with a sun; each product's
                                  error is measured with them added (docs/methods.md, "Prefiltered maps") */
-    int32_t layout;           /* the texels the maps are computed at (ABI 5): ENVL_EXPORT_LATLONG
+    int32_t layout;           /* the texels the maps are computed at (ABI 6): ENVL_EXPORT_LATLONG
                                  (default; also ATLAS) lat-long images; ENVL_EXPORT_CUBE (or
                                  CROSS) cube faces of width / 4 texels (irradiance_width / 4),
                                  each texel computed at its own centre direction, held as a
@@ -486,7 +486,7 @@ typedef struct envl_level {
     double energy_scale;      /* the level's texel sum of P dw against the map's integral of
                                  L dw (luminance; the continuous P(R) keeps it exactly): how
                                  well its grid resolves the lobe. Filtered levels are not scaled
-                                 by it (each texel is P at its centre, ABI 5); the unfiltered
+                                 by it (each texel is P at its centre, ABI 6); the unfiltered
                                  baseline is scaled to the map's power, per channel */
     double glossy_error;      /* docs/design.md's glossy error (request.measure), else -1 */
     double seconds;           /* to compute the level (the error measure excluded) */
