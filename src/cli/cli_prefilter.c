@@ -151,6 +151,32 @@ static void note_resampled(const envl_products *p, const envl_export_options *eo
                 count > 1 ? "them" : "it", count > 1 ? "s'" : "'s");
 }
 
+/* The irradiance map and the levels of roughness > 0 are held to a per-texel RMS of 0.5 % and
+ * a worst texel of 2 % (docs/design.md, "Error measures"); one beyond that is said on stderr
+ * with what holds it: for a level a finer quadrature (the cut's density grows as --samples;
+ * the texels' size does not matter, each is computed at its centre), for the irradiance map
+ * the exact sum. */
+static void note_texel_bounds(const envl_products *p)
+{
+    envl_irradiance_map irr;
+    char t[96];
+    if (envl_products_irradiance(p, &irr) == ENVL_OK && irr.texel_error.rms >= 0 &&
+        (irr.texel_error.rms > 0.005 || irr.texel_error.worst > 0.02))
+        fprintf(stderr, "envlight: note: the irradiance map's %s is beyond RMS 0.5 %% / worst "
+                "2 %%; --irradiance-method split (the default) or exact holds it\n",
+                cli_texel_text(t, sizeof t, &irr.texel_error));
+    for (int32_t i = 0; i < envl_products_level_count(p); i++) {
+        envl_level l;
+        envl_products_level(p, i, &l);
+        if (l.roughness > 0 && l.texel_error.rms >= 0 &&
+            (l.texel_error.rms > 0.005 || l.texel_error.worst > 0.02))
+            fprintf(stderr, "envlight: note: specular_%02d's %s is beyond RMS 0.5 %% / worst "
+                    "2 %%; a larger --samples makes its sums finer (4 x: cells summed whole "
+                    "from about twice as far)\n", (int)i,
+                    cli_texel_text(t, sizeof t, &l.texel_error));
+    }
+}
+
 /* The table of what was written: the products, their errors and seconds. */
 static int print_summary(const envl_envmap *map, const envl_products *p, const char *dir,
                          const envl_export_options *eo)
@@ -362,8 +388,10 @@ int cli_prefilter(int argc, char **argv)
         rc = print_file(path);
         goto done;
     }
-    if (!c.quiet)
+    if (!c.quiet) {
         note_resampled(p, &eo, ktx2);
+        note_texel_bounds(p);
+    }
     rc = print_summary(map, p, dir, &eo);
 done:
     envl_products_free(p);
