@@ -87,6 +87,19 @@ void envl_envmap_drop_mips(envl_envmap *m)
     m->cells = NULL;
 }
 
+envl_result envl__mip_level_for(envl_envmap *m, double pixel, envl_image *out)
+{
+    envl_result rc = envl_envmap_mips(m, NULL);
+    if (rc)
+        return rc;
+    int32_t k = 0; /* a level's pixels are pi / h tall */
+    while (k + 1 < m->mip_levels && ENVL_PI / m->mip_h[k + 1] <= pixel)
+        k++;
+    *out = (envl_image){.width = m->mip_w[k], .height = m->mip_h[k],
+                        .px = k ? m->mip_px + m->mip_offset[k] : m->px};
+    return ENVL_OK;
+}
+
 envl_result envl__map_cells(envl_envmap *m, int32_t base, const envl_cells **out, int *built)
 {
     if (built)

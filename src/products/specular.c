@@ -200,7 +200,8 @@ static void level_rows(void *ctx, int64_t begin, int64_t end)
 
 /* The mirror level as cube faces: each texel the map's mean over its footprint (the map read
  * as piecewise constant, as the lat-long level's exact area resampling reads it), by sub-texels
- * at least 4 to a map pixel. */
+ * at least 4 to a pixel of the coarsest mip level no coarser than the texels (an area mean of
+ * the map: a 4K map's 256-texel faces read its 1024-wide level, 36 lookups a texel, not 441). */
 typedef struct mirror_job {
     envl_image map;
     int32_t w, h, n;
@@ -220,16 +221,19 @@ static void mirror_rows(void *ctx, int64_t begin, int64_t end)
         }
 }
 
-static envl_result mirror_faces(const envl_envmap *m, int32_t face, int32_t threads,
-                                float **out)
+static envl_result mirror_faces(envl_envmap *m, int32_t face, int32_t threads, float **out)
 {
+    /* a texel at a face's centre is 2 / face radians across, the widest */
+    envl_image map;
+    envl_result rc = envl__mip_level_for(m, 2.0 / face, &map);
+    if (rc)
+        return rc;
     float *px = malloc(sizeof(float) * 3 * 6 * (size_t)face * face);
     if (!px)
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for %d-texel faces",
                           (int)face);
-    /* a texel at a face's centre is 2 / face radians across, the widest */
-    mirror_job j = {{.width = m->width, .height = m->height, .px = m->px}, 6 * face, face,
-                    envl__footprint_subdivision(2.0 / face, m->height), px};
+    mirror_job j = {map, 6 * face, face, envl__footprint_subdivision(2.0 / face, map.height),
+                    px};
     envl__parallel_for(face, threads, mirror_rows, &j);
     *out = px;
     return ENVL_OK;

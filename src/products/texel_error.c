@@ -8,8 +8,9 @@
  * normal near the sun's horizon receives), each within TEXEL_REFERENCE_RELATIVE of
  * max(E, the floor); P(R) by the glossy reference's cut of the cell pyramid (glossy_reference.c);
  * at roughness 0 the map's mean over the texel's footprint: exact for a lat-long texel (the
- * area resampling of resample.c), by 4 times as many sub-texels per side as the mirror level's
- * own for a face's texel (layout.c: a pixel's share of the texel to 1/16 of its width). */
+ * area resampling of resample.c); for a face's texel by 4 times as many sub-texels per side as
+ * the mirror faces use, over a mip level 4 times as fine as theirs (or the map: a pixel's
+ * share of the texel found to 1/16 of its width). */
 #include "prefilter_impl.h"
 
 #include <math.h>
@@ -65,9 +66,17 @@ static envl_result exact_values(envl_envmap *m, const envl_cells *C, int32_t lay
             free(mean);
         return rc;
     }
-    /* a face's widest texel (at its centre) is 2 / h radians across */
-    footprint_job j = {{.width = m->width, .height = m->height, .px = m->px}, layout, w, h,
-                       4 * envl__footprint_subdivision(2.0 / h, m->height), index, out};
+    /* a face's widest texel (at its centre) is 2 / h radians across: 4 times as many
+     * sub-texels per side as the mirror faces use, over a mip level with pixels a quarter as
+     * wide as the texel (or the map itself) */
+    envl_image theirs, map;
+    envl_result rc = envl__mip_level_for(m, 2.0 / h, &theirs);
+    if (!rc)
+        rc = envl__mip_level_for(m, 0.5 / h, &map);
+    if (rc)
+        return rc;
+    footprint_job j = {map, layout, w, h, 4 * envl__footprint_subdivision(2.0 / h, theirs.height),
+                       index, out};
     envl__parallel_for(count, m->threads, footprint_range, &j);
     return ENVL_OK;
 }
