@@ -136,6 +136,23 @@ def timings(envlight, baseline, maps, runs):
     return lines, ratios
 
 
+def irradiance_cubes(envlight, baseline, name, path, extra, runs):
+    """CPU of the irradiance cube alone at 32- and 128-texel faces, both builds, --no-error."""
+    lines = ["| map | face | CPU s: this / baseline | ratio |", "|---|---|---|---|"]
+    for face in ("32", "128"):
+        cpu = {"this": [], "base": []}
+        for _ in range(runs):
+            for who, exe in (("this", envlight), ("base", baseline)):
+                with tempfile.TemporaryDirectory() as out:
+                    _, c = run(exe, ["prefilter", path, "-o", out, "--json", "--quiet",
+                                     "--no-error", "--irradiance", "--layout", "cube",
+                                     "--irradiance-size", face] + extra)
+                cpu[who].append(c)
+        t, b = statistics.median(cpu["this"]), statistics.median(cpu["base"])
+        lines.append("| %s | %s | %.3f / %.3f | %.2f |" % (name, face, t, b, t / b))
+    return lines
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -185,6 +202,9 @@ def main():
             for layout, r in ratios.items():
                 out.append("- %s: CPU %.2f-%.2fx the baseline's (median %.2fx)."
                            % (layout, min(r), max(r), statistics.median(r)))
+            out += ["", "The irradiance cube alone (`--irradiance --layout cube`, `--no-error`), "
+                    "median of %d runs: the split method's tree costs per texel." % a.runs, ""]
+            out += irradiance_cubes(a.envlight, a.baseline, *maps[0], a.runs)
             out.append("")
         minutes = (time.time() - t0) / 60
         head = ["# Per-texel accuracy of the prefiltered maps", "",
