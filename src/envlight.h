@@ -453,8 +453,9 @@ ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l; 0 for l < 0 (no such ban
 #define ENVL_DEFAULT_LEVELS 6
 
 #define ENVL_IRRADIANCE_SPLIT 0     /* default: the bright pixels (the sun split's, more than 50x
-                                       the mean luminance) exactly, the rest by SH of order 16 of
-                                       a 256-wide copy: one pass and the output's size */
+                                       the mean luminance) exactly, the rest (a 256-wide copy)
+                                       through the kernel tree, each texel within 0.5 % of its
+                                       E (or of 1 % of the mean, ABI 5; SH order 16 before) */
 #define ENVL_IRRADIANCE_SH 1        /* from the SH irradiance of order irradiance_order (fast) */
 #define ENVL_IRRADIANCE_EXACT 2     /* envl_irradiance_exact per texel (reference; slow) */
 #define ENVL_IRRADIANCE_RESAMPLED 3 /* envl_irradiance_exact per texel over an area-resampled copy
@@ -469,9 +470,10 @@ typedef struct envl_prefilter_options {
     int32_t width;            /* lat-long width of the roughness-0 level; default 512 */
     int32_t min_width;        /* no specular level narrower than this; default 64 */
     int32_t samples;          /* the filtered levels' density, default 64: a level w wide sums
-                                 pyramid cells whole from rho = sqrt(n) / 4 of their widths from R,
-                                 n = samples (width / w)^2 at most 8 x samples (rho 2, 4, 5.7 at
-                                 512, 256, <= 128 wide); unfiltered: GGX samples per texel */
+                                 pyramid cells whole from rho = 1 + sqrt(n) / 8 of their widths
+                                 from R, n = samples (width / w)^2 within 4 and 8 x samples (rho
+                                 3, 3, 3.8 at 512, 256, <= 128 wide); unfiltered: GGX samples per
+                                 texel */
     int32_t unfiltered;       /* nonzero: plain GGX importance sampling of the full-resolution
                                  map (no pyramid): the benchmark's baseline */
     int32_t irradiance_method;/* ENVL_IRRADIANCE_*; default SPLIT */
@@ -489,6 +491,13 @@ typedef struct envl_prefilter_options {
                                  "ktx2"): each is measured as written, its values rounded to
                                  half and those above ENVL_HALF_MAX written as ENVL_HALF_MAX
                                  (ABI 5); default 0: 32-bit floats */
+    int32_t layout;           /* the texels the maps are computed at (ABI 5): ENVL_EXPORT_LATLONG
+                                 (default; also ATLAS) lat-long images; ENVL_EXPORT_CUBE (or
+                                 CROSS) cube faces of width / 4 texels (irradiance_width / 4),
+                                 each texel computed at its own centre direction, held as a
+                                 horizontal strip (envl_level.layout ENVL_LAYOUT_STRIP_H): what
+                                 envl_products_export writes as cube faces, a cross or KTX2
+                                 without resampling */
 } envl_prefilter_options;
 /* The largest finite IEEE half float: larger values are written as it (KTX2 "ktx2", EXR half). */
 #define ENVL_HALF_MAX 65504.0
@@ -497,18 +506,39 @@ typedef struct envl_prefilter_options {
 ENVL_API int32_t envl_prefilter_level_width(const envl_prefilter_options *options,
                                             double roughness);
 
+/* The per-texel error of a map product (docs/design.md, "Error measures"): at each texel's
+ * centre direction, e = (Y - Y_exact) / max(Y_exact, ENVL_TEXEL_DARK x the mean of Y_exact
+ * over the sphere), Y luminance, Y_exact the exact value there (the brute force's, summed
+ * within a stated tolerance; roughness 0: the map's mean over the texel); the RMS weighted
+ * by the texels' solid angles, and the largest |e|. Over every texel, or over
+ * ENVL_TEXEL_SAMPLES of them spread evenly through the image when it has more. */
+#define ENVL_TEXEL_DARK 0.01
+#define ENVL_TEXEL_SAMPLES 8192
+typedef struct envl_texel_error {
+    double rms;               /* -1 when not measured */
+    double worst;             /* the largest |e| (-1 when not measured) */
+    double worst_direction[3];/* that texel's centre direction (canonical frame) */
+    int32_t measured, texels; /* texels measured, of all the product has */
+} envl_texel_error;
+
 typedef struct envl_level {
     double roughness, alpha;  /* alpha = roughness^2 */
-    int32_t width, height;    /* lat-long */
+    int32_t width, height;    /* of rgb: the lat-long map, or the strip of six faces (6F x F) */
     const float *rgb;         /* width * height * 3, row 0 = top; owned by the products */
     int32_t samples;          /* filtered: pyramid cells summed per texel (mean); unfiltered: GGX
                                  samples per texel; 0 for roughness 0 (the map resampled by area) */
     int32_t filtered;         /* 1: the cell pyramid's quadrature, 0: plain GGX sampling */
-    double energy_scale;      /* factor applied so that the level's integral of L dw equals the
-                                 map's (the continuous P(R) preserves it exactly); luminance
-                                 ratio before the correction, 1 when none was needed */
+    double energy_scale;      /* the level's texel sum of P dw against the map's integral of
+                                 L dw (luminance; the continuous P(R) keeps it exactly): how
+                                 well its grid resolves the lobe. Filtered levels are not scaled
+                                 by it (each texel is P at its centre, ABI 5); the unfiltered
+                                 baseline is scaled to the map's power, per channel */
     double glossy_error;      /* docs/design.md's glossy error (request.measure), else -1 */
     double seconds;           /* to compute the level (the error measure excluded) */
+    int32_t layout;           /* ENVL_LAYOUT_LATLONG, or ENVL_LAYOUT_STRIP_H: six cube faces of
+                                 height texels side by side, px nx py ny pz nz, each as
+                                 docs/design.md's face table (prefilter options.layout) */
+    envl_texel_error texel_error; /* request.measure; else rms and worst -1 */
 } envl_level;
 
 typedef struct envl_irradiance_map {
@@ -516,6 +546,8 @@ typedef struct envl_irradiance_map {
     const float *rgb;         /* owned by the products */
     double diffuse_error;     /* docs/design.md's diffuse error (request.measure), else -1 */
     double seconds;
+    int32_t layout;           /* as envl_level's */
+    envl_texel_error texel_error;
 } envl_irradiance_map;
 
 #define ENVL_BRDF_DEFAULT_SIZE 128
@@ -710,13 +742,15 @@ typedef struct envl_gltf_summary {
     double diffuse_error;     /* docs/design.md's diffuse error of the lights + the SH
                                  irradiance against the whole map's exact irradiance; -1 when
                                  not measured */
-    double glossy_error[16];  /* mip k's glossy error (its float lat-long level against the
-                                 residual's reference); -1 when not measured */
+    double glossy_error[16];  /* mip k's glossy error (its float cube faces read bilinearly,
+                                 against the residual's reference); -1 when not measured */
     double rgbd_error;        /* largest relative RMS (luminance) over the mips of the decoded
                                  RGBD faces against the float faces they encode (none clamps:
                                  intensity is the chain's largest value / 255) */
     int64_t bytes;            /* of the file */
     double seconds;           /* everything (the error measures excluded) */
+    envl_texel_error texel_error[16]; /* mip k's per-texel error (its float faces, each texel
+                                 computed at its centre, against the residual's reference) */
 } envl_gltf_summary;
 
 /* Writes `path` (.glb or .gltf) atomically. summary (may be NULL) gets the figures above. */

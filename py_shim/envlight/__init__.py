@@ -633,6 +633,7 @@ class Envmap(_Handle):
                 "intensity": s.intensity,
                 "diffuse_error": s.diffuse_error if measured else None,
                 "glossy_error": [e if e >= 0 else None for e in s.glossy_error[:s.mips]],
+                "texel_error": [_texel_dict(t) for t in s.texel_error[:s.mips]],
                 "rgbd_error": s.rgbd_error, "bytes": s.bytes,
                 "seconds": s.seconds}
 
@@ -733,8 +734,10 @@ class Envmap(_Handle):
     def _prefilter_options(f, levels=None, width=None, min_width=None, samples=None,
                            unfiltered=False, irradiance_method="resampled",
                            irradiance_width=None, irradiance_order=2, threads=None,
-                           sun_lights=False, half=False):
-        """envl_prefilter_options for function f; None = the library's default (envlight.h, docs/design.md)."""
+                           sun_lights=False, half=False, layout="latlong"):
+        """envl_prefilter_options for function f; None = the library's default (envlight.h, docs/design.md).
+        layout: the texels the maps are computed at, 'latlong' (also 'atlas') or 'cube' (also
+        'cross': faces of width / 4, each texel at its centre, as an (F, 6 F, 3) strip)."""
         o = _lib.PrefilterOptions()
         o.levels = A.integer(levels, f + ": levels", 1, A.PREFILTER_MAX_LEVELS, 0, "the default 6")
         o.width = A.integer(width, f + ": width", 2, A.PREFILTER_MAX_WIDTH, 0, "the default 512")
@@ -750,6 +753,8 @@ class Envmap(_Handle):
         o.threads = _threads(threads, f + ": threads")
         o.sun_lights = A.flag(sun_lights, f + ": sun_lights")
         o.half = A.flag(half, f + ": half")
+        o.layout = A.enum(layout, f + ": layout", lib.envl_export_layout_from_name,
+                          lib.envl_export_layout_name)
         return o
 
     def prefilter(self, roughness=None, chain=False, mirror=False, irradiance=False,
@@ -848,11 +853,25 @@ def _pov_result(r):
     }
 
 
+def _texel_dict(t):
+    """An envl_texel_error as a dict (rms, worst: None when not measured)."""
+    measured = t.rms >= 0 and t.worst >= 0
+    return {"rms": t.rms if measured else None, "worst": t.worst if measured else None,
+            "worst_direction": _t(t.worst_direction) if measured else None,
+            "texels_measured": t.measured, "texels": t.texels}
+
+
+def _layout_name(layout):
+    """'latlong' or 'hstrip' (six cube faces side by side) of an envl_level.layout."""
+    return _str(lib.envl_layout_name(layout))
+
+
 def _level_dict(st, with_rgb=True):
     d = {"roughness": st.roughness, "alpha": st.alpha, "width": st.width, "height": st.height,
+         "layout": _layout_name(st.layout),
          "samples": st.samples, "filtered": bool(st.filtered), "energy_scale": st.energy_scale,
          "glossy_error": st.glossy_error if st.glossy_error >= 0 else None,
-         "seconds": st.seconds}
+         "texel_error": _texel_dict(st.texel_error), "seconds": st.seconds}
     if with_rgb:
         d["rgb"] = _image(st.rgb, st.width, st.height)
     return d
@@ -909,9 +928,11 @@ class Products(_Handle):
         if s.irradiance_maps and lib.envl_products_irradiance(handle, byref(im)) == 0:
             self.irradiance = {"method": _str(lib.envl_irradiance_method_name(im.method)),
                                "width": im.width, "height": im.height,
+                               "layout": _layout_name(im.layout),
                                "rgb": _image(im.rgb, im.width, im.height),
                                "diffuse_error": im.diffuse_error if im.diffuse_error >= 0
-                               else None, "seconds": im.seconds}
+                               else None, "texel_error": _texel_dict(im.texel_error),
+                               "seconds": im.seconds}
         shp = lib.envl_products_sh(handle)
         self.sh_irradiance = None
         if shp:

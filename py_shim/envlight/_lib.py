@@ -179,6 +179,17 @@ class PrefilterOptions(Structure):
         ("threads", c_int32),
         ("sun_lights", c_int32),
         ("half", c_int32),
+        ("layout", c_int32),
+    ]
+
+
+class TexelError(Structure):
+    _fields_ = [
+        ("rms", c_double),
+        ("worst", c_double),
+        ("worst_direction", c_double * 3),
+        ("measured", c_int32),
+        ("texels", c_int32),
     ]
 
 
@@ -194,6 +205,8 @@ class Level(Structure):
         ("energy_scale", c_double),
         ("glossy_error", c_double),
         ("seconds", c_double),
+        ("layout", c_int32),
+        ("texel_error", TexelError),
     ]
 
 
@@ -205,6 +218,8 @@ class IrradianceMap(Structure):
         ("rgb", POINTER(c_float)),
         ("diffuse_error", c_double),
         ("seconds", c_double),
+        ("layout", c_int32),
+        ("texel_error", TexelError),
     ]
 
 
@@ -287,6 +302,7 @@ class GltfSummary(Structure):
         ("rgbd_error", c_double),
         ("bytes", c_int64),
         ("seconds", c_double),
+        ("texel_error", TexelError * 16),
     ]
 
 
@@ -369,6 +385,7 @@ STRUCTS = {
     "envl_sh_options": SHOptions,
     "envl_sh_summary": SHSummary,
     "envl_prefilter_options": PrefilterOptions,
+    "envl_texel_error": TexelError,
     "envl_level": Level,
     "envl_irradiance_map": IrradianceMap,
     "envl_brdf_options": BrdfOptions,

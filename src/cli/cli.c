@@ -86,6 +86,19 @@ const char *cli_error_text(char *buf, size_t size, const char *what, double erro
     return buf;
 }
 
+const char *cli_texel_text(char *buf, size_t size, const envl_texel_error *t)
+{
+    if (!(t->rms >= 0 && t->worst >= 0))
+        snprintf(buf, size, "per texel not measured");
+    else if (t->measured < t->texels)
+        snprintf(buf, size, "per texel RMS %.3f %% worst %.3f %% (%d of %d texels)",
+                 100 * t->rms, 100 * t->worst, (int)t->measured, (int)t->texels);
+    else
+        snprintf(buf, size, "per texel RMS %.3f %% worst %.3f %%", 100 * t->rms,
+                 100 * t->worst);
+    return buf;
+}
+
 /* The layout guess (layout.c: metadata, then the aspect ratio) is evident when the file has
  * the shape of the layout it was read as: OpenEXR's envmap attribute, 2:1 lat-long, 3:4 / 4:3
  * crosses, 6:1 / 1:6 strips. A square is a guess (an angular probe or a mirror ball?), and so
@@ -258,15 +271,22 @@ int cli_outputs_ok(const char *const *inputs, int n_inputs, const char *const *o
     return rc ? cli_fail() : CLI_OK;
 }
 
-void cli_half_warning(const char *what, const float *v, size_t n, int quiet)
+size_t cli_half_over(const float *v, size_t n, double *largest)
 {
     size_t over = 0;
-    double largest = 0;
+    *largest = 0;
     for (size_t i = 0; v && i < n; i++)
         if (fabs(v[i]) > ENVL_HALF_MAX) {
             over++;
-            largest = fmax(largest, fabs(v[i]));
+            *largest = fmax(*largest, fabs(v[i]));
         }
+    return over;
+}
+
+void cli_half_warning(const char *what, const float *v, size_t n, int quiet)
+{
+    double largest;
+    size_t over = cli_half_over(v, n, &largest);
     if (over && !quiet)
         cli_error("warning: %s: %zu values above %g (the largest half float) written as %g: the "
                   "largest was %g (%.1f %% lower)", what, over, ENVL_HALF_MAX, ENVL_HALF_MAX,

@@ -41,6 +41,17 @@ static void write_json(const envl_envmap *map, const char *out, const envl_gltf_
     for (int32_t k = 0; k < s->mips; k++)
         g[k] = s->glossy_error[k] >= 0 ? s->glossy_error[k] : NAN;
     json_numbers(&j, "glossy", g, s->mips);
+    json_array(&j, "texel"); /* per mip: docs/design.md's per-texel error */
+    for (int32_t k = 0; k < s->mips; k++) {
+        const envl_texel_error *t = &s->texel_error[k];
+        json_object(&j, NULL);
+        json_number(&j, "rms", t->rms >= 0 ? t->rms : NAN);
+        json_number(&j, "worst", t->worst >= 0 ? t->worst : NAN);
+        json_int(&j, "texels_measured", t->measured);
+        json_int(&j, "texels", t->texels);
+        json_object_end(&j);
+    }
+    json_array_end(&j);
     json_number(&j, "rgbd", s->rgbd_error);
     json_object_end(&j);
     json_number(&j, "seconds", s->seconds);
@@ -110,7 +121,7 @@ int cli_gltf(int argc, char **argv)
     } else {
         envl_info info;
         envl_envmap_info(map, &info);
-        char e[64];
+        char e[64], tx[96];
         printf("%s: %d x %d -> %s (%lld bytes), %.3f s\n", info.file, (int)info.width,
                (int)info.height, out, (long long)s.bytes, s.seconds);
         printf("lights       %d directional (KHR_lights_punctual)%s\n", (int)s.lights,
@@ -121,8 +132,10 @@ int cli_gltf(int argc, char **argv)
         printf("diffuse      lights + SH: %s\n", cli_error_text(e, sizeof e, "diffuse",
                                                               s.diffuse_error));
         for (int32_t k = 0; k < s.mips; k++)
-            printf("mip %-2d       r %.3f  %s\n", (int)k, s.mips > 1 ? (double)k / (s.mips - 1) : 0,
-                   cli_error_text(e, sizeof e, "glossy", s.glossy_error[k]));
+            printf("mip %-2d       r %.3f  %s  %s\n", (int)k,
+                   s.mips > 1 ? (double)k / (s.mips - 1) : 0,
+                   cli_error_text(e, sizeof e, "glossy", s.glossy_error[k]),
+                   cli_texel_text(tx, sizeof tx, &s.texel_error[k]));
         printf("rgbd         error %.3f %% (decoded faces against their floats)\n",
                100 * s.rgbd_error);
         if (fflush(stdout))

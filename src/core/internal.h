@@ -164,6 +164,28 @@ double envl__layout_pixel_solid_angle(int32_t layout, int32_t w, int32_t h, int3
  * added_energy, unfilled_values and fill_window. */
 envl_result envl__fill_negatives(envl_image *img, int32_t layout, const char *file,
                                  envl_info *info);
+/* The texels of a product image (docs/design.md, "Canonical frame"): ENVL_LAYOUT_LATLONG (w x
+ * h) or ENVL_LAYOUT_STRIP_H (six faces of h texels side by side, w = 6 h): the centre direction
+ * of texel (col, row) and its exact solid angle. */
+void envl__texel_direction(int32_t layout, int32_t w, int32_t h, int32_t col, int32_t row,
+                           double d[3]);
+double envl__texel_solid_angle(int32_t layout, int32_t w, int32_t h, int32_t col, int32_t row);
+/* The mean of a lat-long image, read as piecewise constant (each pixel its own value, as the
+ * brute force sums it), over the footprint of texel (col, row) of a product image, by n x n
+ * sub-texels of equal solid angle (lat-long) or weighted by their solid angle (faces). */
+void envl__texel_footprint_mean(const envl_image *latlong, int32_t layout, int32_t w, int32_t h,
+                                int32_t col, int32_t row, int32_t n, double out[3]);
+/* Sub-texels per side for a footprint mean of texels about `texel` radians across over a
+ * lat-long image h pixels tall: 4 per input pixel, 4..64. */
+int32_t envl__footprint_subdivision(double texel, int32_t h);
+/* A strip of six faces (ENVL_LAYOUT_STRIP_H, face texels square) read bilinearly in direction
+ * d, a tap beyond a face's edge read from the face it falls on (as layout.c's input cubes). */
+void envl__strip_sample(const float *strip, int32_t face, const double d[3], double out[3]);
+/* The texels of a strip of six faces put into `layout` (ENVL_LAYOUT_STRIP_H, ENVL_LAYOUT_CROSS_V
+ * or ENVL__LAYOUT_GL_STRIP) of the same face size: each output texel is the input texel with
+ * the same centre direction (the faces' texel grids coincide), nothing resampled. */
+envl_result envl__faces_to_layout(const float *strip, int32_t face, int32_t layout,
+                                  envl_image *out);
 
 /* ---- lat-long resampling (resample.c) ---- */
 /* Exact area-weighted resampling of a lat-long image to out_w x out_h, turned by

@@ -61,9 +61,11 @@ static double levels_max(const envl_products *p)
 static envl_result encode_mip(const envl_level *l, int32_t face, double scale, face_images *out,
                               double *error)
 {
-    envl_image src = {.width = l->width, .height = l->height, .px = (float *)l->rgb};
-    float *gl; /* OpenGL's six faces of the glTF frame */
-    envl_result rc = envl__latlong_to_faces(&src, ENVL__LAYOUT_GL_STRIP, face, &gl);
+    if (l->layout != ENVL_LAYOUT_STRIP_H || l->height != face)
+        return envl__fail(ENVL_ERR_ARGUMENT, "gltf: mip of %d-texel faces computed as %d",
+                          (int)face, (int)l->height);
+    envl_image glf; /* OpenGL's six faces of the glTF frame: the level's texels rearranged */
+    envl_result rc = envl__faces_to_layout(l->rgb, face, ENVL__LAYOUT_GL_STRIP, &glf);
     if (rc)
         return rc;
     size_t n = (size_t)face * face;
@@ -75,8 +77,8 @@ static envl_result encode_mip(const envl_level *l, int32_t face, double scale, f
         int32_t g = f == 2 ? 3 : f == 3 ? 2 : f; /* +Y and -Y swapped */
         for (int32_t r = 0; r < face; r++)
             for (int32_t i = 0; i < face; i++) {
-                const float *c = gl + 3 * (g * n + (size_t)(face - 1 - r) * face +
-                                           (size_t)(face - 1 - i));
+                const float *c = glf.px + 3 * ((size_t)(face - 1 - r) * 6 * face +
+                                               (size_t)g * face + (size_t)(face - 1 - i));
                 float v[3], back[3];
                 size_t t = (size_t)r * face + i, k = f * n + t;
                 for (int ch = 0; ch < 3; ch++)
@@ -97,7 +99,7 @@ static envl_result encode_mip(const envl_level *l, int32_t face, double scale, f
     free(px);
     free(want);
     free(got);
-    free(gl);
+    envl__image_free(&glf);
     return rc;
 }
 
@@ -189,6 +191,16 @@ static void write_asset(json_writer *j, const envl_envmap *map, const ibl *b,
                 "left-handed world, as its loader puts glTF in it); c = A_l L_lm (irradiance)");
     json_number(j, "diffuse_error", s->diffuse_error >= 0 ? s->diffuse_error : NAN);
     json_numbers(j, "glossy_error", s->glossy_error, b->mips);
+    json_array(j, "texel_error"); /* per mip: docs/design.md's per-texel error, RMS and worst */
+    for (int32_t k = 0; k < b->mips; k++) {
+        json_object(j, NULL);
+        json_number(j, "rms", s->texel_error[k].rms >= 0 ? s->texel_error[k].rms : NAN);
+        json_number(j, "worst", s->texel_error[k].worst >= 0 ? s->texel_error[k].worst : NAN);
+        json_int(j, "texels_measured", s->texel_error[k].measured);
+        json_int(j, "texels", s->texel_error[k].texels);
+        json_object_end(j);
+    }
+    json_array_end(j);
     json_number(j, "rgbd_error", s->rgbd_error);
     json_number(j, "seconds", s->seconds);
     json_object_end(j);
@@ -505,8 +517,10 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         return rc;
     double t0 = envl__seconds();
     envl_gltf_summary s = {.face_size = face, .mips = mips, .diffuse_error = -1};
-    for (int k = 0; k < 16; k++)
+    for (int k = 0; k < 16; k++) {
         s.glossy_error[k] = -1;
+        s.texel_error[k] = envl__texel_error_none;
+    }
     envl_lights *ls = NULL;
     envl_envmap *residual = NULL;
     envl_products *p = NULL;
@@ -538,6 +552,7 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         q.prefilter.levels = mips;
         q.prefilter.width = 4 * face;
         q.prefilter.min_width = 4 * (face >> (mips - 1));
+        q.prefilter.layout = ENVL_EXPORT_CUBE; /* each face texel computed at its centre */
         q.prefilter.samples = o->samples;
         q.prefilter.threads = o->threads;
         double t1 = envl__seconds();
@@ -560,7 +575,8 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         envl_products_level(p, k, &l);
         roughness[k] = l.roughness;
         s.glossy_error[k] = l.glossy_error;
-        double e;
+        s.texel_error[k] = l.texel_error;
+        double e = 0;
         rc = envl__progress((double)k / mips, "encoding the RGBD faces");
         if (!rc)
             rc = encode_mip(&l, face >> k, b.intensity, &img, &e);

@@ -17,6 +17,7 @@ void envl__split_free(split *s)
 {
     envl__sun_split_free(&s->sun);
     envl__cells_free(s->cells);
+    free(s->cells_px);
     memset(s, 0, sizeof *s);
 }
 

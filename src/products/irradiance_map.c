@@ -1,7 +1,7 @@
-/* Irradiance maps: the bright pixels exactly + the SH of the rest (the default), the exact sum,
- * the exact sum over the map area-averaged to 256 x 128, or the SH reconstruction. */
+/* Irradiance maps, each texel computed at its centre direction (a lat-long image or cube
+ * faces): the bright pixels exactly + the rest through the kernel tree (the default), the
+ * exact sum, the exact sum over the map area-averaged to 256 x 128, or the SH reconstruction. */
 #include "prefilter_impl.h"
-#include "sh_basis.h"
 
 #include <float.h>
 #include <math.h>
@@ -9,10 +9,6 @@
 #include <string.h>
 
 #define RESAMPLED_IRRADIANCE_WIDTH 256
-/* The split method's SH order for the rest: its clamped cosine passes band l by A_l ~ l^-5/2;
- * with no pixel above 50x the mean left, order 16 stays within about 1e-3 of the exact sum
- * over the map area-averaged to 256 x 128 (docs/accuracy.md measures both on every map). */
-#define SPLIT_ORDER 16
 
 static const char *irr_names[ENVL_IRRADIANCE_COUNT] = {"split", "sh", "exact", "resampled"};
 
@@ -31,13 +27,14 @@ int32_t envl_irradiance_method_from_name(const char *name)
 
 /* ---- irradiance maps ---- */
 
-static double *latlong_dirs(int32_t w, int32_t h)
+/* The centre directions of the texels of a product image (layout.c). */
+static double *texel_dirs(int32_t layout, int32_t w, int32_t h)
 {
     double *d = malloc(sizeof(double) * 3 * (size_t)w * h);
     if (d)
         for (int32_t r = 0; r < h; r++)
             for (int32_t c = 0; c < w; c++)
-                envl_latlong_direction(w, h, c, r, d + 3 * ((size_t)r * w + c));
+                envl__texel_direction(layout, w, h, c, r, d + 3 * ((size_t)r * w + c));
     return d;
 }
 
@@ -61,7 +58,7 @@ static envl_result resampled_copy(const float *px, int32_t w, int32_t h, int32_t
 }
 
 /* The split-off pixels of one 16 x 16 block of the map: their sum of e d per channel and the
- * cap (centre, radius) that holds their directions. Where n lights the whole cap, the group
+ * cap (centre, radius) that holds them. Where n lights the whole cap, the group
  * adds n.M exactly (max(0, n.d) is linear there); where it lights none, nothing; else each of
  * its pixels is added. */
 #define LOBE_BLOCK 16
@@ -81,16 +78,29 @@ static int by_block(const void *a, const void *b)
     return x->block != y->block ? (x->block < y->block ? -1 : 1) : (x->k > y->k) - (x->k < y->k);
 }
 
-/* Adds sum over the lobes of e max(0, n.d) to e_out at the n directions. */
-static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t n, const double *dirs,
-                             double *e_out)
+/* Adds sum over the lobes of e max(0, n.d) to e_out at the n directions; a lobe whose pixel
+ * (w x h) straddles n's horizon adds its pixel's exact integral, e / dw x the integral of
+ * max(0, n.d) dw over it (there a point is off by a good part of the pixel's light). */
+static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t h, int32_t n,
+                             const double *dirs, double *e_out)
 {
     lobe_key *key = malloc(sizeof(lobe_key) * sp->n);
     lobe_group *g = calloc((size_t)sp->n, sizeof *g);
-    if (!key || !g) {
+    double *pixel_radius = malloc(sizeof(double) * 2 * h), *omega = pixel_radius + h;
+    if (!key || !g || !pixel_radius) {
         free(key);
         free(g);
+        free(pixel_radius);
         return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    }
+    for (int32_t r = 0; r < h; r++) {
+        /* a pixel's directions are within half its diagonal of its centre (the row's widest
+         * width), as irradiance.c's tables */
+        double t1 = ENVL_PI * (0.5 - (double)r / h), t0 = ENVL_PI * (0.5 - (r + 1.0) / h);
+        double widest = t0 < 0 && t1 > 0 ? 1.0 : fmax(cos(t0), cos(t1));
+        double dt = t1 - t0, dw = 2 * ENVL_PI / w * widest;
+        pixel_radius[r] = 0.5 * sqrt(dt * dt + dw * dw) * 1.0001 + 1e-12;
+        omega[r] = envl_latlong_solid_angle(w, h, r);
     }
     int64_t across = (w + LOBE_BLOCK - 1) / LOBE_BLOCK;
     for (int32_t k = 0; k < sp->n; k++)
@@ -113,11 +123,12 @@ static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t n, con
         lobe_group *q = &g[j];
         double len = sqrt(q->centre[0] * q->centre[0] + q->centre[1] * q->centre[1] +
                           q->centre[2] * q->centre[2]);
-        double radius = 0;
+        double radius = 0; /* the cap holds every pixel, not only its centre */
         for (int32_t k = q->first; k < q->first + q->count; k++) {
-            const double *d = sp->lobes[key[k].k].d;
-            double c = (q->centre[0] * d[0] + q->centre[1] * d[1] + q->centre[2] * d[2]) / len;
-            radius = fmax(radius, acos(fmin(1.0, c)) * (1 + 1e-9) + 1e-12);
+            const envl_sun_lobe *b = &sp->lobes[key[k].k];
+            double c = (q->centre[0] * b->d[0] + q->centre[1] * b->d[1] +
+                        q->centre[2] * b->d[2]) / len;
+            radius = fmax(radius, acos(fmin(1.0, c)) * (1 + 1e-9) + 1e-12 + pixel_radius[b->r]);
         }
         for (int a = 0; a < 3; a++)
             q->centre[a] /= len;
@@ -136,79 +147,42 @@ static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t n, con
                 for (int32_t k = q->first; k < q->first + q->count; k++) {
                     const envl_sun_lobe *b = &sp->lobes[key[k].k];
                     double t = d[0] * b->d[0] + d[1] * b->d[1] + d[2] * b->d[2];
-                    if (t > 0)
+                    if (fabs(t) < pixel_radius[b->r]) {
+                        double f = envl__pixel_cosine(w, h, b->c, b->r, d) / omega[b->r];
+                        for (int ch = 0; ch < 3; ch++)
+                            e[ch] += b->e[ch] * f;
+                    } else if (t > 0) {
                         for (int ch = 0; ch < 3; ch++)
                             e[ch] += b->e[ch] * t;
+                    }
                 }
             }
         }
     }
     free(key);
     free(g);
-    return ENVL_OK;
-}
-
-/* The SH irradiance of `sh` over a w x h lat-long grid, separably: with x + i y = cos t e^(i phi),
- * Y_l^{+-m} = [sqrt2 K_l^m Pbar_l^m(z) cos^m t] x {cos m phi, sin m phi} (sh_basis.c), so each
- * row needs the basis once (at phi = 0, where the bracket is Y_l^m itself) and each texel
- * sum over m of cos m phi C_m(row) + sin m phi S_m(row): O(L^2) a row, O(L) a texel. */
-static envl_result sh_latlong(const envl_sh *sh, int32_t w, int32_t h, double *e)
-{
-    envl_sh_summary s;
-    envl_sh_get_summary(sh, &s);
-    const double *c = envl_sh_irradiance(sh);
-    int32_t L = s.order, n = envl_sh_count(L);
-    double *y = malloc(sizeof(double) * n), *cs = malloc(sizeof(double) * 2 * (L + 1) * 3);
-    double *trig = malloc(sizeof(double) * 2 * (L + 1) * (size_t)w);
-    if (!y || !cs || !trig) {
-        free(y), free(cs), free(trig);
-        return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
-    }
-    for (int32_t col = 0; col < w; col++) {
-        double phi = ENVL_PI * (1.0 - 2.0 * (col + 0.5) / w);
-        for (int32_t m = 0; m <= L; m++) {
-            trig[2 * ((size_t)col * (L + 1) + m)] = cos(m * phi);
-            trig[2 * ((size_t)col * (L + 1) + m) + 1] = sin(m * phi);
-        }
-    }
-    for (int32_t row = 0; row < h; row++) {
-        double t = ENVL_PI * (0.5 - (row + 0.5) / h), d[3] = {cos(t), 0.0, sin(t)};
-        envl_sh_eval(L, d, y);
-        for (int32_t i = 0; i < 2 * (L + 1) * 3; i++)
-            cs[i] = 0;
-        for (int32_t l = 0; l <= L; l++)
-            for (int32_t m = 0; m <= l; m++) {
-                double a = y[l * (l + 1) + m]; /* the bracket at phi = 0 */
-                for (int k = 0; k < 3; k++) {
-                    cs[(2 * m) * 3 + k] += a * c[3 * (l * (l + 1) + m) + k];
-                    if (m > 0)
-                        cs[(2 * m + 1) * 3 + k] += a * c[3 * (l * (l + 1) - m) + k];
-                }
-            }
-        for (int32_t col = 0; col < w; col++) {
-            const double *tr = trig + 2 * (size_t)col * (L + 1);
-            double *o = e + 3 * ((size_t)row * w + col);
-            o[0] = o[1] = o[2] = 0;
-            for (int32_t m = 0; m <= L; m++)
-                for (int k = 0; k < 3; k++)
-                    o[k] += tr[2 * m] * cs[(2 * m) * 3 + k] + tr[2 * m + 1] * cs[(2 * m + 1) * 3 + k];
-        }
-    }
-    free(y), free(cs), free(trig);
+    free(pixel_radius);
     return ENVL_OK;
 }
 
 /* The split method: E(n) = sum over the split-off pixels of e max(0, n.d) (e: their excess
  * over the threshold, L dw less T's share, at their centre: a pixel as a point, off by
- * O(pixel^2) of its own part) + the SH order-16 irradiance of the rest (every split pixel at
- * the threshold), projected from its 256-wide copy. */
-static envl_result split_irradiance(envl_envmap *m, int32_t threads, int32_t w, int32_t h,
+ * O(pixel^2) of its own part; integrated over the pixel where it straddles n's horizon) + the
+ * irradiance of the rest (every split pixel at the
+ * threshold) area-averaged to 256 wide, summed through the kernel tree (irradiance.c), within
+ * ENVL_SPLIT_RELATIVE of each texel's E (at least ENVL_TEXEL_DARK x the mean of E): the rest's
+ * sharp edges (the threshold's plateau) stay exact where an SH expansion of them rang by
+ * several percent in the dark directions (docs/accuracy.md). */
+static envl_result split_irradiance(envl_envmap *m, int32_t threads, size_t n,
                                     const double *dirs, double *e)
 {
     envl_sun_split sp;
     envl_envmap *rest = NULL, *small = NULL;
-    envl_sh *sh = NULL;
-    envl_result rc = envl__sun_split_make(m, &sp);
+    double *lobes = calloc(3 * n, sizeof(double));
+    envl_result rc = lobes ? envl__sun_split_make(m, &sp)
+                           : envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    if (!lobes)
+        memset(&sp, 0, sizeof sp);
     if (!rc && sp.n) {
         envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
         rc = envl_envmap_from_pixels(sp.res, m->width, m->height, 3, &lo, &rest);
@@ -216,15 +190,18 @@ static envl_result split_irradiance(envl_envmap *m, int32_t threads, int32_t w, 
     envl_envmap *r = rest ? rest : m;
     if (!rc)
         rc = resampled_copy(r->px, r->width, r->height, threads, &small);
-    if (!rc) {
-        envl_sh_options so = {.order = SPLIT_ORDER, .window = ENVL_WINDOW_NONE};
-        rc = envl_sh_compute(small ? small : r, &so, &sh);
-    }
-    if (!rc)
-        rc = sh_latlong(sh, w, h, e);
     if (!rc && sp.n)
-        rc = add_lobes(&sp, m->width, w * h, dirs, e);
-    envl_sh_free(sh);
+        rc = add_lobes(&sp, m->width, m->height, (int32_t)n, dirs, lobes);
+    if (!rc) {
+        double floor[3]; /* the mean of E over the sphere is the power / 4 */
+        for (int c = 0; c < 3; c++)
+            floor[c] = ENVL_TEXEL_DARK * m->info.power[c] / 4;
+        rc = envl__irradiance_relative(small ? small : r, (int32_t)n, dirs, ENVL_SPLIT_RELATIVE,
+                                       floor, lobes, e);
+    }
+    for (size_t i = 0; !rc && i < 3 * n; i++)
+        e[i] += lobes[i];
+    free(lobes);
     envl_envmap_free(small);
     envl_envmap_free(rest);
     envl__sun_split_free(&sp);
@@ -236,10 +213,13 @@ envl_result envl__irradiance_map(envl_envmap *m, const resolved *o, const envl_s
                                   float **out, envl_irradiance_map *st, int *projected)
 {
     double t0 = envl__seconds();
-    int32_t w = o->irr_width, h = w / 2 > 0 ? w / 2 : 1;
+    int32_t layout = o->faces ? ENVL_LAYOUT_STRIP_H : ENVL_LAYOUT_LATLONG;
+    int32_t face = o->irr_width / 4 > 0 ? o->irr_width / 4 : 1;
+    int32_t w = o->faces ? 6 * face : o->irr_width;
+    int32_t h = o->faces ? face : w / 2 > 0 ? w / 2 : 1;
     size_t n = (size_t)w * h;
     *out = NULL;
-    double *dirs = latlong_dirs(w, h), *e = malloc(sizeof(double) * 3 * n);
+    double *dirs = texel_dirs(layout, w, h), *e = malloc(sizeof(double) * 3 * n);
     float *px = malloc(sizeof(float) * 3 * n);
     envl_result rc = ENVL_OK;
     envl_sh *own = NULL;
@@ -264,10 +244,7 @@ envl_result envl__irradiance_map(envl_envmap *m, const resolved *o, const envl_s
         for (size_t i = 0; !rc && i < 3 * n; i++)
             e[i] = e[i] < 0 ? 0 : e[i];
     } else if (o->irr_method == ENVL_IRRADIANCE_SPLIT) {
-        rc = split_irradiance(m, o->threads, w, h, dirs, e);
-        /* the SH of the rest may dip a little below 0 between its lobes: 0 */
-        for (size_t i = 0; !rc && i < 3 * n; i++)
-            e[i] = e[i] < 0 ? 0 : e[i];
+        rc = split_irradiance(m, o->threads, n, dirs, e);
     } else {
         /* resampled: the clamped cosine is smooth: the map area-averaged to 256 x 128 changes
          * E by about h^2 relative (h = pi / 128: ~6e-4), at a fraction of the cost */
@@ -291,7 +268,9 @@ envl_result envl__irradiance_map(envl_envmap *m, const resolved *o, const envl_s
     st->method = o->irr_method;
     st->width = w;
     st->height = h;
+    st->layout = layout;
     st->diffuse_error = -1;
+    st->texel_error = envl__texel_error_none;
     st->seconds = envl__seconds() - t0;
     *out = px;
     px = NULL;

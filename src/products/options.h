@@ -27,6 +27,7 @@ typedef struct resolved {
     int32_t levels, width, min_width, samples, unfiltered;
     int32_t irr_method, irr_width, irr_order, threads, sun_lights;
     int32_t half;             /* measured as half floats (envl_prefilter_options.half) */
+    int32_t faces;            /* layout cube or cross: the maps are cube faces of width / 4 */
 } resolved;
 /* The threads default to the map's (m may be NULL: all cores). */
 envl_result envl__prefilter_resolve(const envl_prefilter_options *o, const envl_envmap *m,

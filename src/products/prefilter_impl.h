@@ -24,14 +24,20 @@
 /* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */
 envl_result envl__build_pyramid(const float *px, int32_t w, int32_t h, float **buf_out,
                                 int32_t *n_out, int32_t mw[40], int32_t mh[40], size_t off[40]);
-/* Integral of L dw of a w x h lat-long image, per channel. */
-void envl__image_energy(const float *px, int32_t w, int32_t h, double e[3]);
+/* The coarsest level of the map's mip pyramid (built and cached here; level 0 the map) whose
+ * pixels are at most `pixel` radians tall, as an image (its pixels stay the map's). Each is
+ * the exact area mean of the map over its pixels, so a footprint mean over a texel several
+ * of its pixels wide is the map's, for a fraction of the lookups. */
+envl_result envl__mip_level_for(envl_envmap *m, double pixel, envl_image *out);
+/* Integral of L dw of a w x h product image (ENVL_LAYOUT_LATLONG or _STRIP_H), per channel. */
+void envl__image_energy(const float *px, int32_t layout, int32_t w, int32_t h, double e[3]);
 
 /* ---- bright pixels (bright_lobes.c) ---- */
 /* The map's split (sun_split.c) and, with sun lights, the cells of the map less the lights. */
 typedef struct split {
     envl_sun_split sun;       /* the split-off pixels and the residual (sun_split.c) */
     envl_cells *cells;        /* the map less what the sun lights took; NULL: the map's own */
+    float *cells_px;          /* ... and that image (the cells read it) */
 } split;
 envl_result envl__split_make(const envl_envmap *m, split *s);
 void envl__split_free(split *s);

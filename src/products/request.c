@@ -177,11 +177,10 @@ static envl_result compute_levels(envl_envmap *m, envl_products *p, plan *pl)
                 base = b < base ? b : base;
             }
         if (p->n_sun) {
-            float *px = pixels_without_sun_lights(m, &pl->sp.sun);
+            float *px = pl->sp.cells_px = pixels_without_sun_lights(m, &pl->sp.sun);
             rc = px ? envl__cells_build(px, m->width, m->height, base, m->threads,
                                       &pl->sp.cells)
                     : envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
-            free(px);
             C = pl->sp.cells;
             built = 1;
         } else {
@@ -232,23 +231,28 @@ static envl_result compute_brdf(const envl_request *q, envl_products *p)
     return ENVL_OK;
 }
 
-/* The error of a w x h map against ref at the error directions, as written: with half floats
- * (options.half) the map rounded to half first, values above ENVL_HALF_MAX as it. */
-static envl_result written_error(const envl_products *p, const double *dirs, const double *ref,
-                                 const float *px, int32_t w, int32_t h, int32_t n_sun,
-                                 double roughness, double *error)
+/* The error of a map (`layout`, w x h) as written, against ref at the error directions and per
+ * texel (m's exact values; C its cells for roughness > 0): with half floats (options.half) the
+ * map rounded to half first, values above ENVL_HALF_MAX as it. */
+static envl_result written_error(envl_envmap *m, const envl_cells *C, const envl_products *p,
+                                 const double *dirs, const double *ref, const float *px,
+                                 int32_t layout, int32_t w, int32_t h, int32_t n_sun,
+                                 double roughness, double *error, envl_texel_error *texel)
 {
     float *half = p->opt.half ? envl__half_rounded(px, 3 * (size_t)w * h) : NULL;
     if (p->opt.half && !half)
         return envl__fail(ENVL_ERR_MEMORY, "error measure: out of memory");
-    envl_result rc = envl__sampled_error(dirs, ref, half ? half : px, w, h, p->sun, n_sun,
+    const float *as_written = half ? half : px;
+    envl_result rc = envl__sampled_error(dirs, ref, as_written, layout, w, h, p->sun, n_sun,
                                          roughness, error);
+    if (!rc)
+        rc = envl__texel_error(m, C, as_written, layout, w, h, p->sun, n_sun, roughness, texel);
     free(half);
     return rc;
 }
 
 /* The glossy error of every level and the diffuse error of the irradiance map (the sun lights
- * added as the renderer adds them), each as written. */
+ * added as the renderer adds them), and the per-texel error of each, as written. */
 static envl_result measure(envl_envmap *m, envl_products *p)
 {
     double *dirs = envl__fibonacci_dirs();
@@ -268,10 +272,11 @@ static envl_result measure(envl_envmap *m, envl_products *p)
         rc = envl__map_cells(m, base, &C, NULL);
     for (int32_t i = 0; !rc && i < p->n_levels; i++) {
         envl_level *l = &p->levels[i];
+        int32_t n_sun = l->roughness > 0 ? p->n_sun : 0;
         rc = envl__glossy_reference(m, C, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
         if (!rc)
-            rc = written_error(p, dirs, ref, l->rgb, l->width, l->height,
-                               l->roughness > 0 ? p->n_sun : 0, l->roughness, &l->glossy_error);
+            rc = written_error(m, C, p, dirs, ref, l->rgb, l->layout, l->width, l->height, n_sun,
+                               l->roughness, &l->glossy_error, &l->texel_error);
     }
     if (!rc && p->sh)
         rc = envl__sh_measure(m, p->sh);
@@ -279,10 +284,11 @@ static envl_result measure(envl_envmap *m, envl_products *p)
         rc = envl__lights_measure(m, p->lights);
     if (!rc && p->has_irradiance) {
         const double *eref;
+        envl_irradiance_map *im = &p->irr;
         rc = envl_envmap_reference_irradiance(m, &eref);
         if (!rc)
-            rc = written_error(p, dirs, eref, p->irr_px, p->irr.width, p->irr.height, p->n_sun,
-                               -1, &p->irr.diffuse_error);
+            rc = written_error(m, NULL, p, dirs, eref, p->irr_px, im->layout, im->width,
+                               im->height, p->n_sun, -1, &im->diffuse_error, &im->texel_error);
     }
     free(dirs);
     free(ref);
