@@ -47,7 +47,7 @@ def spot_image(w=64, h=32, col=40, row=9, value=1000.0, base=0.05):
 # ---- loading and the ABI -----------------------------------------------------------------
 
 def test_library_loaded_with_matching_abi():
-    assert envlight.lib.envl_abi_version() == envlight.ABI_VERSION == 4
+    assert envlight.lib.envl_abi_version() == envlight.ABI_VERSION == 5
     assert envlight.version()
     want = os.environ.get("ENVLIGHT_LIBRARY")
     if want:

@@ -11,7 +11,7 @@ from ctypes import (CFUNCTYPE, POINTER, Structure, c_char, c_char_p, c_double, c
                     c_int, c_int32, c_int64, c_size_t, c_uint8, c_void_p)
 
 #: ENVL_ABI_VERSION of the envlight.h these bindings mirror.
-ABI_VERSION = 4
+ABI_VERSION = 5
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -498,7 +498,7 @@ ENVL_ERROR_NORMALS = 1024
 ENVL_PIXEL_FLOAT = 0
 ENVL_PIXEL_HALF = 1
 ENVL_POV_AMBIENT = {"sh": 1, "hemi": 2, "none": 3}      # ENVL_POV_AMBIENT_* (0: auto)
-ENVL_POV_SHADOWS = {"hard": 0, "soft": 1, "none": 2}    # ENVL_POV_SHADOWS_*
+ENVL_POV_SHADOWS = {"auto": 0, "soft": 1, "none": 2, "hard": 3}  # ENVL_POV_SHADOWS_*
 ENVL_POV_EXPOSURE_AUTO = -1.0
 ENVL_POV_MAX_ORDER = 8
 
