@@ -40,6 +40,11 @@ int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size)
                  "the SH ambient, exact for unoccluded normals");
         return POV_RECIPE_SH;
     }
+    if (scene && scene->objects == 0) {
+        snprintf(why, size, "no object statement found in the scene (objects in #include "
+                 "files or macros are not read): the dome, which holds for any scene");
+        return POV_RECIPE_DOME;
+    }
     int occluded = !scene || (scene->casters > 0 && scene->objects > 1);
     if (!occluded && !scene->glossy) {
         snprintf(why, size, "no object of the scene can shadow another and no finish is "
@@ -61,7 +66,7 @@ int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size)
 
 int pov_recipe_bounces(const pov_scene *scene)
 {
-    return !scene || scene->objects > 1;
+    return !scene || scene->objects != 1;
 }
 
 /* From docs/scene_bench_pov.md (scripts/scene_bench.py --host pov --docs docs: 13 maps, a
