@@ -828,9 +828,13 @@ ENVL_API int32_t envl_pov_recipe_from_name(const char *name); /* -1 if unknown *
 #define ENVL_POV_AMBIENT_HEMI 2     /* its hemispheric form (sky, ground, axis: the pair of
                                        envl_sh_summary, never negative) */
 #define ENVL_POV_AMBIENT_NONE 3
-#define ENVL_POV_SHADOWS_HARD 0     /* default */
-#define ENVL_POV_SHADOWS_SOFT 1     /* area lights sized by each light's angular diameter */
+#define ENVL_POV_SHADOWS_AUTO 0     /* default: the recipe's: a dome's lights soft, every other
+                                       light hard (ABI 5; HARD was 0 before) */
+#define ENVL_POV_SHADOWS_SOFT 1     /* area lights: a dome's light shaped as the sky it stands for
+                                       (its region's spread), any other a disc of its angular
+                                       diameter */
 #define ENVL_POV_SHADOWS_NONE 2     /* shadowless lights */
+#define ENVL_POV_SHADOWS_HARD 3     /* point lights: hard shadows (a dome's draw rings) */
 #define ENVL_POV_EXPOSURE_AUTO (-1.0) /* envl_pov_options.exposure: a white surface facing up,
                                          unshadowed, reads 0.6 (for an 8-bit image) */
 #define ENVL_POV_MAX_ORDER 8        /* the ambient's largest SH order */
@@ -866,7 +870,7 @@ typedef struct envl_pov_options {
                                  has one (its literal colour's luminance, else 0.5), else none;
                                  image-radiosity uses none (radiosity bounces the scene's) */
     double ground_albedo;     /* 0..1, with ground_plane */
-    int32_t shadows;          /* ENVL_POV_SHADOWS_*; default hard */
+    int32_t shadows;          /* ENVL_POV_SHADOWS_*; default AUTO */
     int32_t sky;              /* nonzero: declare the environment as a sky_sphere
                                  (EnvLight_Sky(); under a dome's radiosity a backdrop) */
     int32_t sky_residual;     /* nonzero: the sky shows the residual (what the lights did not

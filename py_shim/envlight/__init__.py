@@ -655,7 +655,7 @@ class Envmap(_Handle):
         return SHResult(h)
 
     def pov_include(self, path=None, recipe=None, scene=None, ground=None, method=None,
-                    n=None, order=None, ambient=None, shadows="hard", sky=False,
+                    n=None, order=None, ambient=None, shadows="auto", sky=False,
                     sky_residual=False, sky_image=None, scene_radius=None, exposure=None,
                     place=True, source=None, command=None, threads=None):
         """A POV-Ray 3.7 include for povray_include/envlight.inc (envl_pov_include_write: what
@@ -669,7 +669,8 @@ class Envmap(_Handle):
         scene: the .pov file the include is for (what it uses picks the recipe and the ground);
         ground: the albedo 0..1 of a ground plane (None: the scene's, if any); method: 'fit',
         'median' or 'variance'; n: lights 1..65536 (fit 1..32); order: the ambient's SH order
-        -1..8; ambient: 'sh', 'hemi' or 'none'; shadows: 'hard', 'soft' or 'none'; sky: declare
+        -1..8; ambient: 'sh', 'hemi' or 'none'; shadows: 'auto' (a dome's soft, others hard),
+        'soft', 'hard' or 'none'; sky: declare
         the sky (sky_residual: the residual as the sky), its image written to sky_image (None:
         next to the include, or the map's own lat-long .hdr); scene_radius > 0; exposure: 'auto'
         or > 0 (None: not declared); place: False only declares; source: the map's name in the

@@ -530,7 +530,7 @@ ENVL_ERROR_NORMALS = 1024
 ENVL_PIXEL_FLOAT = 0
 ENVL_PIXEL_HALF = 1
 ENVL_POV_AMBIENT = {"sh": 1, "hemi": 2, "none": 3}      # ENVL_POV_AMBIENT_* (0: auto)
-ENVL_POV_SHADOWS = {"hard": 0, "soft": 1, "none": 2}    # ENVL_POV_SHADOWS_*
+ENVL_POV_SHADOWS = {"auto": 0, "soft": 1, "none": 2, "hard": 3}  # ENVL_POV_SHADOWS_*
 ENVL_POV_EXPOSURE_AUTO = -1.0
 ENVL_POV_MAX_ORDER = 8
 

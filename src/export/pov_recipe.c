@@ -5,7 +5,9 @@
  * maps whose light does not sit in one sun it leaves lower halves and corners too bright and
  * draws no contact shadow; a dome of median-cut lights with hard shadows carries the sky's
  * occlusion, and a cheap radiosity pass with no sky in it (the lights' light only) carries the
- * bounces, occluded too. Where nothing is occluded the SH ambient is exact and cheaper. */
+ * bounces, occluded too. Where nothing is occluded the SH ambient is exact and cheaper. A scene
+ * the reader sees no object in (they are in #include files or macros) gets the dome: it holds
+ * for any scene. */
 #include "pov_recipe.h"
 
 #include <stdio.h>
@@ -40,6 +42,11 @@ int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size)
                  "the SH ambient, exact for unoccluded normals");
         return POV_RECIPE_SH;
     }
+    if (scene && scene->objects == 0) {
+        snprintf(why, size, "no object statement found in the scene (objects in #include "
+                 "files or macros are not read): the dome, which holds for any scene");
+        return POV_RECIPE_DOME;
+    }
     int occluded = !scene || (scene->casters > 0 && scene->objects > 1);
     if (!occluded && !scene->glossy) {
         snprintf(why, size, "no object of the scene can shadow another and no finish is "
@@ -48,12 +55,12 @@ int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size)
     }
     if (!occluded) {
         snprintf(why, size, "glossy finishes: POV-Ray draws highlights from light sources "
-                 "only, so the sky becomes a dome of variance-cut lights");
+                 "only, so the sky becomes a dome of lights (its suns, the rest by variance)");
         return POV_RECIPE_DOME;
     }
     snprintf(why, size, "%s: an ambient term cannot be shadowed, so the sky becomes a dome of "
-             "variance-cut lights with shadows, and radiosity carries the bounces between "
-             "surfaces%s",
+             "lights with soft shadows (its suns, the rest by variance), and radiosity carries "
+             "the bounces between surfaces%s",
              scene ? "objects of the scene shadow others" : "no --scene given, shadows assumed",
              scene && scene->radiosity ? " (the scene's radiosity block, if later, wins)" : "");
     return POV_RECIPE_DOME;
@@ -61,7 +68,7 @@ int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size)
 
 int pov_recipe_bounces(const pov_scene *scene)
 {
-    return !scene || scene->objects > 1;
+    return !scene || scene->objects != 1;
 }
 
 /* From docs/scene_bench_pov.md (scripts/scene_bench.py --host pov --docs docs: 13 maps, a
