@@ -15,6 +15,9 @@ README states is never a hand-copied number that has drifted.
 Blocks:
   methods            "Which method for which job": each method's error range over every map
                      (the built-in sky and each ../shared/data/latlong_hdri/*.hdr present)
+  pov                the POV-Ray include's in-scene figures, from docs/scene_bench_pov.json
+  gltf               the glTF file's diffuse error over the same maps, with its suns as
+                     lights and with --lights none
   transcript-NAME    a command's output as the README shows it: the block's first line
                      `<!-- figures:transcript-NAME ARGS -->` names the command (`envlight ARGS`,
                      run in a folder where `my.hdr` is potsdamer_platz_1k.hdr) and, after ` | `,
@@ -122,7 +125,29 @@ def measure_map(envlight, path, tmp):
                      "texel_rms": max(lv["texel_error"]["rms"] for lv in levels),
                      "texel_worst": max(lv["texel_error"]["worst"] for lv in levels),
                      "seconds": sum(lv["seconds"] for lv in pj["specular"])}
+    # glTF: the diffuse error (the punctual lights + the SH irradiance an engine computes) does
+    # not depend on the mips' size: measured with 32-pixel faces
+    for key, extra in (("gltf", []), ("gltf_none", ["--lights", "none"])):
+        glb = os.path.join(tmp, key + ".glb")
+        if os.path.exists(glb):
+            os.remove(glb)
+        j = json.loads(run([envlight, "gltf", path, "-o", glb, "--size", "32", "--json",
+                            "--quiet"] + extra))
+        r[key] = {"error": j["error"]["diffuse"], "seconds": j["seconds"]}
+        os.remove(glb)
     return r
+
+
+def gltf_block(results):
+    """The README's sentence on glTF's diffuse error over the maps."""
+    def span(key):
+        errs = sorted((v[key]["error"], name) for name, v in results.items())
+        return "%s-%s %% (worst: %s)" % (pct(errs[0][0]), pct(errs[-1][0]), errs[-1][1])
+    n = len(results)
+    return ["On %d maps (the built-in sky and %d of ../shared/data/latlong_hdri), the glTF file's "
+            "diffuse error (its punctual lights + its SH irradiance, as an engine adds them) is "
+            "%s, against %s when the sun stays in the SH (`--lights none`); `scripts/figures.py` "
+            "measures it, `py_figures` holds it." % (n, n - 1, span("gltf"), span("gltf_none"))]
 
 
 def pct(x):
@@ -352,6 +377,13 @@ def render(readme, envlight, data, tmp, results, skipped):
         name, spec = m.group(1), m.group(2).strip()
         if name == "methods":
             body = methods_block(results)
+        elif name == "gltf":
+            body = gltf_block(results)
+        elif name == "pov":
+            with open(os.path.join(ROOT, POV_JSON)) as f:
+                body = ["In the scene benchmark ([docs/scene_bench_pov.md](docs/scene_bench_pov.md)"
+                        ", [docs/pov_scenes.md](docs/pov_scenes.md)), the default include: %s." %
+                        pov_figure(json.load(f), "default")]
         elif name.startswith("transcript-"):
             body = transcript(envlight, spec, data, tmp)
             if body is None:
@@ -424,9 +456,9 @@ def main(argv):
     for name, old in old_blocks.items():
         if name in skipped:
             continue
-        if name == "methods" and not full:
-            print("SKIP: methods: not every map is present: each present map's figure is "
-                  "checked to lie within the README's range")
+        if name in ("methods", "gltf") and not full:
+            print("SKIP: %s: not every map is present: each present map's figure is "
+                  "checked to lie within the README's range (a table's)" % name)
             failed += check_ranges(old, results)
             continue
         if timeless(old) != timeless(new_blocks[name]):
