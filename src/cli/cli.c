@@ -3,6 +3,7 @@
 #include "cli.h"
 #include "escape.h"
 #include "json.h"
+#include "repair.h"
 
 #include <errno.h>
 #include <math.h>
@@ -167,52 +168,14 @@ int cli_interrupted(void)
     return interrupted;
 }
 
-/* e as a percentage of base, in luminance (0 when base holds none). */
-static double luminance_percent(const double e[3], const double base[3])
-{
-    double b = envl_luminance(base[0], base[1], base[2]);
-    return b > 0 ? 100.0 * envl_luminance(e[0], e[1], e[2]) / b : 0.0;
-}
-
 /* What the loader did to the file's values (envl_info; docs/design.md, "Units"). */
 static void warn_repairs(const char *file, const envl_info *in)
 {
-    char infinity[80] = "";
-    if (in->infinity_value > 0)
-        snprintf(infinity, sizeof infinity, ", +Inf to %g (the largest finite value)",
-                 in->infinity_value);
-    if (in->nonfinite_pixels)
-        cli_error("warning: %s: %lld pixels with NaN or Inf: NaN and -Inf set to 0%s (--strict "
-                  "refuses them)", file, (long long)in->nonfinite_pixels, infinity);
-    if (!in->negative_pixels)
-        return;
-    char filled[160] = "", unfilled[160] = "";
-    if (in->fill_window)
-        snprintf(filled, sizeof filled, "filled from the light around them (windows up to %d px "
-                 "wide), moving %.3g %% of the power (luminance) and keeping the file's signed "
-                 "sum", in->fill_window, luminance_percent(in->filled_energy, in->signed_power));
-    if (in->unfilled_values)
-        snprintf(unfilled, sizeof unfilled, "%lld values with too little light around them set "
-                 "to 0, adding %.3g %% to the power", (long long)in->unfilled_values,
-                 luminance_percent(in->added_energy, in->signed_power));
-    cli_error("warning: %s: %lld pixels with negative values (down to %g): %s%s%s (--strict "
-              "refuses them)", file, (long long)in->negative_pixels, in->negative_min, filled,
-              *filled && *unfilled ? "; " : "", unfilled);
-}
-
-void cli_json_repair(json_writer *j, const envl_info *in)
-{
-    json_object(j, "repair");
-    json_int(j, "nonfinite_pixels", in->nonfinite_pixels);
-    json_number(j, "infinity_value", in->infinity_value);
-    json_int(j, "negative_pixels", in->negative_pixels);
-    json_number(j, "negative_min", in->negative_min);
-    json_numbers(j, "signed_power", in->signed_power, 3);
-    json_numbers(j, "filled_energy", in->filled_energy, 3);
-    json_int(j, "fill_window", in->fill_window);
-    json_int(j, "unfilled_values", in->unfilled_values);
-    json_numbers(j, "added_energy", in->added_energy, 3);
-    json_object_end(j);
+    char text[512];
+    if (repair_nonfinite_text(text, sizeof text, in))
+        cli_error("warning: %s: %s (--strict refuses them)", file, text);
+    if (repair_negative_text(text, sizeof text, in))
+        cli_error("warning: %s: %s (--strict refuses them)", file, text);
 }
 
 int cli_load(const char *file, const cli_common *c, envl_envmap **out)

@@ -96,10 +96,6 @@ const char *cli_error_text(char *buf, size_t size, const char *what, double erro
  * or "per texel not measured": docs/design.md's per-texel error. */
 const char *cli_texel_text(char *buf, size_t size, const envl_texel_error *t);
 
-/* The JSON object "repair": what the loader did to the file's values (envl_info: NaN, Inf and
- * the negative values filled from the light around them), in every JSON about a map. */
-struct json_writer;
-void cli_json_repair(struct json_writer *j, const envl_info *in);
 
 /* Loads FILE, or the built-in sky for NULL or "-"; warns (unless quiet) about replaced pixels
  * and says which layout auto-detection picked when that was a real guess (not evident from

@@ -1,6 +1,7 @@
 /* envlight gltf: the map as a glTF 2.0 file an engine loads (envl_gltf_export). */
 #include "cli.h"
 #include "json.h"
+#include "repair.h"
 
 #include <math.h>
 
@@ -55,7 +56,7 @@ static void write_json(const envl_envmap *map, const char *out, const envl_gltf_
     json_number(&j, "rgbd", s->rgbd_error);
     json_object_end(&j);
     json_number(&j, "seconds", s->seconds);
-    cli_json_repair(&j, &info);
+    repair_json(&j, &info);
     json_end(&j);
 }
 

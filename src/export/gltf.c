@@ -5,6 +5,7 @@
 #include "clock.h"
 #include "error_measure.h"
 #include "json.h"
+#include "repair.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -169,6 +170,7 @@ static void write_asset(json_writer *j, const envl_envmap *map, const ibl *b,
     json_string(j, "generator", gen);
     json_object(j, "extras");
     json_string(j, "source", info.file);
+    repair_json(j, &info);
     json_string(j, "frame", "gltf-y-up: right-handed, +Y up (the source's +Z up turned: (x, y, "
                 "z) -> (x, z, -y))");
     json_string(j, "units", "the source's radiance, taken as cd/m^2: light intensity in lux, "

@@ -3,6 +3,7 @@
  * the ambient and the sky; envlight.inc and the calls that place them. POV-Ray's frame is
  * left-handed, +Y up: a canonical vector (x, y, z) is written <x, z, y>. */
 #include "pov_include_impl.h"
+#include "repair.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -50,6 +51,11 @@ static void text_header(FILE *f, const pov_plan *p, const pov_work *w)
     pov_comment_text(f, p->source);
     fprintf(f, " (%s, %d x %d canonical lat-long, rotated %.9g degrees about +Z)\n", in->format,
             (int)in->width, (int)in->height, in->rotate_degrees);
+    char repaired[512];
+    if (repair_nonfinite_text(repaired, sizeof repaired, in))
+        fprintf(f, "// loaded: %s\n", repaired);
+    if (repair_negative_text(repaired, sizeof repaired, in))
+        fprintf(f, "// loaded: %s\n", repaired);
     fputs("// command: ", f);
     pov_comment_text(f, p->command);
     static const char *shadow_names[] = {"none", "hard", "soft"};

@@ -3,6 +3,7 @@
  * prefilter.json sidecar that describes them. */
 #include "prefilter_impl.h"
 #include "json.h"
+#include "repair.h"
 #include "ktx2.h"
 
 #include <errno.h>
@@ -592,6 +593,7 @@ static void write_conventions(json_writer *j, const envl_products *p,
     const resolved *r = &p->opt;
     char text[512];
     json_string(j, "source", p->file);
+    repair_json(j, &p->source_info);
     int gltf = o->frame == ENVL_FRAME_GLTF;
     json_string(j, "frame", gltf ? "gltf-y-up" : "blender-z-up");
     json_string(j, "latlong", gltf ? "column c, row r (0 = top) of W x H: u = (c+0.5)/W, v = "

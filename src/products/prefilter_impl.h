@@ -82,6 +82,7 @@ struct envl_products {
     float *brdf;
     int32_t brdf_size, brdf_multiscatter, brdf_samples;
     char file[1024];
+    envl_info source_info;    /* the map's, as loaded (what the loader repaired) */
     char *source_path;        /* the map's file in full (envl__envmap_source), or NULL */
 };
 

@@ -305,6 +305,7 @@ envl_result envl_compute(envl_envmap *map, const envl_request *q, envl_products 
     if (!p)
         return envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
     snprintf(p->file, sizeof p->file, "%s", map->info.file);
+    p->source_info = map->info;
     plan pl = {0};
     envl_result rc = ENVL_OK;
     if (map->source_path && !(p->source_path = strdup(map->source_path)))
