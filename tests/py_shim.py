@@ -813,3 +813,47 @@ def test_take_direction_is_the_moment_of_what_the_light_took(method):
         assert np.allclose(l.take_direction, V / np.linalg.norm(V), atol=1e-9)
         y = 0.2126 * l.rgb[0] + 0.7152 * l.rgb[1] + 0.0722 * l.rgb[2]
         assert abs(y * (1 - l.take_solid_angle / (4 * math.pi)) / np.linalg.norm(V) - 1) < 4e-5
+
+
+def test_no_output_replaces_the_map_and_half_floats_say_what_they_clamp():
+    """Issue 30, 4.1 and 4.7 in Python: LightsResult.save_residual over the map's own file is
+    refused (ArgumentError) and leaves it as it was; Envmap.save, save_image and
+    save_residual with half=True warn (HalfClampWarning) how many values went above 65504 and
+    how much lower the largest is written (on a uniform map of 70000: every value, 6.4 %; the
+    fit's residual: what it left above 65504)."""
+    import warnings
+    os.makedirs(TMP, exist_ok=True)
+    src = os.path.join(TMP, "u70k_py.pfm")
+    w, h = 16, 8
+    envlight.save_image(src, [7e4] * (3 * w * h), w, h)
+    before = open(src, "rb").read()
+    with envlight.load(src, layout="latlong") as env:
+        with env.lights(method="fit", n=1) as lr:
+            with pytest.raises(envlight.ArgumentError, match="same file"):
+                lr.save_residual(src)
+            assert open(src, "rb").read() == before
+            with pytest.raises(envlight.ArgumentError):
+                env.save(src)
+            assert open(src, "rb").read() == before
+            for what, save in (("Envmap.save", lambda p: env.save(p, half=True)),
+                               ("LightsResult.save_residual",
+                                lambda p: lr.save_residual(p, half=True))):
+                out = os.path.join(TMP, "u70k_half.exr")
+                with warnings.catch_warnings(record=True) as got:
+                    warnings.simplefilter("always")
+                    save(out)
+                said = [str(x.message) for x in got
+                        if issubclass(x.category, envlight.HalfClampWarning)]
+                values = env.pixels() if what == "Envmap.save" else lr.residual
+                big = [abs(float(x)) for x in np.asarray(values).reshape(-1) if abs(x) > 65504]
+                assert big, "the case must clamp something"
+                assert len(said) == 1 and said[0].startswith(what), said
+                assert ("%d values above 65504 (the largest half float) written as 65504: the "
+                        "largest was %g (%.1f %% lower)" % (len(big), max(big),
+                                                             100 * (1 - 65504 / max(big)))
+                        ) in said[0], said
+            with warnings.catch_warnings(record=True) as got:  # 32-bit floats: nothing said
+                warnings.simplefilter("always")
+                env.save(os.path.join(TMP, "u70k_float.exr"))
+                lr.save_residual(os.path.join(TMP, "u70k_float_res.exr"))
+            assert not [x for x in got if issubclass(x.category, envlight.HalfClampWarning)]

@@ -17,6 +17,7 @@ import ctypes
 import math
 import numbers
 import threading
+import warnings
 from ctypes import byref, c_double, c_float, c_int32, c_void_p, pointer
 from dataclasses import dataclass
 from typing import Optional, Tuple
@@ -170,7 +171,9 @@ def load(path, layout="auto", rotate=0.0, width=None, strict=False, apply_exposu
                       exr_part, threads)
     h = c_void_p()
     _check(lib.envl_envmap_load(p, byref(o), byref(h)))
-    return Envmap(h)
+    env = Envmap(h)
+    env._source = p  # the file, which no output of its products may replace
+    return env
 
 
 def sky(sun_elevation=35.0, sun_azimuth=0.0, width=1024, sun_irradiance=None,
@@ -293,7 +296,35 @@ def save_image(path, rgb, width=None, height=None, format=None, half=False):
     o = _save_options("save_image", format, half)
     keep, ptr = _float_buffer(rgb, width, height, 3, False)
     _check(lib.envl_image_save(p, ptr, width, height, byref(o)))
+    if half:
+        _half_warning("save_image: " + path, ptr, 3 * width * height)
     del keep
+
+
+HALF_MAX = 65504.0  # ENVL_HALF_MAX: the largest finite IEEE half float
+
+
+def _half_warning(what, ptr, n):
+    """A file of half floats holds at most HALF_MAX: warns (HalfClampWarning) how many of the n
+    floats at ptr go above it and how much lower the largest is written, as the command line
+    says it on stderr."""
+    if _np is not None:
+        v = _np.abs(_np.ctypeslib.as_array(ptr, shape=(n,)))
+        over = v > HALF_MAX
+        count, largest = int(over.sum()), float(v[over].max()) if over.any() else 0.0
+    else:
+        big = [abs(x) for x in ptr[:n] if abs(x) > HALF_MAX]
+        count, largest = len(big), max(big, default=0.0)
+    if count:
+        warnings.warn("%s: %d values above %g (the largest half float) written as %g: the "
+                      "largest was %g (%.1f %% lower)" % (what, count, HALF_MAX, HALF_MAX,
+                                                          largest,
+                                                          100 * (1 - HALF_MAX / largest)),
+                      HalfClampWarning, stacklevel=3)
+
+
+class HalfClampWarning(UserWarning):
+    """Values above the largest half float were written as it (save(..., half=True))."""
 
 
 def _save_options(f, format, half):
@@ -459,6 +490,7 @@ class Light:
 class Envmap(_Handle):
     """The canonical lat-long map (float RGB, row 0 at the top) with its cached tables."""
     _free = "envl_envmap_free"
+    _source = None  # the file it was loaded from (bytes), None for pixels and the sky
 
     @property
     def width(self):
@@ -545,11 +577,15 @@ class Envmap(_Handle):
             lib.envl_envmap_drop_caches(h, which)
 
     def save(self, path, format=None, half=False):
-        """Writes the canonical map (.hdr, .exr, .pfm by extension or format), atomically."""
+        """Writes the canonical map (.hdr, .exr, .pfm by extension or format), atomically; never
+        over the file it was loaded from. half: a HalfClampWarning says what went above 65504."""
         p = A.path(path, "Envmap.save: path")
         o = _save_options("Envmap.save", format, half)
         with self._use() as h:
             _check(lib.envl_envmap_save(h, p, byref(o)))
+            if half:
+                _half_warning("Envmap.save: " + path, lib.envl_envmap_pixels(h),
+                              3 * lib.envl_envmap_width(h) * lib.envl_envmap_height(h))
 
     def ground_plane(self, albedo):
         """The map as a scene on a ground plane (canonical z = 0) of this albedo sees it: a new
@@ -605,7 +641,7 @@ class Envmap(_Handle):
             _check(lib.envl_lights_compute(m, byref(o), byref(h)))
             # the residual has the map's size (the lights object does not export it)
             size = lib.envl_envmap_width(m), lib.envl_envmap_height(m)
-        return LightsResult(h, *size, kept=not o.skip_residual)
+        return LightsResult(h, *size, kept=not o.skip_residual, source=self._source)
 
     def gltf(self, path, size=256, mips=None, lights="sun", n=None, measure=True):
         """Writes a glTF 2.0 file (.glb or .gltf), as `envlight gltf`: the suns (lights: 'sun',
@@ -978,10 +1014,11 @@ class LightsResult(_Handle):
     """Lights, their summary, the fit remainder and the residual environment."""
     _free = "envl_lights_free"
 
-    def __init__(self, handle, width, height, kept=True):
+    def __init__(self, handle, width, height, kept=True, source=None):
         super().__init__(handle)
         self._wh = (width, height)
         self._kept = kept
+        self._source = source  # the map's file (bytes) or None: save_residual never replaces it
         s = _lib.LightsSummary()
         _check(lib.envl_lights_get_summary(handle, byref(s)))
         self.summary = {
@@ -1049,12 +1086,18 @@ class LightsResult(_Handle):
         return _rows(out, n, 3)
 
     def save_residual(self, path, format=None, half=False):
-        """Writes the residual environment (.hdr, .exr, .pfm), atomically."""
+        """Writes the residual environment (.hdr, .exr, .pfm), atomically; never over the map's
+        own file (ArgumentError). half: a HalfClampWarning says what went above 65504."""
         f = "LightsResult.save_residual"
         p = A.path(path, f + ": path")
         o = _save_options(f, format, half)
+        if self._source:  # never the map's own file (envl_outputs_check)
+            _check(lib.envl_outputs_check((ctypes.c_char_p * 1)(self._source), 1,
+                                          (ctypes.c_char_p * 1)(p), 1))
         keep, ptr = _float_buffer(self.residual, self._wh[0], self._wh[1], 3, False)
         _check(lib.envl_image_save(p, ptr, self._wh[0], self._wh[1], byref(o)))
+        if half:
+            _half_warning(f + ": " + path, ptr, 3 * self._wh[0] * self._wh[1])
         del keep
 
 
