@@ -140,6 +140,15 @@ run "$ENVLIGHT" pov - $S --scene unseen.pov -o unseen.inc
 has unseen.inc "^// recipe: dome: no object statement found in the scene (objects in #include files or macros are not read)"
 has unseen.inc "1 #include file not read (what they place is not counted)"
 has unseen.inc "^global_settings { EnvLight_Bounce_Settings() }"
+# an #include that envlight wrote (its first line "// envlight ") is no file left unread, under
+# whatever name it is included; a file of the user's is
+printf '#include "gen.inc"\nsphere { <0,1,0>, 1 pigment { rgb 1 } }\n' > usesgen.pov
+run "$ENVLIGHT" pov - $S -o gen.inc
+run "$ENVLIGHT" pov - $S --scene usesgen.pov -o other.inc
+hasnt other.inc "#include file not read"
+printf '// a scene part of the user\n' > gen.inc
+run "$ENVLIGHT" pov - $S --scene usesgen.pov -o other2.inc
+has other2.inc "1 #include file not read (what they place is not counted)"
 run "$ENVLIGHT" pov - $S --scene onplane.pov --shadows none -o noshadow.inc
 has noshadow.inc "^// recipe: sh: shadowless lights asked for"
 # a scene it cannot read: a warning, the defaults, exit 0

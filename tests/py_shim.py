@@ -707,7 +707,11 @@ def test_pov_include_matches_the_cli(args, kw):
         assert res["text"] is None
         if not (kw.get("sky") or kw.get("recipe") == "image-radiosity"):
             again = env.pov_include(None, **kw)["text"]  # the text handed back, not written
-            assert include_lines(again) == include_lines(cli_text)
+            # handed back, the include has no name: the scene's `#include "env.inc"` (absent
+            # beside the scene) is then one it cannot read, which the written one knows as itself
+            unnamed = "; 1 #include file not read (what they place is not counted)"
+            assert [x.replace(unnamed, "") for x in include_lines(again)] == \
+                include_lines(cli_text)
     with open(inc) as f:
         text = f.read()
     assert include_lines(text) == include_lines(cli_text)

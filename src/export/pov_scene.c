@@ -809,6 +809,27 @@ void pov_scene_scan(const char *text, size_t n, pov_scene *out)
 /* ---- the file ---- */
 
 /* Reads the whole file (a regular file at its size, anything else in chunks) up to the cap. */
+/* Whether `name`, an #include of the scene at `path` (relative to its folder, as POV-Ray looks
+ * first), is a file envlight wrote: its first line starts "// envlight ". */
+static int generated_include(const char *path, const char *name)
+{
+    char full[4096];
+    const char *slash = strrchr(path, '/');
+    if (!name[0])
+        return 0;
+    if (name[0] == '/' || !slash)
+        snprintf(full, sizeof full, "%s", name);
+    else
+        snprintf(full, sizeof full, "%.*s/%s", (int)(slash - path), path, name);
+    FILE *f = fopen(full, "rb");
+    if (!f)
+        return 0;
+    char head[12] = {0};
+    size_t got = fread(head, 1, sizeof head, f);
+    fclose(f);
+    return got == sizeof head && !memcmp(head, "// envlight ", sizeof head);
+}
+
 int pov_scene_read(const char *path, pov_scene *out)
 {
     memset(out, 0, sizeof *out);
@@ -877,5 +898,9 @@ int pov_scene_read(const char *path, pov_scene *out)
     }
     pov_scene_scan(buf, n, out);
     free(buf);
+    if (out->includes && generated_include(path, out->include_name)) {
+        out->includes--; /* an include envlight wrote (the one being written, or an earlier) */
+        out->include_name[0] = 0;
+    }
     return 0;
 }

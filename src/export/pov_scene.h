@@ -29,7 +29,7 @@ typedef struct pov_scene {
     int reflective;       /* some finish has reflection > 0 */
     int double_highlights; /* finishes with reflection > 0 and specular or phong > 0: under a sky their reflection holds the lights' highlights, which POV-Ray adds again */
     int double_line;      /* the line of the first of them (0: none) */
-    int includes;         /* #include directives of files other than POV-Ray's standard includes and envlight.inc: their objects, lights and finishes are not read */
+    int includes;         /* #include directives of files other than POV-Ray's standard includes and envlight.inc: their objects, lights and finishes are not read (pov_scene_read: less the first when it is a file envlight wrote) */
     char include_name[128]; /* the first of those files, as written (truncated) */
     char note[256];       /* the first problem met (unbalanced braces, unterminated comment or string, a file it cannot open...), "" when none */
 } pov_scene;
