@@ -50,6 +50,8 @@ typedef struct envl_file_meta {
                                else 0 */
     int32_t block_x0, block_y0; /* where the lossy codec's 8 x 8 blocks start in the image
                                (DWAA / DWAB: the data window's origin, modulo 8), else 0, 0 */
+    int32_t finite_nonnegative; /* every value is finite and >= 0 by the format's construction
+                               (RGBE): the loader need not look for NaN, Inf or negatives */
 } envl_file_meta;
 
 /* A decoded image: RGB floats, row 0 = top of the image as displayed. */
@@ -77,6 +79,21 @@ void envl__image_free(envl_image *img);
  * then exr.c is not compiled and png.c keeps only its RGBM code); ENVL_OK otherwise. */
 envl_result envl__format_built(const char *what, const char *format);
 
+/* ---- input files read by offset (infile.c): what a streaming reader keeps of a file ---- */
+typedef struct envl_infile {
+    int fd;
+    uint64_t size;          /* bytes, at open */
+    int64_t mtime_ns;       /* modification time at open */
+    const char *path;       /* for messages */
+} envl_infile;
+/* Opens a regular, non-empty file of at most max_bytes (the same refusals as envl__read_file). */
+envl_result envl__infile_open(const char *path, uint64_t max_bytes, envl_infile *f);
+/* Exactly n bytes at `offset` into buf (any thread); a short file is ENVL_ERR_IO naming it. */
+envl_result envl__infile_read(const envl_infile *f, uint64_t offset, void *buf, size_t n);
+/* ENVL_ERR_IO when the file's size or modification time changed since it was opened. */
+envl_result envl__infile_unchanged(const envl_infile *f);
+void envl__infile_close(envl_infile *f);
+
 /* ---- readers: whole file in memory, `name` only for messages (hdr.c, exr.c, pfm.c) ---- */
 envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
                            const envl_limits *lim, envl_image *out);
@@ -84,6 +101,9 @@ envl_result envl__read_exr(const uint8_t *data, size_t size, const char *name,
                            const envl_limits *lim, envl_image *out);
 envl_result envl__read_pfm(const uint8_t *data, size_t size, const char *name,
                            const envl_limits *lim, envl_image *out);
+/* The same readers on an open file, read by offset: the file is never wholly in memory (hdr:
+ * windows of a few MiB; exr: the chunks being decoded). */
+envl_result envl__read_hdr_file(const envl_infile *f, const envl_limits *lim, envl_image *out);
 /* Detects the format from the first bytes; reads. */
 envl_result envl__read_image_memory(const uint8_t *data, size_t size, const char *name,
                                     const envl_limits *lim, envl_image *out);
