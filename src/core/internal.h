@@ -104,6 +104,7 @@ envl_result envl__read_pfm(const uint8_t *data, size_t size, const char *name,
 /* The same readers on an open file, read by offset: the file is never wholly in memory (hdr:
  * windows of a few MiB; exr: the chunks being decoded). */
 envl_result envl__read_hdr_file(const envl_infile *f, const envl_limits *lim, envl_image *out);
+envl_result envl__read_exr_file(const envl_infile *f, const envl_limits *lim, envl_image *out);
 /* Detects the format from the first bytes; reads. */
 envl_result envl__read_image_memory(const uint8_t *data, size_t size, const char *name,
                                     const envl_limits *lim, envl_image *out);

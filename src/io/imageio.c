@@ -68,8 +68,8 @@ envl_result envl__read_image_memory(const uint8_t *data, size_t size, const char
     return envl__read_hdr(data, size, name, lim, out);
 }
 
-/* Radiance files are read from the open file in windows (the file is never wholly in memory);
- * the other formats as a whole. */
+/* Radiance and OpenEXR files are read from the open file by offset (never wholly in memory, but
+ * for DWA compression); PFM as a whole. */
 envl_result envl__read_image_file(const char *path, const envl_limits *lim, envl_image *out)
 {
     memset(out, 0, sizeof *out);
@@ -85,6 +85,12 @@ envl_result envl__read_image_file(const char *path, const envl_limits *lim, envl
         rc = ENVL_ERR_FORMAT;
     if (!rc && !strcmp(fmt, "hdr")) {
         rc = envl__read_hdr_file(&f, lim, out);
+    } else if (!rc && !strcmp(fmt, "exr")) {
+#ifdef ENVL_NO_OPENEXR
+        rc = envl__format_built(path, "exr");
+#else
+        rc = envl__read_exr_file(&f, lim, out);
+#endif
     } else if (!rc) {
         uint8_t *data = malloc((size_t)f.size);
         if (!data)
