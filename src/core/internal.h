@@ -180,6 +180,31 @@ envl_result envl__envmap_resampled(const float *px, int32_t w, int32_t h, int32_
                                    int32_t threads, envl_envmap **out);
 envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32_t out_w,
                                    int32_t out_h, double rotate_degrees, float **out);
+/* A few pixels of an image replaced by other values, sorted by row (then column). */
+typedef struct envl_pixel_patch {
+    int32_t r, c;
+    float rgb[3];
+} envl_pixel_patch;
+/* The same, of src with the `npatch` pixels of `patch` replaced: what resampling a patched
+ * copy of src gives, bit for bit, without the copy (rows with a patch go through one row). */
+envl_result envl__latlong_resample_patched(const float *src, int32_t w, int32_t h,
+                                           const envl_pixel_patch *patch, int32_t npatch,
+                                           int32_t out_w, int32_t out_h, double rotate_degrees,
+                                           float **out);
+/* An envmap of a lat-long RGB image (w x h x 3 floats, malloc'd, row 0 on top) that takes the
+ * pixels over without a copy; they are freed on failure too (envmap.c). `name` names the map
+ * in messages and its info. */
+envl_result envl__envmap_adopt(float *px, int32_t w, int32_t h, const envl_load_options *o,
+                               const char *name, envl_envmap **out);
+envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h,
+                                           const envl_pixel_patch *patch, int32_t npatch,
+                                           int32_t out_w, int32_t threads, envl_envmap **out);
+
+/* ---- lights (lights.c) ---- */
+/* The residual map of envl_lights_residual handed over to the caller, who frees it (gltf.c
+ * makes it an envmap without a copy: envl__envmap_adopt); afterwards ls has none (as with
+ * skip_residual). NULL (the error set) when there is none. */
+float *envl__lights_take_residual(envl_lights *ls);
 
 /* ---- prefiltering (prefilter.c, png.c) ---- */
 /* 8-bit RGB (channels 3) or RGBA (4) pixels as a PNG in memory (*out malloc'd); srgb: with the

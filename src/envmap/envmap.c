@@ -377,16 +377,34 @@ envl_result envl_envmap_load(const char *path, const envl_load_options *options,
 envl_result envl__envmap_resampled(const float *px, int32_t w, int32_t h, int32_t out_w,
                                    int32_t threads, envl_envmap **out)
 {
+    return envl__envmap_resampled_patched(px, w, h, NULL, 0, out_w, threads, out);
+}
+
+envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h,
+                                           const envl_pixel_patch *patch, int32_t npatch,
+                                           int32_t out_w, int32_t threads, envl_envmap **out)
+{
     *out = NULL;
     int32_t out_h = (int32_t)fmax(1, llround((double)out_w * h / w));
     float *spx;
-    envl_result rc = envl__latlong_resample(px, w, h, out_w, out_h, 0.0, &spx);
+    envl_result rc = envl__latlong_resample_patched(px, w, h, patch, npatch, out_w, out_h, 0.0,
+                                                    &spx);
     if (rc)
         return rc;
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
     rc = envl_envmap_from_pixels(spx, out_w, out_h, 3, &lo, out);
     free(spx);
     return rc;
+}
+
+envl_result envl__envmap_adopt(float *px, int32_t w, int32_t h, const envl_load_options *o,
+                               const char *name, envl_envmap **out)
+{
+    envl_image img = {.width = w, .height = h, .px = px};
+    snprintf(img.meta.format, sizeof img.meta.format, "memory");
+    img.meta.channels = 3;
+    img.meta.exposure = 1.0;
+    return envl__envmap_from_image(&img, o, name, out);
 }
 
 envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t height,

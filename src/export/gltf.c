@@ -511,12 +511,14 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         lo.skip_residual = 0;
         lo.measure = 0;
         rc = envl_lights_compute(map, &lo, &ls);
-        if (!rc && envl_lights_count(ls))
-            rc = envl_envmap_from_pixels(envl_lights_residual(ls), envl_envmap_width(map),
-                                         envl_envmap_height(map), 3,
+        if (!rc && envl_lights_count(ls)) { /* the residual taken over: no copy of it */
+            float *px = envl__lights_take_residual(ls);
+            rc = px ? envl__envmap_adopt(px, envl_envmap_width(map), envl_envmap_height(map),
                                          &(envl_load_options){.layout = ENVL_LAYOUT_LATLONG,
                                                               .threads = o->threads},
-                                         &residual);
+                                         "", &residual)
+                    : ENVL_ERR_MEMORY;
+        }
     }
     envl_envmap *env = residual ? residual : map;
     /* the IBL: SH order 2 and the chain, mip k face >> k wide as cube faces (lat-long 4x) */

@@ -235,6 +235,16 @@ const double *envl_lights_remainder(const envl_lights *ls, int32_t *order)
     return ls ? ls->remainder : NULL;
 }
 
+float *envl__lights_take_residual(envl_lights *ls)
+{
+    const float *r = envl_lights_residual(ls);
+    if (!r)
+        return NULL;
+    ls->residual = NULL;
+    ls->residual_skipped = 1;
+    return (float *)r;
+}
+
 const float *envl_lights_residual(const envl_lights *ls)
 {
     if (!ls)

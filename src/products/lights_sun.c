@@ -69,7 +69,7 @@ envl_result envl__sun_lights(const envl_envmap *m, int32_t n, envl_lights *ls)
     envl_sun_split sp;
     envl_light *all = NULL;
     int32_t nall = 0;
-    envl_result rc = envl__sun_split_make(m, &sp);
+    envl_result rc = envl__sun_split_lobes(m, &sp);
     if (rc == ENVL_OK)
         rc = envl__sun_split_lights(m, &sp, &all, &nall);
     if (rc) {
@@ -95,10 +95,8 @@ envl_result envl__sun_lights(const envl_envmap *m, int32_t n, envl_lights *ls)
     memcpy(ls->residual, m->px, sizeof(float) * 3 * npx);
     for (int32_t i = 0; i < sp.n; i++) {
         const envl_sun_lobe *b = sp.lobes + i;
-        if (b->taken > 0 && slot[b->taken - 1] >= 0) {
-            size_t at = 3 * ((size_t)b->r * m->width + b->c);
-            memcpy(ls->residual + at, sp.res + at, sizeof(float) * 3);
-        }
+        if (b->taken > 0 && slot[b->taken - 1] >= 0)
+            memcpy(ls->residual + 3 * ((size_t)b->r * m->width + b->c), b->keep, sizeof b->keep);
     }
     for (int32_t j = 0; j < k; j++) {
         ls->lights[j] = all[order[j].i];
@@ -117,7 +115,8 @@ done:
 /* Exact irradiance of the sun method's residual at the error measure's normals, added to
  * approx: the residual stays an environment map (drawn as one), so it is part of what the
  * method hands a renderer. Computed as the map's reference is (envl_envmap_reference_irradiance,
- * the same resampling for wide maps); with no light the residual is the map itself. */
+ * the same resampling for wide maps: straight from the residual's pixels, no copy of them);
+ * with no light the residual is the map itself. */
 envl_result envl__add_residual_irradiance(const envl_envmap *m, const envl_lights *ls,
                                            const double *ref, double *approx)
 {
@@ -126,7 +125,11 @@ envl_result envl__add_residual_irradiance(const envl_envmap *m, const envl_light
     if (ls->summary.count > 0) {
         envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads,
                                 .max_pixels = (int64_t)m->width * m->height};
-        envl_result rc = envl_envmap_from_pixels(ls->residual, m->width, m->height, 3, &lo, &rm);
+        envl_result rc =
+            m->width > ENVL_REFERENCE_WIDTH
+                ? envl__envmap_resampled(ls->residual, m->width, m->height,
+                                         ENVL_REFERENCE_WIDTH, m->threads, &rm)
+                : envl_envmap_from_pixels(ls->residual, m->width, m->height, 3, &lo, &rm);
         if (rc == ENVL_OK)
             rc = envl_envmap_reference_irradiance(rm, &e);
         if (rc) {
