@@ -200,11 +200,13 @@ envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h
                                            const envl_pixel_patch *patch, int32_t npatch,
                                            int32_t out_w, int32_t threads, envl_envmap **out);
 
-/* ---- lights (lights.c) ---- */
-/* The residual map of envl_lights_residual handed over to the caller, who frees it (gltf.c
- * makes it an envmap without a copy: envl__envmap_adopt); afterwards ls has none (as with
- * skip_residual). NULL (the error set) when there is none. */
-float *envl__lights_take_residual(envl_lights *ls);
+/* ---- lights (lights.c, lights_sun.c) ---- */
+/* The residual of the sun method's lights `ls` of m (computed with skip_residual or not), made
+ * now into *out (malloc'd): the map with the suns' pixels at the split's threshold. gltf.c
+ * asks for it only when there is a sun, and gives it to an envmap without a copy. */
+envl_result envl__lights_sun_residual(const envl_envmap *m, const envl_lights *ls, float **out);
+/* The same into out (w x h x 3 floats). */
+void envl__sun_residual(const envl_envmap *m, const envl_lights *ls, float *out);
 
 /* ---- prefiltering (prefilter.c, png.c) ---- */
 /* 8-bit RGB (channels 3) or RGBA (4) pixels as a PNG in memory (*out malloc'd); srgb: with the

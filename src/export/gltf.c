@@ -508,16 +508,26 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
     if (!o->no_lights) {
         envl_lights_options lo = o->lights ? *o->lights
                                            : (envl_lights_options){.method = ENVL_METHOD_SUN};
-        lo.skip_residual = 0;
+        lo.skip_residual = lo.method == ENVL_METHOD_SUN; /* made below, only with a sun */
         lo.measure = 0;
         rc = envl_lights_compute(map, &lo, &ls);
-        if (!rc && envl_lights_count(ls)) { /* the residual taken over: no copy of it */
-            float *px = envl__lights_take_residual(ls);
-            rc = px ? envl__envmap_adopt(px, envl_envmap_width(map), envl_envmap_height(map),
-                                         &(envl_load_options){.layout = ENVL_LAYOUT_LATLONG,
-                                                              .threads = o->threads},
-                                         "", &residual)
-                    : ENVL_ERR_MEMORY;
+        if (!rc && envl_lights_count(ls)) { /* one copy, the residual map's own pixels */
+            float *px = NULL;
+            rc = lo.method == ENVL_METHOD_SUN ? envl__lights_sun_residual(map, ls, &px) : ENVL_OK;
+            if (!rc && !px) {
+                const float *r = envl_lights_residual(ls);
+                size_t n = sizeof(float) * 3 * (size_t)envl_envmap_width(map) *
+                           (size_t)envl_envmap_height(map);
+                if (!r || !(px = malloc(n)))
+                    rc = envl__fail(ENVL_ERR_MEMORY, "gltf: out of memory");
+                else
+                    memcpy(px, r, n);
+            }
+            if (!rc)
+                rc = envl__envmap_adopt(px, envl_envmap_width(map), envl_envmap_height(map),
+                                        &(envl_load_options){.layout = ENVL_LAYOUT_LATLONG,
+                                                             .threads = o->threads},
+                                        "", &residual);
         }
     }
     envl_envmap *env = residual ? residual : map;

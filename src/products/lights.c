@@ -154,7 +154,7 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
             !(rc = envl__progress(0.6, "the lights' cones")))
             rc = envl__take_cones(m, coarse != m ? coarse : NULL, ls);
     } else if (o->method == ENVL_METHOD_SUN) {
-        rc = envl__sun_lights(m, n, ls);
+        rc = envl__sun_lights(m, n, !(options && options->skip_residual), ls);
     } else {
         region *rs;
         int32_t k;
@@ -206,6 +206,7 @@ void envl_lights_free(envl_lights *ls)
         return;
     free(ls->lights);
     free(ls->remainder);
+    free(ls->patch);
     free(ls->residual);
     free(ls);
 }
@@ -235,14 +236,16 @@ const double *envl_lights_remainder(const envl_lights *ls, int32_t *order)
     return ls ? ls->remainder : NULL;
 }
 
-float *envl__lights_take_residual(envl_lights *ls)
+envl_result envl__lights_sun_residual(const envl_envmap *m, const envl_lights *ls, float **out)
 {
-    const float *r = envl_lights_residual(ls);
-    if (!r)
-        return NULL;
-    ls->residual = NULL;
-    ls->residual_skipped = 1;
-    return (float *)r;
+    *out = NULL;
+    if (!ls || ls->summary.method != ENVL_METHOD_SUN || ls->width != m->width ||
+        ls->height != m->height)
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: not the sun lights of this map");
+    if (!(*out = malloc(sizeof(float) * 3 * (size_t)m->width * m->height)))
+        return envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the residual map");
+    envl__sun_residual(m, ls, *out);
+    return ENVL_OK;
 }
 
 const float *envl_lights_residual(const envl_lights *ls)
