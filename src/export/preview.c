@@ -671,7 +671,7 @@ static envl_result lights_columns(work *w)
     for (int col = 1; col <= 2; col++) {
         envl_lights_options lo = {.method = col == 1 ? ENVL_METHOD_MEDIAN : ENVL_METHOD_FIT,
                                   .count = col == 1 ? w->o.median_count : w->o.fit_count,
-                                  .measure = 1};
+                                  .measure = 1, .skip_residual = 1}; /* not drawn */
         envl_lights **l = col == 1 ? &d->median : &d->fit;
         envl_result rc = envl_lights_compute(w->map, &lo, l);
         if (rc)
@@ -1027,9 +1027,8 @@ envl_result preview_compose(const envl_envmap *map, const envl_preview_options *
 
     /* The map, area-resampled to the view's width, tone-mapped. */
     envl_envmap *small = NULL;
-    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .width = L.map_w};
-    envl_result rc = envl_envmap_from_pixels(envl_envmap_pixels(map), envl_envmap_width(map),
-                                             envl_envmap_height(map), 3, &lo, &small);
+    envl_result rc = envl__envmap_resampled(envl_envmap_pixels(map), envl_envmap_width(map),
+                                            envl_envmap_height(map), L.map_w, 0, &small);
     if (rc) {
         free(cv.px);
         return rc;
