@@ -300,9 +300,9 @@ typedef struct envl_lights_options {
                                  default 2; ENVL_REMAINDER_NONE for lights only */
     int32_t measure;          /* nonzero: also measure diffuse_error (default 0: -1, not
                                  measured; the fit's own target is computed either way) */
-    int32_t skip_residual;    /* fit: nonzero keeps no residual map (the lights are the same;
-                                 the map's floats once, not twice); envl_lights_residual is
-                                 then NULL. Default 0: kept (ABI 4) */
+    int32_t skip_residual;    /* fit, sun: nonzero keeps no residual map (the lights and the
+                                 error are the same; the map's floats once, not twice);
+                                 envl_lights_residual is then NULL. Default 0: kept (ABI 4) */
 } envl_lights_options;
 
 typedef struct envl_light {
@@ -351,7 +351,7 @@ ENVL_API envl_result envl_lights_get_summary(const envl_lights *lights,
  * order -1 when there is none. */
 ENVL_API const double *envl_lights_remainder(const envl_lights *lights, int32_t *order);
 /* The residual environment (same size as the map), RGB floats owned by the lights object;
- * NULL (and an error message) for a fit computed with skip_residual. */
+ * NULL (and an error message) for a fit or sun lights computed with skip_residual. */
 ENVL_API const float *envl_lights_residual(const envl_lights *lights);
 /* The delta light that stands for `light` over the residual map (ABI 5): direction =
  * take_direction, rgb = light->rgb (1 - take_solid_angle / 4 pi). A disc lamp of the light's

@@ -243,12 +243,99 @@ static void test_atomic_save(void)
     free(after);
 }
 
+/* Resampling with a few pixels patched (resample.c) gives what resampling a patched copy gives,
+ * bit for bit: down, the same size (plain, and turned), up, odd sizes; patches in the first
+ * and last rows, on the seam, several in one row. */
+static void test_resample_patched(void)
+{
+    const int w = 200, h = 100;
+    float *px = malloc(sizeof(float) * w * h * 3), *copy = malloc(sizeof(float) * w * h * 3);
+    unsigned s = 777;
+    for (int i = 0; i < w * h * 3; i++) {
+        s = s * 1103515245u + 12345u;
+        px[i] = (float)((s >> 8) % 1000) / 10.0f;
+    }
+    envl_pixel_patch patch[8] = {{0, 0, {1e5f, 2e5f, 3e5f}},  {0, 199, {7, 8, 9}},
+                                 {17, 3, {1e6f, 0, 0}},        {17, 4, {0, 1e6f, 0}},
+                                 {17, 150, {0, 0, 1e6f}},      {50, 100, {0.5f, 0.25f, 0.125f}},
+                                 {98, 42, {3e4f, 3e4f, 3e4f}}, {99, 199, {11, 12, 13}}};
+    memcpy(copy, px, sizeof(float) * w * h * 3);
+    for (int i = 0; i < 8; i++)
+        memcpy(copy + 3 * (patch[i].r * w + patch[i].c), patch[i].rgb, sizeof patch[i].rgb);
+    const struct { int w, h; double rot; } out[] = {{64, 32, 0}, {200, 100, 0}, {200, 100, 33.3},
+                                                    {1000, 500, 0}, {199, 37, 12}, {1, 1, 0}};
+    for (size_t k = 0; k < sizeof out / sizeof *out; k++) {
+        float *a = NULL, *b = NULL;
+        CHECK_OK(envl__latlong_resample(copy, w, h, out[k].w, out[k].h, out[k].rot, &a));
+        CHECK_OK(envl__latlong_resample_patched(px, w, h, patch, 8, out[k].w, out[k].h,
+                                                out[k].rot, &b));
+        CHECK(a && b && !memcmp(a, b, sizeof(float) * 3 * out[k].w * out[k].h));
+        free(a);
+        free(b);
+    }
+    free(px);
+    free(copy);
+}
+
+/* The map's statistics (power, maxima, brightest pixel: rows in parallel, combined in row order)
+ * are those of one plain pass, bit for bit, at 1 and 3 threads; the parallel look for NaN,
+ * Inf and negative values finds one value of each at the far ends of the map. */
+static void test_stats_threads(void)
+{
+    const int w = 300, h = 151;
+    float *px = malloc(sizeof(float) * w * h * 3);
+    unsigned s = 99;
+    for (int i = 0; i < w * h * 3; i++) {
+        s = s * 1103515245u + 12345u;
+        px[i] = (float)((s >> 8) % 100000) / 1000.0f;
+    }
+    px[3 * (70 * w + 12) + 1] = 1e4f;  /* the brightest, twice: the first counts */
+    px[3 * (120 * w + 5) + 1] = 1e4f;
+    double power[3] = {0, 0, 0};
+    for (int r = 0; r < h; r++) {
+        double row[3] = {0, 0, 0};
+        for (int c = 0; c < w; c++)
+            for (int k = 0; k < 3; k++)
+                row[k] += px[3 * (r * w + c) + k];
+        for (int k = 0; k < 3; k++)
+            power[k] += row[k] * envl_latlong_solid_angle(w, h, r);
+    }
+    for (int32_t t = 1; t <= 3; t += 2) {
+        envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG, .threads = t};
+        envl_envmap *m;
+        CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &m));
+        envl_info info;
+        envl_envmap_info(m, &info);
+        for (int k = 0; k < 3; k++)
+            CHECK(info.power[k] == power[k]);
+        CHECK(info.max[1] == 1e4);
+        double d[3];
+        envl_envmap_direction(m, 12, 70, d);
+        CHECK(!memcmp(d, info.brightest_direction, sizeof d));
+        envl_envmap_free(m);
+    }
+    px[0] = -1.0f;                           /* first value: negative */
+    px[3 * w * h - 1] = NAN;                 /* last value: NaN */
+    for (int32_t t = 1; t <= 3; t += 2) {
+        envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG, .threads = t};
+        envl_envmap *m;
+        CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &m));
+        envl_info info;
+        envl_envmap_info(m, &info);
+        CHECK(info.negative_pixels == 1 && info.nonfinite_pixels == 1);
+        envl_envmap_free(m);
+    }
+    free(px);
+}
+
 int main(void)
 {
     test_solid_angles();
     test_directions();
     test_spot();
     test_resample_power();
+    test_resample_patched();
+    test_stats_threads();
     test_sanitise();
     test_infinite();
     test_arguments();

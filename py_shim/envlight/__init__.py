@@ -627,7 +627,8 @@ class Envmap(_Handle):
         exactly; the residual is the map less their excess); order: fit's SH remainder order
         (0..8), None for lights only (ignored by the cuts and sun); measure: also measure the
         diffuse error (summary["diffuse_error"]; None when False); residual: keep the residual map
-        (fit: False keeps none, the same lights for half the memory; .residual then raises).
+        (fit, sun: False keeps none, the same lights for half the memory; .residual then
+        raises).
         Returns a LightsResult (a context manager)."""
         o = _lib.LightsOptions()
         o.method = _method(method, "Envmap.lights: method")

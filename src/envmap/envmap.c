@@ -15,9 +15,61 @@
  * mode; else NaN and -Inf become 0 and +Inf the largest finite value of the image (refused when
  * no value is positive and finite: nothing can stand for it), and negative values are filled
  * from the light around them (ringing.c). img is in `layout`. */
-static envl_result sanitise(envl_image *img, int32_t layout, int32_t strict, const char *file,
-                            envl_info *info)
+/* Rows [begin, end) of the image: flag[r] = 1 when row r holds a NaN, an infinity or a
+ * negative value. As unsigned integers the bits of a float are >= 0x7f800000 exactly for +Inf,
+ * NaN and every value with the sign set, of which only -0 (0x80000000) is not negative: a
+ * compare per value, which the compiler vectorises. */
+typedef struct bad_rows {
+    const float *px;
+    int32_t width;
+    uint8_t *flag;
+} bad_rows;
+
+static void find_bad_rows(void *ctx, int64_t begin, int64_t end)
 {
+    const bad_rows *b = ctx;
+    size_t n = (size_t)b->width * 3;
+    for (int64_t r = begin; r < end; r++) {
+        const float *p = b->px + (size_t)r * n;
+        uint32_t bad = 0;
+        for (size_t i = 0; i < n; i++) {
+            uint32_t u;
+            memcpy(&u, p + i, sizeof u);
+            bad |= (u >= 0x7f800000u) & (u != 0x80000000u);
+        }
+        b->flag[r] = (uint8_t)bad;
+    }
+}
+
+/* Whether some value is NaN, infinite or negative: one parallel pass, skipped when the file's
+ * format cannot hold such values (RGBE). -1: no memory for the row flags. */
+static int has_bad_values(const envl_image *img, int32_t threads)
+{
+    if (img->meta.finite_nonnegative)
+        return 0;
+    uint8_t *flag = malloc((size_t)img->height);
+    if (!flag)
+        return -1;
+    bad_rows b = {img->px, img->width, flag};
+    envl__parallel_for(img->height, threads, find_bad_rows, &b);
+    int any = 0;
+    for (int32_t r = 0; r < img->height; r++)
+        any |= flag[r];
+    free(flag);
+    return any;
+}
+
+static envl_result sanitise(envl_image *img, int32_t layout, int32_t strict, int32_t threads,
+                            const char *file, envl_info *info)
+{
+    int any = has_bad_values(img, threads);
+    if (any < 0)
+        return envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", file);
+    if (!any) {
+        info->nonfinite_pixels = info->negative_pixels = 0;
+        info->negative_min = 0.0;
+        return ENVL_OK;
+    }
     size_t n = (size_t)img->width * img->height;
     int64_t nonfinite = 0, negative = 0, infinite = 0;
     float maxfinite = 0.0f, minimum = 0.0f;
@@ -89,30 +141,74 @@ static envl_result build_tables(envl_envmap *m)
     return ENVL_OK;
 }
 
-static void compute_stats(envl_envmap *m)
+/* One row's share of the statistics: its sum per channel (in column order), maxima, and its
+ * first pixel of greatest luminance. */
+typedef struct row_stats {
+    double sum[3], max[3], best;
+    int32_t best_c;
+} row_stats;
+
+typedef struct stats_job {
+    const envl_envmap *m;
+    row_stats *rows;
+} stats_job;
+
+static void stats_of_rows(void *ctx, int64_t begin, int64_t end)
 {
-    envl_info *info = &m->info;
-    double power[3] = {0, 0, 0}, mx[3] = {0, 0, 0}, best = -1.0;
-    int32_t best_c = 0, best_r = 0;
-    for (int32_t r = 0; r < m->height; r++) {
-        double row[3] = {0, 0, 0};
+    const stats_job *j = ctx;
+    const envl_envmap *m = j->m;
+    for (int64_t r = begin; r < end; r++) {
+        row_stats *o = &j->rows[r];
+        /* one local per channel (not arrays): the three sums and maxima stay in registers */
+        double s0 = 0, s1 = 0, s2 = 0, best = -1.0;
+        float m0 = 0, m1 = 0, m2 = 0;
+        int32_t best_c = 0;
         const float *p = m->px + (size_t)r * m->width * 3;
         for (int32_t c = 0; c < m->width; c++, p += 3) {
-            for (int k = 0; k < 3; k++) {
-                row[k] += p[k];
-                if (p[k] > mx[k])
-                    mx[k] = p[k];
-            }
+            s0 += p[0];
+            s1 += p[1];
+            s2 += p[2];
+            m0 = p[0] > m0 ? p[0] : m0;
+            m1 = p[1] > m1 ? p[1] : m1;
+            m2 = p[2] > m2 ? p[2] : m2;
             double y = envl__lum(p[0], p[1], p[2]);
             if (y > best) {
                 best = y;
                 best_c = c;
-                best_r = r;
             }
         }
-        for (int k = 0; k < 3; k++)
-            power[k] += row[k] * m->row_omega[r];
+        o->sum[0] = s0, o->sum[1] = s1, o->sum[2] = s2;
+        o->max[0] = m0, o->max[1] = m1, o->max[2] = m2;
+        o->best = best;
+        o->best_c = best_c;
     }
+}
+
+/* Power, mean, maxima and the brightest direction. Rows in parallel, each summed in column
+ * order, then the rows in row order: the same sums as one pass, at any thread count. */
+static envl_result compute_stats(envl_envmap *m)
+{
+    envl_info *info = &m->info;
+    stats_job j = {m, malloc(sizeof(row_stats) * (size_t)m->height)};
+    if (!j.rows)
+        return envl__fail(ENVL_ERR_MEMORY, "envmap: cannot allocate the row statistics");
+    envl__parallel_for(m->height, m->threads, stats_of_rows, &j);
+    double power[3] = {0, 0, 0}, mx[3] = {0, 0, 0}, best = -1.0;
+    int32_t best_c = 0, best_r = 0;
+    for (int32_t r = 0; r < m->height; r++) {
+        const row_stats *o = &j.rows[r];
+        for (int k = 0; k < 3; k++) {
+            power[k] += o->sum[k] * m->row_omega[r];
+            if (o->max[k] > mx[k])
+                mx[k] = o->max[k];
+        }
+        if (o->best > best) {
+            best = o->best;
+            best_c = o->best_c;
+            best_r = r;
+        }
+    }
+    free(j.rows);
     for (int k = 0; k < 3; k++) {
         info->power[k] = power[k];
         info->mean[k] = power[k] / (4.0 * ENVL_PI);
@@ -121,6 +217,7 @@ static void compute_stats(envl_envmap *m)
     envl_envmap_direction(m, best_c, best_r, info->brightest_direction);
     info->width = m->width;
     info->height = m->height;
+    return ENVL_OK;
 }
 
 envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *options,
@@ -162,9 +259,10 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
         size_t n = (size_t)img->width * img->height * 3;
         for (size_t i = 0; i < n; i++)
             img->px[i] = (float)(img->px[i] / info->exposure);
+        img->meta.finite_nonnegative = 0; /* a small EXPOSURE can overflow a value */
     }
     /* in the file's own layout: a codec's blocks and a pixel's solid angle are the file's */
-    rc = sanitise(img, layout, o->strict, file, info);
+    rc = sanitise(img, layout, o->strict, m->threads, file, info);
     if (rc)
         goto fail;
     if (o->width < 0) {
@@ -220,11 +318,12 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
     }
     envl__image_free(img);
     rc = build_tables(m);
+    if (!rc)
+        rc = compute_stats(m);
     if (rc) {
         envl_envmap_free(m);
         return rc;
     }
-    compute_stats(m);
     if (!info->nonfinite_pixels && !info->negative_pixels)
         memcpy(info->signed_power, info->power, sizeof info->power);
     *out = m;
@@ -280,16 +379,34 @@ envl_result envl_envmap_load(const char *path, const envl_load_options *options,
 envl_result envl__envmap_resampled(const float *px, int32_t w, int32_t h, int32_t out_w,
                                    int32_t threads, envl_envmap **out)
 {
+    return envl__envmap_resampled_patched(px, w, h, NULL, 0, out_w, threads, out);
+}
+
+envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h,
+                                           const envl_pixel_patch *patch, int32_t npatch,
+                                           int32_t out_w, int32_t threads, envl_envmap **out)
+{
     *out = NULL;
     int32_t out_h = (int32_t)fmax(1, llround((double)out_w * h / w));
     float *spx;
-    envl_result rc = envl__latlong_resample(px, w, h, out_w, out_h, 0.0, &spx);
+    envl_result rc = envl__latlong_resample_patched(px, w, h, patch, npatch, out_w, out_h, 0.0,
+                                                    &spx);
     if (rc)
         return rc;
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
     rc = envl_envmap_from_pixels(spx, out_w, out_h, 3, &lo, out);
     free(spx);
     return rc;
+}
+
+envl_result envl__envmap_adopt(float *px, int32_t w, int32_t h, const envl_load_options *o,
+                               const char *name, envl_envmap **out)
+{
+    envl_image img = {.width = w, .height = h, .px = px};
+    snprintf(img.meta.format, sizeof img.meta.format, "memory");
+    img.meta.channels = 3;
+    img.meta.exposure = 1.0;
+    return envl__envmap_from_image(&img, o, name, out);
 }
 
 envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t height,

@@ -534,15 +534,11 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
     if (!o->no_lights) {
         envl_lights_options lo = o->lights ? *o->lights
                                            : (envl_lights_options){.method = ENVL_METHOD_SUN};
-        lo.skip_residual = 0;
+        lo.skip_residual = lo.method == ENVL_METHOD_SUN; /* made below, only with a sun */
         lo.measure = 0;
         rc = envl_lights_compute(map, &lo, &ls);
-        if (!rc && envl_lights_count(ls))
-            rc = envl_envmap_from_pixels(envl_lights_residual(ls), envl_envmap_width(map),
-                                         envl_envmap_height(map), 3,
-                                         &(envl_load_options){.layout = ENVL_LAYOUT_LATLONG,
-                                                              .threads = o->threads},
-                                         &residual);
+        if (!rc && envl_lights_count(ls)) /* one copy, the residual map's own pixels */
+            rc = envl__lights_residual_map(map, ls, o->threads, &residual);
     }
     envl_envmap *env = residual ? residual : map;
     /* the IBL: SH order 2 and the chain, mip k face >> k wide as cube faces (lat-long 4x) */

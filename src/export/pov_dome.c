@@ -83,15 +83,13 @@ envl_result pov_dome_lights(const envl_envmap *upper_c, const envl_envmap *map_c
     int32_t ns = nu / 4 < POV_DOME_SUNS ? nu / 4 : POV_DOME_SUNS;
     double threshold = 50.0 * pu / (4 * ENVL_PI); /* sun_split.c's SPLIT_K x the mean */
     if (ns > 0 && pu > 0) {
-        envl_lights_options so = {.method = ENVL_METHOD_SUN, .count = ns};
+        /* the residual made below, once, only with a sun (envl__lights_residual_map) */
+        envl_lights_options so = {.method = ENVL_METHOD_SUN, .count = ns, .skip_residual = 1};
         if ((r = envl_lights_compute(upper, &so, &sun)))
             goto done;
-        if (envl_lights_count(sun) > 0) {
-            envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
-            if ((r = envl_envmap_from_pixels(envl_lights_residual(sun), upper->width,
-                                             upper->height, 3, &lo, &rest)))
-                goto done;
-        }
+        if (envl_lights_count(sun) > 0 &&
+            (r = envl__lights_residual_map(upper, sun, threads, &rest)))
+            goto done;
     }
     int32_t k = envl_lights_count(sun);
     if ((r = cut(rest ? rest : upper, nu - k, &cells)) || (r = cut(lower, nd, &down)))

@@ -177,33 +177,38 @@ static envl_result split_irradiance(envl_envmap *m, int32_t threads, size_t n,
                                     const double *dirs, double *e)
 {
     envl_sun_split sp;
-    envl_envmap *rest = NULL, *small = NULL;
+    envl_envmap *small = NULL;
+    envl_pixel_patch *patch = NULL;
     double *lobes = calloc(3 * n, sizeof(double));
-    envl_result rc = lobes ? envl__sun_split_make(m, &sp)
+    envl_result rc = lobes ? envl__sun_split_lobes(m, &sp)
                            : envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
     if (!lobes)
         memset(&sp, 0, sizeof sp);
     if (!rc && sp.n) {
-        envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
-        rc = envl_envmap_from_pixels(sp.res, m->width, m->height, 3, &lo, &rest);
+        /* the rest resampled straight from the map with the split pixels as patches: the same
+         * floats as resampling a residual copy, without the copy */
+        int32_t w = m->width < RESAMPLED_IRRADIANCE_WIDTH ? m->width : RESAMPLED_IRRADIANCE_WIDTH;
+        rc = (patch = envl__sun_split_patches(&sp))
+                 ? envl__envmap_resampled_patched(m->px, m->width, m->height, patch, sp.n, w,
+                                                  threads, &small)
+                 : envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    } else if (!rc) {
+        rc = resampled_copy(m->px, m->width, m->height, threads, &small);
     }
-    envl_envmap *r = rest ? rest : m;
-    if (!rc)
-        rc = resampled_copy(r->px, r->width, r->height, threads, &small);
     if (!rc && sp.n)
         rc = add_lobes(&sp, m->width, m->height, (int32_t)n, dirs, lobes);
     if (!rc) {
         double floor[3]; /* the mean of E over the sphere is the power / 4 */
         for (int c = 0; c < 3; c++)
             floor[c] = ENVL_TEXEL_DARK * m->info.power[c] / 4;
-        rc = envl__irradiance_relative(small ? small : r, (int32_t)n, dirs, ENVL_SPLIT_RELATIVE,
+        rc = envl__irradiance_relative(small ? small : m, (int32_t)n, dirs, ENVL_SPLIT_RELATIVE,
                                        floor, lobes, e);
     }
     for (size_t i = 0; !rc && i < 3 * n; i++)
         e[i] += lobes[i];
     free(lobes);
+    free(patch);
     envl_envmap_free(small);
-    envl_envmap_free(rest);
     envl__sun_split_free(&sp);
     return rc;
 }

@@ -102,14 +102,13 @@ static float *pixels_without_sun_lights(const envl_envmap *m, const envl_sun_spl
         return NULL;
     memcpy(px, m->px, sizeof(float) * 3 * npx);
     for (int32_t i = 0; i < sun->n; i++)
-        if (sun->lobes[i].taken) {
-            size_t at = 3 * ((size_t)sun->lobes[i].r * m->width + sun->lobes[i].c);
-            memcpy(px + at, sun->res + at, sizeof(float) * 3);
-        }
+        if (sun->lobes[i].taken)
+            memcpy(px + 3 * ((size_t)sun->lobes[i].r * m->width + sun->lobes[i].c),
+                   sun->lobes[i].keep, sizeof sun->lobes[i].keep);
     return px;
 }
 
-/* The map less what the sun lights took, as a map. */
+/* The map less what the sun lights took, as a map (that owns the pixels: one copy). */
 static envl_result without_sun_lights(const envl_envmap *m, const envl_sun_split *sun,
                                       int32_t threads, envl_envmap **out)
 {
@@ -117,9 +116,7 @@ static envl_result without_sun_lights(const envl_envmap *m, const envl_sun_split
     if (!px)
         return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
-    envl_result rc = envl_envmap_from_pixels(px, m->width, m->height, 3, &lo, out);
-    free(px);
-    return rc;
+    return envl__envmap_adopt(px, m->width, m->height, &lo, "", out);
 }
 
 static envl_result compute_irradiance(envl_envmap *m, envl_products *p, const plan *pl)

@@ -35,7 +35,7 @@ static double map_power(const envl_envmap *m)
     return envl__lum(m->info.power[0], m->info.power[1], m->info.power[2]);
 }
 
-envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s)
+static envl_result split(const envl_envmap *m, int with_residual, envl_sun_split *s)
 {
     memset(s, 0, sizeof *s);
     int32_t w = m->width, h = m->height;
@@ -62,16 +62,17 @@ envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s)
         free(y);
     }
     s->threshold = T;
-    s->res = malloc(sizeof(float) * 3 * npx);
+    s->res = with_residual ? malloc(sizeof(float) * 3 * npx) : NULL;
     s->lobes = malloc(sizeof(envl_sun_lobe) * (count < SPLIT_MAX ? count : SPLIT_MAX));
-    if (!s->res || !s->lobes) {
+    if ((with_residual && !s->res) || !s->lobes) {
         envl__sun_split_free(s);
         return envl__fail(ENVL_ERR_MEMORY, "sun split: out of memory");
     }
-    memcpy(s->res, m->px, sizeof(float) * 3 * npx);
+    if (s->res)
+        memcpy(s->res, m->px, sizeof(float) * 3 * npx);
     for (int32_t r = 0; r < h && s->n < SPLIT_MAX; r++)
         for (int32_t c = 0; c < w && s->n < SPLIT_MAX; c++) {
-            float *p = s->res + 3 * ((size_t)r * w + c);
+            const float *p = m->px + 3 * ((size_t)r * w + c);
             double y = envl__lum(p[0], p[1], p[2]);
             if (!(y > T))
                 continue;
@@ -80,8 +81,10 @@ envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s)
             for (int k = 0; k < 3; k++) {
                 double keep = p[k] * f;
                 l->e[k] = (p[k] - keep) * m->row_omega[r];
-                p[k] = (float)keep;
+                l->keep[k] = (float)keep;
             }
+            if (s->res)
+                memcpy(s->res + 3 * ((size_t)r * w + c), l->keep, sizeof l->keep);
             l->d[0] = m->row_cos[r] * m->col_cos[c];
             l->d[1] = m->row_cos[r] * m->col_sin[c];
             l->d[2] = m->row_sin[r];
@@ -89,6 +92,26 @@ envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s)
             l->taken = 0;
         }
     return ENVL_OK;
+}
+
+envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s)
+{
+    return split(m, 1, s);
+}
+
+envl_result envl__sun_split_lobes(const envl_envmap *m, envl_sun_split *s)
+{
+    return split(m, 0, s);
+}
+
+envl_pixel_patch *envl__sun_split_patches(const envl_sun_split *s)
+{
+    envl_pixel_patch *patch = malloc(sizeof *patch * (size_t)(s->n ? s->n : 1));
+    for (int32_t i = 0; patch && i < s->n; i++) {
+        const envl_sun_lobe *l = s->lobes + i;
+        patch[i] = (envl_pixel_patch){l->r, l->c, {l->keep[0], l->keep[1], l->keep[2]}};
+    }
+    return patch;
 }
 
 /* ---- the split-off lobes as lights ----
