@@ -19,7 +19,6 @@
 void envl__sun_split_free(envl_sun_split *s)
 {
     free(s->lobes);
-    free(s->res);
     memset(s, 0, sizeof *s);
 }
 
@@ -35,7 +34,7 @@ static double map_power(const envl_envmap *m)
     return envl__lum(m->info.power[0], m->info.power[1], m->info.power[2]);
 }
 
-static envl_result split(const envl_envmap *m, int with_residual, envl_sun_split *s)
+envl_result envl__sun_split_lobes(const envl_envmap *m, envl_sun_split *s)
 {
     memset(s, 0, sizeof *s);
     int32_t w = m->width, h = m->height;
@@ -62,14 +61,9 @@ static envl_result split(const envl_envmap *m, int with_residual, envl_sun_split
         free(y);
     }
     s->threshold = T;
-    s->res = with_residual ? malloc(sizeof(float) * 3 * npx) : NULL;
     s->lobes = malloc(sizeof(envl_sun_lobe) * (count < SPLIT_MAX ? count : SPLIT_MAX));
-    if ((with_residual && !s->res) || !s->lobes) {
-        envl__sun_split_free(s);
+    if (!s->lobes)
         return envl__fail(ENVL_ERR_MEMORY, "sun split: out of memory");
-    }
-    if (s->res)
-        memcpy(s->res, m->px, sizeof(float) * 3 * npx);
     for (int32_t r = 0; r < h && s->n < SPLIT_MAX; r++)
         for (int32_t c = 0; c < w && s->n < SPLIT_MAX; c++) {
             const float *p = m->px + 3 * ((size_t)r * w + c);
@@ -83,8 +77,6 @@ static envl_result split(const envl_envmap *m, int with_residual, envl_sun_split
                 l->e[k] = (p[k] - keep) * m->row_omega[r];
                 l->keep[k] = (float)keep;
             }
-            if (s->res)
-                memcpy(s->res + 3 * ((size_t)r * w + c), l->keep, sizeof l->keep);
             l->d[0] = m->row_cos[r] * m->col_cos[c];
             l->d[1] = m->row_cos[r] * m->col_sin[c];
             l->d[2] = m->row_sin[r];
@@ -92,16 +84,6 @@ static envl_result split(const envl_envmap *m, int with_residual, envl_sun_split
             l->taken = 0;
         }
     return ENVL_OK;
-}
-
-envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s)
-{
-    return split(m, 1, s);
-}
-
-envl_result envl__sun_split_lobes(const envl_envmap *m, envl_sun_split *s)
-{
-    return split(m, 0, s);
 }
 
 envl_pixel_patch *envl__sun_split_patches(const envl_sun_split *s)

@@ -19,17 +19,14 @@ typedef struct envl_sun_lobe {
 typedef struct envl_sun_split {
     int32_t n;                /* lobes; 0: nothing was split (use the map itself) */
     envl_sun_lobe *lobes;     /* row-major order */
-    float *res;               /* the residual, W x H: every split pixel at luminance T; NULL
-                                 when n is 0, or made by envl__sun_split_lobes */
     double threshold;         /* T */
 } envl_sun_split;
 
-/* Splits off the pixels brighter than the threshold (sun_split.c). *s is zeroed first; n = 0
- * (no residual) when no pixel is above it or the map is black. */
-envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s);
-/* The same split without the residual copy of the map (s->res NULL): a caller that needs the
- * residual puts each lobe's `keep` at its pixel in a copy of its own (or resamples the map with
- * them: envl__latlong_resample_patched), so the split costs no second map. */
+/* Splits off the pixels brighter than the threshold (sun_split.c): *s is zeroed first; n = 0
+ * when no pixel is above it or the map is black. No residual copy of the map is made: a caller
+ * that needs the residual (every split pixel at luminance T) puts each lobe's `keep` at its
+ * pixel in a copy of its own, or resamples the map with them (envl__sun_split_patches,
+ * envl__latlong_resample_patched), so the split costs no second map. */
 envl_result envl__sun_split_lobes(const envl_envmap *m, envl_sun_split *s);
 /* Every lobe's pixel with its `keep` value (s->n patches, row-major, malloc'd; NULL when out of
  * memory): the patches that make the map the split's residual (envl__latlong_resample_patched,
