@@ -1058,7 +1058,8 @@ def report_lines(result, checks):
         L.append("| %s | %s | %s%s | %.2f | %s | %s | %s |" % (
             r["map"], r["scene"], r["option"], " (%s)" % r["recipe"] if r["picked"] else "",
             r["seconds"], "-" if r["speedup"] is None else "%.1fx" % r["speedup"],
-            ", ".join("%s %.2f (%+.2f)" % (o, 100 * v, 100 * r["biases"][o])
+            ", ".join("%s %.2f (%+.2f)" % (o, 100 * v, 100 * r["biases"][o]) if v is not None
+                      else "%s - (no pixel off the sun's edges)" % o
                       for o, v in r["errors"].items()),
             _pct(r.get("banding"), 3)))
     L += ["", "![renders and errors](pov_scene_grid.png)", "",

@@ -5,16 +5,17 @@
 #define ENVL_POV_FIGURES_H
 
 #define POV_FIGURE_DOME \
-    "scenes (a), (b) on 13 maps: objects 3.2 % median, 7.3 % worst; plane 2.8 % median, 5.3 % " \
-    "worst; 9-17x less POV-Ray CPU than the reference (scene bench of 2026-11-24)"
+    "scenes (a), (b) on 15 maps: objects 1.7 % median, 3.6 % worst; plane 1.3 % median, 2.9 % " \
+    "worst; banding 0.35 % median, 0.47 % worst; a user's still life, room and CSG scene: worst " \
+    "object 5.6 % median, 38.8 % worst; 13-26x less POV-Ray CPU than the reference (scene bench " \
+    "of 2026-11-29)"
 #define POV_FIGURE_SH \
-    "scenes (a), (b) on 13 maps: objects 33.6 % median, 117.7 % worst; plane 13.9 % median, 42.6 " \
-    "% worst; 66-88x less POV-Ray CPU than the reference (scene bench of 2026-11-24)"
+    "scenes (a), (b) on 15 maps: objects 19.4 % median, 94.9 % worst; plane 11.0 % median, 43.4 " \
+    "% worst; 227-388x less POV-Ray CPU than the reference (scene bench of 2026-11-29)"
 #define POV_FIGURE_IMAGE_RADIOSITY \
-    "scenes (a), (b) on 13 maps: objects 9.9 % median, 20.0 % worst; plane 3.8 % median, 15.9 % " \
-    "worst; 8-11x less POV-Ray CPU than the reference (scene bench of 2026-11-24)"
-#define POV_FIGURE_DOME_AMBIENT \
-    "scenes (a), (b) on 13 maps: objects 9.3 % median, 85.4 % worst; plane 6.9 % median, 22.1 % " \
-    "worst; 7-22x less POV-Ray CPU than the reference (scene bench of 2026-11-24)"
+    "scenes (a), (b) on 15 maps: objects 12.6 % median, 22.6 % worst; plane 4.4 % median, 13.3 % " \
+    "worst; a user's still life, room and CSG scene: worst object 16.4 % median, 126.8 % worst; " \
+    "25-36x less POV-Ray CPU than the reference (scene bench of 2026-11-29)"
+#define POV_FIGURE_DOME_AMBIENT NULL /* not in the scene bench */
 
 #endif
