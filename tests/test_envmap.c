@@ -92,16 +92,23 @@ static void test_spot(void)
     free(px);
 }
 
+/* n floats of a fixed pseudo-random sequence (the C standard's example LCG from `seed`), each
+ * in [0, 100) in steps of 100 / steps: a map with detail everywhere, the same on every machine. */
+static void random_pixels(float *px, size_t n, unsigned seed, unsigned steps)
+{
+    unsigned s = seed;
+    for (size_t i = 0; i < n; i++) {
+        s = s * 1103515245u + 12345u;
+        px[i] = (float)((s >> 8) % steps) / (float)(steps / 100);
+    }
+}
+
 /* Resampling to other sizes keeps the integral of L dw (area weights are exact). */
 static void test_resample_power(void)
 {
     const int w = 200, h = 100;
     float *px = malloc(sizeof(float) * w * h * 3);
-    unsigned s = 12345;
-    for (int i = 0; i < w * h * 3; i++) {
-        s = s * 1103515245u + 12345u;
-        px[i] = (float)((s >> 8) % 1000) / 10.0f;
-    }
+    random_pixels(px, (size_t)w * h * 3, 12345u, 1000);
     px[3 * (17 * w + 3)] = 1e6f; /* a sun */
     envl_envmap *ref;
     envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG};
@@ -250,11 +257,7 @@ static void test_resample_patched(void)
 {
     const int w = 200, h = 100;
     float *px = malloc(sizeof(float) * w * h * 3), *copy = malloc(sizeof(float) * w * h * 3);
-    unsigned s = 777;
-    for (int i = 0; i < w * h * 3; i++) {
-        s = s * 1103515245u + 12345u;
-        px[i] = (float)((s >> 8) % 1000) / 10.0f;
-    }
+    random_pixels(px, (size_t)w * h * 3, 777u, 1000);
     envl_pixel_patch patch[8] = {{0, 0, {1e5f, 2e5f, 3e5f}},  {0, 199, {7, 8, 9}},
                                  {17, 3, {1e6f, 0, 0}},        {17, 4, {0, 1e6f, 0}},
                                  {17, 150, {0, 0, 1e6f}},      {50, 100, {0.5f, 0.25f, 0.125f}},
@@ -284,11 +287,7 @@ static void test_stats_threads(void)
 {
     const int w = 300, h = 151;
     float *px = malloc(sizeof(float) * w * h * 3);
-    unsigned s = 99;
-    for (int i = 0; i < w * h * 3; i++) {
-        s = s * 1103515245u + 12345u;
-        px[i] = (float)((s >> 8) % 100000) / 1000.0f;
-    }
+    random_pixels(px, (size_t)w * h * 3, 99u, 100000);
     px[3 * (70 * w + 12) + 1] = 1e4f;  /* the brightest, twice: the first counts */
     px[3 * (120 * w + 5) + 1] = 1e4f;
     double power[3] = {0, 0, 0};
