@@ -238,7 +238,9 @@ def pov_figure(bench, option):
     if not ab:
         return None
     maps = sorted({r["map"] for r in ab})
-    objs = [max(v for k, v in r["errors"].items() if k != "plane") for r in ab]
+    # an object with no pixel off the sun's edges has no error (null): not counted
+    objs = [max(v for k, v in r["errors"].items() if k != "plane" and v is not None)
+            for r in ab]
     plane = [r["plane"] if r.get("plane") is not None else r["errors"]["plane"]
              for r in ab if r.get("plane") is not None or "plane" in r["errors"]]
 
@@ -252,7 +254,7 @@ def pov_figure(bench, option):
     if band:
         parts.append("banding %.2f %% median, %.2f %% worst" % (100 * median(band),
                                                               100 * max(band)))
-    user = [r["error"] for r in runs if r["scene"] in USER_SCENES]
+    user = [r["error"] for r in runs if r["scene"] in USER_SCENES and r["error"] is not None]
     if user:
         parts.append("a user's still life, room and CSG scene: worst object %s" % mw(user))
     speed = [r["speedup"] for r in runs if r["scene"] == "a" and r.get("speedup")]
