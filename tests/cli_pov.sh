@@ -97,6 +97,15 @@ printf '#declare F = pigment { rgb 0.2 };\nsphere { <0,1,0>, 1 }\nplane { y, 0 p
 run "$ENVLIGHT" pov - $S --scene idplane.pov -o idplane.inc
 has idplane.inc "#declare EnvLight_Ground_Albedo = 0.5;"
 has idplane.inc "colour is not a literal: 0.5 assumed"
+# a literal brighter than 1 or negative: the albedo clamped into [0, 1], said on stderr
+printf 'sphere { <0,1,0>, 1 }\nplane { y, 0 pigment { rgb 2 } }\n' > brightplane.pov
+run "$ENVLIGHT" pov - $S --scene brightplane.pov -o brightplane.inc
+has brightplane.inc "#declare EnvLight_Ground_Albedo = 1;"
+has err.txt "the ground's colour has luminance 2, .*albedo 1 used (moved by 1)"
+printf 'sphere { <0,1,0>, 1 }\nplane { y, 0 pigment { rgb -2 } }\n' > negplane.pov
+run "$ENVLIGHT" pov - $S --scene negplane.pov -o negplane.inc
+has negplane.inc "#declare EnvLight_Ground_Albedo = 0;"
+has err.txt "the ground's colour has luminance -2: read as albedo 0"
 run "$ENVLIGHT" pov - $S --scene onplane.pov --ground 0.7 -o ground07.inc
 has ground07.inc "#declare EnvLight_Ground_Albedo = 0.7;"
 printf 'global_settings { radiosity { count 100 } }\nsphere { <0,1,0>, 1 }\nplane { y, 0 }\n' > rad.pov

@@ -180,6 +180,14 @@ static void test_albedo(void)
     /* srgb is gamma-encoded: 0.5 is ((0.5 + 0.055) / 1.055)^2.4 linear */
     CHECK_NEAR(scene("plane { y, 0 pigment { srgb 0.5 } }").ground_albedo,
                pow(0.555 / 1.055, 2.4), 1e-12);
+    /* a negative literal (a pigment that takes light away) is albedo 0, with a note; the
+     * fuzzer's find (CI, 2026-11-28): -5 was returned as it was, below the -1 "unknown" */
+    pov_scene neg = scene("plane { y, 0 pigment { rgb -5 } }");
+    CHECK(neg.ground == 1 && neg.ground_albedo == 0 && strstr(neg.note, "luminance -5"));
+    CHECK(scene("plane { y, 0 pigment { rgb <1, -1, 0> } }").ground_albedo == 0);
+    CHECK(scene("box { <-9, -1, -9>, <9, 0, 9> pigment { rgb -0.5 } }").ground_albedo == 0);
+    /* above 1 as written: the include clamps it and says so */
+    CHECK_NEAR(scene("plane { y, 0 pigment { rgb 2 } }").ground_albedo, 2, 1e-12);
     /* not literals: -1 */
     CHECK(scene("plane { y, 0 pigment { Grey } }").ground_albedo == -1);
     CHECK(scene("plane { y, 0 pigment { color Grey } }").ground_albedo == -1);

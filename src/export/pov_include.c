@@ -118,7 +118,10 @@ static void plan_scene(const char *path, pov_plan *p)
     }
     if (p->ground < 0 && p->scene && p->scene->ground) {
         double a = p->scene->ground_albedo;
-        p->ground = a >= 0 ? fmax(0, fmin(a, 1)) : 0.5;
+        if (a > 1)
+            warn(p, "pov: warning: scene %s: the ground's colour has luminance %g, more light "
+                 "than it receives: albedo 1 used (moved by %g)", path, a, a - 1);
+        p->ground = a >= 0 ? fmin(a, 1) : 0.5;
         p->ground_from = a >= 0 ? "the scene's plane"
                                 : "the scene's plane, whose colour is not a literal: 0.5 assumed";
     }

@@ -378,11 +378,19 @@ static int box_corners(lexer lx, double a[3], double b[3])
     return 1;
 }
 
-/* Rec. 709 / sRGB luminance; -1 when it overflows. */
-static double luminance(const double c[3])
+/* Rec. 709 / sRGB luminance; -1 when it overflows. A negative colour (POV-Ray allows it: a
+ * pigment that takes light away) is no albedo: read as 0, with a note. */
+static double luminance(const lexer *lx, const double c[3])
 {
     double y = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
-    return isfinite(y) ? y : -1;
+    if (!isfinite(y))
+        return -1;
+    if (y < 0) {
+        note(lx->out, "line %d: the ground's colour has luminance %g: read as albedo 0",
+             lx->line, y);
+        return 0;
+    }
+    return y;
 }
 
 /* After `pigment`: `{ COLOUR` -> its luminance, or -1. */
@@ -391,7 +399,7 @@ static double pigment_albedo(lexer lx)
     double c[3];
     if (!is_punct(lex_next(&lx), '{') || !colour_literal(&lx, lex_next(&lx), c))
         return -1;
-    return luminance(c);
+    return luminance(&lx, c);
 }
 
 /* After EnvLight_Diffuse_Texture (skip_args 0) or EnvLight_Add_Ambient (skip_args 1):
@@ -419,7 +427,7 @@ static double macro_albedo(lexer lx, int skip_args)
     double c[3];
     if (!colour_literal(&lx, t, c) || !is_punct(lex_next(&lx), ')'))
         return -1;
-    return luminance(c);
+    return luminance(&lx, c);
 }
 
 /* ---- the scan ---- */

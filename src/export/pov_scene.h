@@ -20,7 +20,7 @@ typedef struct pov_scene {
     int glossy;           /* some finish has specular, phong, reflection or metallic > 0 (a non-literal value counts as > 0) */
     int ground;           /* a placed plane whose normal is +y: `plane { y, H`, `+y`, `<0, k, 0>` with k > 0 */
     double ground_height; /* its H (0 when not a literal) */
-    double ground_albedo; /* its pigment's luminance (0.2126 R + 0.7152 G + 0.0722 B) when written as a literal colour inside the plane's block: `pigment { rgb 0.5 }`, `pigment { color rgb <a, b, c> }`, `pigment { rgb <a,b,c> }`, `EnvLight_Diffuse_Texture(<a, b, c>)` or `(0.5)`; -1 when not a literal (an identifier, a pattern) or no ground */
+    double ground_albedo; /* its pigment's luminance (0.2126 R + 0.7152 G + 0.0722 B) when written as a literal colour inside the plane's block: `pigment { rgb 0.5 }`, `pigment { color rgb <a, b, c> }`, `pigment { rgb <a,b,c> }`, `EnvLight_Diffuse_Texture(<a, b, c>)` or `(0.5)`; 0 (with a note) when that literal is negative; -1 when not a literal (an identifier, a pattern) or no ground */
     int ground_box;       /* 1: the ground is a box (no plane faces +y): the placed box of literal corners and no transform, at least 4 x wider and deeper than high, of the largest such area; its top is ground_height */
     int radiosity;        /* global_settings contains `radiosity`, or the scene calls EnvLight_Radiosity_Settings / EnvLight_Radiosity_Residual_Settings */
     int sky;              /* the scene shows a sky: `background`, `sky_sphere`, or calls EnvLight_Sky */
