@@ -751,6 +751,9 @@ typedef struct envl_gltf_summary {
     double seconds;           /* everything (the error measures excluded) */
     envl_texel_error texel_error[16]; /* mip k's per-texel error (its float faces, each texel
                                  computed at its centre, against the residual's reference) */
+    int32_t prefiltered_width, prefiltered_height; /* the map the mips were computed from: the
+                                 map's own size, or a finer copy of a map too coarse for the GGX
+                                 sums (envl_products_summary's) */
 } envl_gltf_summary;
 
 /* Writes `path` (.glb or .gltf) atomically. summary (may be NULL) gets the figures above. */

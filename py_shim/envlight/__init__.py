@@ -672,7 +672,8 @@ class Envmap(_Handle):
                 "glossy_error": [e if e >= 0 else None for e in s.glossy_error[:s.mips]],
                 "texel_error": [_texel_dict(t) for t in s.texel_error[:s.mips]],
                 "rgbd_error": s.rgbd_error, "bytes": s.bytes,
-                "seconds": s.seconds}
+                "seconds": s.seconds,
+                "prefiltered_size": (s.prefiltered_width, s.prefiltered_height)}
 
     def sh(self, order=2, window="auto", measure=True):
         """Real SH projection of the map (order 0..32; window 'auto', the default as in

@@ -303,6 +303,8 @@ class GltfSummary(Structure):
         ("bytes", c_int64),
         ("seconds", c_double),
         ("texel_error", TexelError * 16),
+        ("prefiltered_width", c_int32),
+        ("prefiltered_height", c_int32),
     ]
 
 

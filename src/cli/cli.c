@@ -87,6 +87,26 @@ const char *cli_error_text(char *buf, size_t size, const char *what, double erro
     return buf;
 }
 
+/* A map too coarse for the GGX sums was prefiltered from a finer copy (docs/design.md,
+ * "prefiltered maps"): say so on stderr, with how the copy was made. */
+void cli_coarse_note(const envl_envmap *map, int32_t width, int32_t height, int quiet)
+{
+    int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
+    if (quiet || width <= 0 || height <= 0 || (width == w && height == h))
+        return;
+    envl_info info;
+    envl_envmap_info(map, &info);
+    char how[96];
+    if (width % w == 0 && height % h == 0)
+        snprintf(how, sizeof how, "each pixel split into %d x %d, the same map",
+                 (int)(width / w), (int)(height / h));
+    else
+        snprintf(how, sizeof how, "area-resampled");
+    cli_error("%s: %d x %d pixels are too coarse for the GGX levels, which sum each pixel at "
+              "its centre: prefiltered from a %d x %d copy (%s)", info.file, (int)w, (int)h,
+              (int)width, (int)height, how);
+}
+
 const char *cli_texel_text(char *buf, size_t size, const envl_texel_error *t)
 {
     if (!(t->rms >= 0 && t->worst >= 0))

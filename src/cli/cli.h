@@ -94,6 +94,9 @@ const char *cli_frame_label(int frame);
 const char *cli_error_text(char *buf, size_t size, const char *what, double error);
 /* "per texel RMS 0.190 % worst 1.020 %" (", 8192 of 98304 texels" when a part was measured),
  * or "per texel not measured": docs/design.md's per-texel error. */
+/* The note on stderr when the prefiltered levels were computed from a finer copy of a map
+ * too coarse for them (width x height, as the products' or glTF's summary reports it). */
+void cli_coarse_note(const envl_envmap *map, int32_t width, int32_t height, int quiet);
 const char *cli_texel_text(char *buf, size_t size, const envl_texel_error *t);
 
 

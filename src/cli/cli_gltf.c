@@ -34,6 +34,8 @@ static void write_json(const envl_envmap *map, const char *out, const envl_gltf_
     json_int(&j, "lights", s->lights);
     json_int(&j, "face_size", s->face_size);
     json_int(&j, "mips", s->mips);
+    json_int(&j, "prefiltered_width", s->prefiltered_width);
+    json_int(&j, "prefiltered_height", s->prefiltered_height);
     json_number(&j, "intensity", s->intensity);
     json_object(&j, "error");
     json_bool(&j, "measured", s->diffuse_error >= 0);
@@ -116,7 +118,10 @@ int cli_gltf(int argc, char **argv)
     int rc = CLI_OK;
     if (envl_gltf_export(map, out, &go, &s)) {
         rc = cli_fail();
-    } else if (json) {
+        goto done;
+    }
+    cli_coarse_note(map, s.prefiltered_width, s.prefiltered_height, c.quiet);
+    if (json) {
         write_json(map, out, &s);
         rc = fflush(stdout) ? CLI_FAIL : CLI_OK;
     } else {
@@ -142,6 +147,7 @@ int cli_gltf(int argc, char **argv)
         if (fflush(stdout))
             rc = CLI_FAIL;
     }
+done:
     envl_envmap_free(map);
     return rc;
 }

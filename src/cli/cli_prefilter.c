@@ -116,20 +116,7 @@ static void coarse_note(const envl_envmap *map, const envl_products *p, int quie
 {
     envl_products_summary s;
     envl_products_get_summary(p, &s);
-    int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
-    if (quiet || (s.prefiltered_width == w && s.prefiltered_height == h))
-        return;
-    envl_info info;
-    envl_envmap_info(map, &info);
-    char how[96];
-    if (s.prefiltered_width % w == 0 && s.prefiltered_height % h == 0)
-        snprintf(how, sizeof how, "each pixel split into %d x %d, the same map",
-                 (int)(s.prefiltered_width / w), (int)(s.prefiltered_height / h));
-    else
-        snprintf(how, sizeof how, "area-resampled");
-    cli_error("%s: %d x %d pixels are too coarse for the GGX levels, which sum each pixel at "
-              "its centre: prefiltered from a %d x %d copy (%s)", info.file, (int)w, (int)h,
-              (int)s.prefiltered_width, (int)s.prefiltered_height, how);
+    cli_coarse_note(map, s.prefiltered_width, s.prefiltered_height, quiet);
 }
 
 /* Half floats (ktx2): the values each map loses above ENVL_HALF_MAX, on stderr. */

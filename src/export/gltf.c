@@ -556,8 +556,11 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         double t1 = envl__seconds();
         rc = envl_compute(env, &q, &p);
         envl_products_summary ps = {0};
-        if (!rc && !envl_products_get_summary(p, &ps))
+        if (!rc && !envl_products_get_summary(p, &ps)) {
             measuring = envl__seconds() - t1 - ps.seconds; /* the products' error measures */
+            s.prefiltered_width = ps.prefiltered_width;
+            s.prefiltered_height = ps.prefiltered_height;
+        }
     }
     ibl b = {.face = face, .mips = mips, .roughness = roughness};
     if (!rc) {
