@@ -111,13 +111,22 @@ has ground07.inc "#declare EnvLight_Ground_Albedo = 0.7;"
 printf 'global_settings { radiosity { count 100 } }\nsphere { <0,1,0>, 1 }\nplane { y, 0 }\n' > rad.pov
 run "$ENVLIGHT" pov - $S --scene rad.pov -o rad.inc
 has rad.inc "^// recipe: dome: objects of the scene shadow others.*(the scene's radiosity block, if later, wins)"
-# a floor made of a box is a ground: the lights come from the sky half only (no cell of the
-# ground half), its literal colour is the albedo
+# a floor made of a box is found; it is finite, so under the dome's bounce pass the map's
+# lower half stays lights, cut apart (beyond the box's edges it lights the scene: a room on a
+# floor box was 39 % dark with that half replaced by a ground); --ground makes it an endless
+# plane again
 printf 'box { <-5, -0.2, -5>, <5, 0, 5> pigment { rgb 0.4 } }\nsphere { <0,1,0>, 1 }\n' > boxfloor.pov
 run "$ENVLIGHT" pov - $S --scene boxfloor.pov -o boxfloor.inc
 has boxfloor.inc "^// scene: 2 objects (2 casting shadows), matte finishes only, a ground box$"
-has boxfloor.inc "#declare EnvLight_Ground_Albedo = 0.4;"
-hasnt boxfloor.inc "of the ground half"
+has boxfloor.inc "^global_settings { EnvLight_Bounce_Settings() }$"
+has boxfloor.inc "of the ground half$"
+has boxfloor.inc "^//   (cut apart: a floor box hides only what it covers)"
+has boxfloor.inc "^// ground: the scene's floor is a box, finite: the map's lower half stays lights"
+hasnt boxfloor.inc "#declare EnvLight_Ground_Albedo"
+run "$ENVLIGHT" pov - $S --scene boxfloor.pov --ground 0.4 -o boxfloor_g.inc
+has boxfloor_g.inc "#declare EnvLight_Ground_Albedo = 0.4;"
+has boxfloor_g.inc "^// ground: albedo from --ground$"
+hasnt boxfloor_g.inc "of the ground half"
 has default.inc "of the ground half"
 # a scene with light sources of its own: envlight's are declared, not placed, nor the bounce
 # pass (the scene would be lit twice); a warning says so

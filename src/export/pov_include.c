@@ -122,8 +122,14 @@ static void plan_scene(const char *path, pov_plan *p)
             warn(p, "pov: warning: scene %s: the ground's colour has luminance %g, more light "
                  "than it receives: albedo 1 used (moved by %g)", path, a, a - 1);
         p->ground = a >= 0 ? fmin(a, 1) : 0.5;
-        p->ground_from = a >= 0 ? "the scene's plane"
-                                : "the scene's plane, whose colour is not a literal: 0.5 assumed";
+        p->ground_box = p->scene->ground_box;
+        p->ground_from = p->ground_box
+                             ? (a >= 0 ? "the scene's floor box"
+                                       : "the scene's floor box, whose colour is not a literal: "
+                                         "0.5 assumed")
+                             : (a >= 0 ? "the scene's plane"
+                                       : "the scene's plane, whose colour is not a literal: "
+                                         "0.5 assumed");
     }
 }
 
@@ -156,6 +162,15 @@ static envl_result plan_recipe(const envl_pov_options *o, pov_plan *p)
         if (!p->ambient_set) /* the lights take the whole sky, radiosity the bounces */
             p->ambient = ENVL_POV_AMBIENT_NONE;
         p->bounce = pov_recipe_bounces(p->scene);
+        /* A box floor is finite: beyond its edges the map's own lower half lights the scene
+         * (a room on a 6 m floor box was 39 % dark with that half replaced by a ground). With
+         * a bounce pass the lower half stays lights (cut apart: pov_dome.c): the box hides
+         * what it covers and radiosity bounces what reaches it. An endless plane, or --ground,
+         * hides the whole lower half. */
+        if (p->bounce && p->ground_box) {
+            p->ground = -1;
+            p->ground_from = NULL;
+        }
     }
     if (p->recipe == POV_RECIPE_DOME_AMBIENT) {
         if (!method_set)

@@ -40,6 +40,8 @@ typedef struct pov_plan {
                                  the bounce pass */
     double ground;            /* < 0: no ground plane */
     const char *ground_from;  /* where the ground came from, for the header; NULL: none */
+    int ground_box;           /* the scene's ground is a box (finite): a dome with a bounce
+                                 pass keeps the map's lower half as lights (plan_recipe) */
     double radius, exposure;
     const char *source, *command, *sky_image;
     const char *out;          /* the include's path (NULL: handed back) */

@@ -79,8 +79,9 @@ static void text_header(FILE *f, const pov_plan *p, const pov_work *w)
                 "variance", (int)w->suns, w->suns == 1 ? "" : "s",
                 (int)(w->nlights - w->suns - w->below));
         if (w->below)
-            fprintf(f, ", %d of the ground half\n//   (cut apart: no ground known to hide "
-                    "it)", (int)w->below);
+            fprintf(f, ", %d of the ground half\n//   (cut apart: %s)", (int)w->below,
+                    p->ground_box ? "a floor box hides only what it covers"
+                                  : "no ground known to hide it");
         fputc('\n', f);
         if (p->shadows == SHADOW_SOFT)
             fprintf(f, "//   soft shadows: each light a grid of up to %d x %d parallel lights "
@@ -190,6 +191,10 @@ static void text_recipe(FILE *f, const pov_plan *p, const pov_work *w)
               "holds the lights' highlights)\n", f);
     if (p->ground_from)
         fprintf(f, "// ground: albedo from %s\n", p->ground_from);
+    else if (p->ground_box)
+        fputs("// ground: the scene's floor is a box, finite: the map's lower half stays lights "
+              "(cut apart), the box\n//   hides what it covers and radiosity bounces it "
+              "(--ground A: an endless plane instead)\n", f);
     text_skipped(f, p);
     /* the dome's figures are those of the dome with its bounce pass */
     const char *expected = p->recipe == POV_RECIPE_DOME && !p->bounce
