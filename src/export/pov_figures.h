@@ -7,7 +7,7 @@
 #define POV_FIGURE_DOME \
     "scenes (a), (b) on 15 maps: objects 1.7 % median, 3.6 % worst; plane 1.3 % median, 2.9 % " \
     "worst; banding 0.35 % median, 0.47 % worst; a user's still life, room and CSG scene: worst " \
-    "object 5.6 % median, 38.8 % worst; 13-26x less POV-Ray CPU than the reference (scene bench " \
+    "object 4.3 % median, 24.5 % worst; 13-26x less POV-Ray CPU than the reference (scene bench " \
     "of 2026-11-29)"
 #define POV_FIGURE_SH \
     "scenes (a), (b) on 15 maps: objects 19.4 % median, 94.9 % worst; plane 11.0 % median, 43.4 " \
