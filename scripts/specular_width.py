@@ -17,6 +17,7 @@ A map argument is a file, '-' (the built-in sky), FILE@W (the map area-resampled
 `envlight convert`) or FILE@rD (read with --rotate D).
 
 Usage: specular_width.py [--docs DIR] [--wide N] [--verify F] ENVLIGHT MAP...
+       specular_width.py --docs DIR --plot-from DIR/specular_width.json x x  (redraw only)
 With --docs DIR: DIR/specular_width.md (after a header: the command, date, load average,
 machine), DIR/specular_width.json (every run) and DIR/specular_width.png (gnuplot: error and
 seconds against width). Not in CI: it takes about half an hour on the 25 maps of the report.
@@ -75,6 +76,25 @@ def level(envlight, path, extra, r, face):
             "directions": t["directions_read"], "load": load_average()}
 
 
+def chain_overhead(envlight, name, path, extra):
+    """The default chain as cube faces (`prefilter MAP --specular --layout cube`): the products'
+    seconds, and the width search's (the sum over its levels) with how many levels it ran on."""
+    with tempfile.TemporaryDirectory() as out:
+        res = subprocess.run([envlight, "prefilter", path, "-o", out, "--json", "--quiet",
+                              "--specular", "--layout", "cube"] + extra,
+                             check=True, capture_output=True, text=True)
+    j = json.loads(res.stdout)
+    levels = j["specular"]
+    searched = [lv["target_width"] for lv in levels
+                if lv["target_width"]["state"] in ("found", "beyond")]
+    return {"map": name, "seconds": j["seconds"],
+            "levels_seconds": sum(lv["seconds"] for lv in levels),
+            "search_seconds": sum(t["seconds_spent"] for t in searched),
+            "searched": len(searched),
+            "stated": ["%s: %s" % (lv["roughness"], lv["target_width"]["height"]) for lv in levels
+                       if lv["target_width"]["state"] in ("found", "beyond")]}
+
+
 def pct(x):
     return "-" if x is None else "%.2f" % (100 * x)
 
@@ -90,12 +110,18 @@ def main():
     ap.add_argument("--docs")
     ap.add_argument("--wide", type=int, default=6,
                     help="the first N maps also at 256-texel faces (default 6)")
+    ap.add_argument("--plot-from", metavar="JSON",
+                    help="only redraw DIR/specular_width.png (--docs) from a run's JSON")
     ap.add_argument("--verify", type=int, default=320,
                     help="render the stated width when it is at most F faces (default 320)")
     a = ap.parse_args()
+    if a.plot_from:
+        with open(a.plot_from) as f:
+            plot(json.load(f)["runs"], a.docs or ".")
+        return
     command = " ".join([os.path.relpath(sys.argv[0])] + sys.argv[1:])
     started, load0, t0 = time.strftime("%Y-%m-%dT%H:%M:%S"), load_average(), time.time()
-    runs = []
+    runs, overhead = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for n, spec in enumerate(a.maps):
             name, path, extra = resolve(spec, tmp, a.envlight)
@@ -113,8 +139,9 @@ def main():
                 runs.append(entry)
                 print("%s r %g: %s" % (name, r, " ".join(
                     "%d:%s%%" % (x["face"], pct(x["error"])) for x in rows)), file=sys.stderr)
+            overhead.append(chain_overhead(a.envlight, name, path, extra))
     took = time.time() - t0
-    report = write_report(a, runs, command, started, load0, took)
+    report = write_report(a, runs, overhead, command, started, load0, took)
     print(report)
     if a.docs:
         with open(os.path.join(a.docs, "specular_width.md"), "w") as f:
@@ -133,7 +160,7 @@ def slopes(rows):
     return out
 
 
-def write_report(a, runs, command, started, load0, took):
+def write_report(a, runs, overhead, command, started, load0, took):
     L = ["# What the specular levels' accuracy costs in width", "",
          "Written by `%s` (do not edit by hand; run it again to update this file)." % command,
          "",
@@ -177,14 +204,30 @@ def write_report(a, runs, command, started, load0, took):
               "within 1 %% in %d; |measured - stated error| median %.3f %%, largest %.3f %% "
               "(points of error)" % (len(checked), len(runs), a.verify, len(met),
                                      100 * statistics.median(agree), 100 * max(agree)),
-              "- at the stated width / 1.1: above 1 %% in %d of %d (the width is within "
-              "10 %% of the narrowest meeting 1 %% there)" % (len(above), len(below))]
+              "- at the stated width / 1.1: above 1 %% in %d of %d (where the error falls "
+              "steadily with the width, the stated width is then within 10 %% of the "
+              "narrowest meeting 1 %%)" % (len(above), len(below))]
     if tr:
         L.append("- seconds measured at the stated width / estimated: median %.2f, range "
                  "%.2f - %.2f (same run, same load)" % (statistics.median(tr), min(tr), max(tr)))
     if search:
         L.append("- the search's own seconds / the 64-face level's: median %.3f, largest %.3f"
                  % (statistics.median(search), max(search)))
+    if overhead:
+        r = [o["search_seconds"] / o["seconds"] for o in overhead]
+        L += ["", "## What the statement costs in the default chain", "",
+              "`prefilter MAP --specular --layout cube` (6 levels, faces 256 .. 16): the width "
+              "search's seconds (all its levels) against the products' (`seconds`, the error "
+              "measure excluded; the search runs in the measure, after them), over %d maps: "
+              "median %.3f, largest %.3f (%s)." % (
+                  len(r), statistics.median(r), max(r),
+                  max(overhead, key=lambda o: o["search_seconds"] / o["seconds"])["map"]), "",
+              "| map | products s | search s | levels searched (roughness: face width stated) |",
+              "|---|---|---|---|"]
+        for o in overhead:
+            L.append("| %s | %.3f | %.4f | %d (%s) |" % (o["map"], o["seconds"],
+                                                       o["search_seconds"], o["searched"],
+                                                       ", ".join(o["stated"])))
     L += ["", "## Every map", "",
           "Error % at each face width (seconds in brackets); the width stated for 1 % from the "
           "64-face level (its error there, estimated seconds); that width rendered.", "",
@@ -216,8 +259,11 @@ def plot(runs, docs):
         cmds = ["set terminal pngcairo size 1500,800 font ',9'",
                 "set output '%s'" % os.path.join(docs, "specular_width.png"),
                 "set multiplot layout 2,%d title 'glossy error and seconds against the cube "
-                "face width (one line per map; docs/specular_width.md)'" % len(ROUGHNESS),
-                "set logscale xy", "set key off", "set grid", "set xrange [24:340]"]
+                "face width (a line per map, measured; x: the width stated for 1 %%, its error "
+                "as read there and its estimated seconds; dashed: 1 %%, dotted: error ~ 1 / width^2; red o: the stated width rendered)'"
+                % len(ROUGHNESS),
+                "set termoption noenhanced", "set logscale xy", "set key off", "set grid",
+                "set xrange [24:*]"]
         for row in ("error", "seconds"):
             for r in ROUGHNESS:
                 files = []
@@ -228,12 +274,30 @@ def plot(runs, docs):
                             v = 100 * x["error"] if row == "error" else x["seconds"]
                             f.write("%d %g\n" % (x["face"], max(v, 1e-3)))
                     files.append(fn)
+                stated = os.path.join(tmp, "stated_%s_%g.dat" % (row, r))
+                with open(stated, "w") as f:
+                    for e in runs:
+                        s = e["ladder"][1]
+                        if e["roughness"] == r and s["state"] == "found":
+                            v = 100 * s["stated_error"] if row == "error" else s["stated_seconds"]
+                            f.write("%d %g\n" % (s["stated_face"], v))
                 cmds.append("set title 'roughness %g'" % r)
+                cmds.append("set yrange [%s]" % ("0.1:*" if row == "error" else "0.001:*"))
                 cmds.append("set xlabel 'face width (texels)'")
                 cmds.append("set ylabel '%s'" % ("glossy error %" if row == "error"
                                                  else "seconds (wall)"))
                 parts = ["'%s' with linespoints lc %d pt 7 ps 0.4" % (fn, k % 8 + 1)
                          for k, fn in enumerate(files)]
+                parts.append("'%s' with points pt 2 ps 1 lc rgb 'black'" % stated)
+                rendered = os.path.join(tmp, "rendered_%s_%g.dat" % (row, r))
+                with open(rendered, "w") as f:
+                    for e in runs:
+                        at = e.get("at_stated")
+                        if e["roughness"] == r and at:
+                            v = 100 * at["error"] if row == "error" else at["seconds"]
+                            f.write("%d %g\n" % (at["face"], max(v, 1e-3)))
+                if os.path.getsize(rendered):
+                    parts.append("'%s' with points pt 6 ps 1.2 lc rgb 'red'" % rendered)
                 if row == "error":
                     parts.append("1 with lines dt 2 lw 2 lc rgb 'black'")
                     parts.append("100 * (64 / x)**2 with lines dt 3 lc rgb 'gray'")
