@@ -33,32 +33,13 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from texel_bench import load_average, resolve  # noqa: E402  (the maps' arguments, as there)
+
 ROUGHNESS = [0.05, 0.1, 0.2, 0.3, 0.4]
 LADDER = [32, 64, 128]
 WIDE = 256
 TARGET = 0.01
-
-
-def load_average():
-    with open("/proc/loadavg") as f:
-        return " ".join(f.read().split()[:3])
-
-
-def resolve(spec, tmp, envlight):
-    """(display name, file, extra input options) of a map argument."""
-    if spec == "-":
-        return "built-in sky", "-", []
-    path, _, variant = spec.partition("@")
-    name = os.path.basename(path).rsplit(".", 1)[0]
-    if not variant:
-        return name, path, []
-    if variant.startswith("r"):
-        return "%s turned %s deg" % (name, variant[1:]), path, ["--rotate", variant[1:]]
-    out = os.path.join(tmp, "%s_%s.exr" % (name, variant))
-    if not os.path.exists(out):
-        subprocess.run([envlight, "convert", path, out, "--size", variant, "--quiet"],
-                       check=True)
-    return "%s at %s wide" % (name, variant), out, []
 
 
 def level(envlight, path, extra, r, face):

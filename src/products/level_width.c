@@ -191,23 +191,20 @@ envl_result envl__level_width_estimate(const envl_cells *C, const resolved *o,
     envl_result rc = s.dirs && s.ref && s.taps && s.values && s.weights && s.approx
                          ? pick_directions(&s, l, dirs, ref)
                          : envl__fail(ENVL_ERR_MEMORY, "level width estimate: out of memory");
-    /* bracket: lo misses the target (the level's own width first), hi meets it */
+    /* the bracket: lo misses the target (the level's own width first), hi meets it */
     int32_t lo = u0, hi = 0;
     double elo = l->glossy_error, ehi = -1, e = elo;
-    while (!rc && !hi && lo < umax && s.tries < MAX_TRIES) {
-        /* e ~ u^-2: the target at u sqrt(e / target); at least 25 % wider each time */
-        int32_t u = legal(lo * fmax(sqrt(e / ENVL_GLOSSY_TARGET), 1.25), step, lo + step, umax);
-        int ok;
-        if ((rc = meets(&s, u, step, umax, &e, &ok)))
-            break;
-        if (ok)
-            hi = u, ehi = e;
-        else
-            lo = u, elo = e;
-    }
-    /* halve the bracket in log u */
-    while (!rc && hi && hi > lo * BRACKET && hi - lo > step && s.tries < MAX_TRIES) {
-        int32_t u = legal(sqrt((double)lo * hi), step, lo + step, hi - step);
+    while (!rc && s.tries < MAX_TRIES) {
+        int32_t u;
+        if (!hi) { /* e ~ u^-2: the target at u sqrt(e / target); at least 25 % wider */
+            if (lo >= umax)
+                break;
+            u = legal(lo * fmax(sqrt(e / ENVL_GLOSSY_TARGET), 1.25), step, lo + step, umax);
+        } else { /* bracketed: halve it in log u */
+            if (hi <= lo * BRACKET || hi - lo <= step)
+                break;
+            u = legal(sqrt((double)lo * hi), step, lo + step, hi - step);
+        }
         int ok;
         if ((rc = meets(&s, u, step, umax, &e, &ok)))
             break;
