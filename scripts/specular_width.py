@@ -17,7 +17,7 @@ A map argument is a file, '-' (the built-in sky), FILE@W (the map area-resampled
 `envlight convert`) or FILE@rD (read with --rotate D).
 
 Usage: specular_width.py [--docs DIR] [--wide N] [--verify F] ENVLIGHT MAP...
-       specular_width.py --docs DIR --plot-from DIR/specular_width.json x x  (redraw only)
+       specular_width.py --docs DIR --report-from PART1.json PART2.json ...
 With --docs DIR: DIR/specular_width.md (after a header: the command, date, load average,
 machine), DIR/specular_width.json (every run) and DIR/specular_width.png (gnuplot: error and
 seconds against width). Not in CI: it takes about half an hour on the 25 maps of the report.
@@ -36,7 +36,7 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from texel_bench import load_average, resolve  # noqa: E402  (the maps' arguments, as there)
 
-ROUGHNESS = [0.05, 0.1, 0.2, 0.3, 0.4]
+ROUGHNESS = [0.05, 0.1, 0.2, 0.4]
 LADDER = [32, 64, 128]
 WIDE = 256
 TARGET = 0.01
@@ -86,19 +86,19 @@ def secs(x):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("envlight")
-    ap.add_argument("maps", nargs="+")
+    ap.add_argument("envlight", nargs="?")
+    ap.add_argument("maps", nargs="*")
     ap.add_argument("--docs")
     ap.add_argument("--wide", type=int, default=6,
                     help="the first N maps also at 256-texel faces (default 6)")
-    ap.add_argument("--plot-from", metavar="JSON",
-                    help="only redraw DIR/specular_width.png (--docs) from a run's JSON")
+    ap.add_argument("--report-from", metavar="JSON", nargs="+",
+                    help="write the report and plot (--docs) from the JSON of runs over parts "
+                         "of the maps (their commands, dates and loads in the header)")
     ap.add_argument("--verify", type=int, default=320,
                     help="render the stated width when it is at most F faces (default 320)")
     a = ap.parse_args()
-    if a.plot_from:
-        with open(a.plot_from) as f:
-            plot(json.load(f)["runs"], a.docs or ".")
+    if a.report_from:
+        report_from(a)
         return
     command = " ".join([os.path.relpath(sys.argv[0])] + sys.argv[1:])
     started, load0, t0 = time.strftime("%Y-%m-%dT%H:%M:%S"), load_average(), time.time()
@@ -128,7 +128,34 @@ def main():
         with open(os.path.join(a.docs, "specular_width.md"), "w") as f:
             f.write(report)
         with open(os.path.join(a.docs, "specular_width.json"), "w") as f:
-            json.dump({"command": command, "date": started, "runs": runs}, f, indent=1)
+            json.dump({"command": command, "date": started, "took": took, "load": [load0,
+                       load_average()], "runs": runs, "overhead": overhead}, f, indent=1)
+        plot(runs, a.docs)
+
+
+def report_from(a):
+    """One report from several runs' JSON (parts of the maps run side by side)."""
+    parts = []
+    for fn in a.report_from:
+        with open(fn) as f:
+            parts.append(json.load(f))
+    runs = [r for p in parts for r in p["runs"]]
+    overhead = [o for p in parts for o in p["overhead"]]
+    command = " ; ".join(p["command"] for p in parts) + " ; then " + " ".join(
+        [os.path.relpath(sys.argv[0])] + sys.argv[1:])
+    started = " / ".join(p["date"] for p in parts)
+    load0 = " / ".join(p["load"][0] for p in parts)
+    took = max(p["took"] for p in parts)
+    report = write_report(a, runs, overhead, command, started, load0,
+                          took).replace("- load average at start / end: %s / %s" % (
+                              load0, load_average()), "- load average at start / end: %s / %s"
+                              % (load0, " / ".join(p["load"][1] for p in parts)))
+    print(report)
+    if a.docs:
+        with open(os.path.join(a.docs, "specular_width.md"), "w") as f:
+            f.write(report)
+        with open(os.path.join(a.docs, "specular_width.json"), "w") as f:
+            json.dump({"command": command, "parts": parts}, f, indent=1)
         plot(runs, a.docs)
 
 

@@ -612,9 +612,10 @@ ENVL_API envl_result envl_products_level(const envl_products *products, int32_t 
                                          envl_level *out);
 /* What a level's accuracy costs (docs/design.md, "Level width for 1 %"): measured with the
  * errors (request.measure) for each filtered level of roughness > 0 whose glossy error is
- * over ENVL_GLOSSY_TARGET, the narrowest width (found within 5 %) at which the same level's
- * glossy error, read at the 1024 directions from texels computed there as the level computes
- * them, meets it; the time estimated from the level's own seconds per texel. */
+ * over ENVL_GLOSSY_TARGET, the narrowest width (within 5 %) from which the same level's glossy
+ * error, read at the 1024 directions from texels computed there as the level computes them,
+ * meets it (there and 5 % and 10 % wider); the time estimated from the level's own seconds
+ * per texel. */
 #define ENVL_GLOSSY_TARGET 0.01
 #define ENVL_WIDTH_NOT_ESTIMATED 0 /* no errors measured, roughness 0, or the unfiltered baseline */
 #define ENVL_WIDTH_MET 1           /* the level's glossy error is within the target already */
