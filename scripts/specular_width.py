@@ -5,7 +5,7 @@ the glossy error and the seconds of one level against its cube-face width, for r
 "target_width", docs/design.md) holds.
 
 For each map and roughness R, `envlight prefilter MAP --levels 1 --roughness R --layout cube
---size F --json` at F = 32, 64, 128 (and 256 for the first --wide maps): the level's glossy
+--size F --json` at F = 32, 64 (and 128 for the first --wide maps): the level's glossy
 error, its seconds, and the width it states for 1 % with the time it estimates. Then, from the
 64-face run's statement, the level rendered at the stated width when it is at most --verify
 faces: its measured error (must be within 1 %), its seconds against the estimate, and the
@@ -37,8 +37,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from texel_bench import load_average, resolve  # noqa: E402  (the maps' arguments, as there)
 
 ROUGHNESS = [0.05, 0.1, 0.2, 0.4]
-LADDER = [32, 64, 128]
-WIDE = 256
+LADDER = [32, 64]
+WIDE = 128
 TARGET = 0.01
 
 
@@ -90,7 +90,7 @@ def main():
     ap.add_argument("maps", nargs="*")
     ap.add_argument("--docs")
     ap.add_argument("--wide", type=int, default=6,
-                    help="the first N maps also at 256-texel faces (default 6)")
+                    help="the first N maps also at 128-texel faces (default 6)")
     ap.add_argument("--report-from", metavar="JSON", nargs="+",
                     help="write the report and plot (--docs) from the JSON of runs over parts "
                          "of the maps (their commands, dates and loads in the header)")
@@ -186,7 +186,7 @@ def write_report(a, runs, overhead, command, started, load0, took):
          "", "![glossy error and seconds against the face width](specular_width.png)", ""]
     # the model: slopes per roughness
     L += ["## The model: how the error falls with the width", "",
-          "-d log(error) / d log(width) between ladder steps (32 -> 64 -> 128 -> 256), over "
+          "-d log(error) / d log(width) between ladder steps (32 -> 64 -> 128), over "
           "every map; the search's first step assumes 2 (bilinear interpolation of a P "
           "smooth on the texels' scale).", "",
           "| roughness | steps | median slope | 10 % | 90 % |", "|---|---|---|---|---|"]
@@ -239,8 +239,8 @@ def write_report(a, runs, overhead, command, started, load0, took):
     L += ["", "## Every map", "",
           "Error % at each face width (seconds in brackets); the width stated for 1 % from the "
           "64-face level (its error there, estimated seconds); that width rendered.", "",
-          "| map | roughness | 32 | 64 | 128 | 256 | stated for 1 % | est. s | at stated: error % "
-          "(s) | at stated / 1.1 |", "|---|---|---|---|---|---|---|---|---|---|"]
+          "| map | roughness | 32 | 64 | 128 | stated for 1 % | est. s | at stated: error % "
+          "(s) | at stated / 1.1 |", "|---|---|---|---|---|---|---|---|---|"]
     for e in runs:
         by = {x["face"]: x for x in e["ladder"]}
         cells = ["%s (%s)" % (pct(by[f]["error"]), secs(by[f]["seconds"])) if f in by else ""
