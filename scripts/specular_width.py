@@ -94,6 +94,9 @@ def main():
     ap.add_argument("--report-from", metavar="JSON", nargs="+",
                     help="write the report and plot (--docs) from the JSON of runs over parts "
                          "of the maps (their commands, dates and loads in the header)")
+    ap.add_argument("--overhead", type=int, default=3,
+                    help="the default chain's cost of the statement on the first N maps "
+                         "(default 3)")
     ap.add_argument("--verify", type=int, default=320,
                     help="render the stated width when it is at most F faces (default 320)")
     a = ap.parse_args()
@@ -120,17 +123,25 @@ def main():
                 runs.append(entry)
                 print("%s r %g: %s" % (name, r, " ".join(
                     "%d:%s%%" % (x["face"], pct(x["error"])) for x in rows)), file=sys.stderr)
-            overhead.append(chain_overhead(a.envlight, name, path, extra))
+            if n < a.overhead:
+                overhead.append(chain_overhead(a.envlight, name, path, extra))
+            if a.docs:  # after every map: a run stopped early still has its maps so far
+                save_json(a, command, started, load0, time.time() - t0, runs, overhead)
     took = time.time() - t0
     report = write_report(a, runs, overhead, command, started, load0, took)
     print(report)
     if a.docs:
         with open(os.path.join(a.docs, "specular_width.md"), "w") as f:
             f.write(report)
-        with open(os.path.join(a.docs, "specular_width.json"), "w") as f:
-            json.dump({"command": command, "date": started, "took": took, "load": [load0,
-                       load_average()], "runs": runs, "overhead": overhead}, f, indent=1)
+        save_json(a, command, started, load0, took, runs, overhead)
         plot(runs, a.docs)
+
+
+def save_json(a, command, started, load0, took, runs, overhead):
+    with open(os.path.join(a.docs, "specular_width.json"), "w") as f:
+        json.dump({"command": command, "date": started, "took": took,
+                   "load": [load0, load_average()], "runs": runs, "overhead": overhead}, f,
+                  indent=1)
 
 
 def report_from(a):
