@@ -154,13 +154,14 @@ def report_from(a):
     overhead = [o for p in parts for o in p["overhead"]]
     command = " ; ".join(p["command"] for p in parts) + " ; then " + " ".join(
         [os.path.relpath(sys.argv[0])] + sys.argv[1:])
-    started = " / ".join(p["date"] for p in parts)
-    load0 = " / ".join(p["load"][0] for p in parts)
-    took = max(p["took"] for p in parts)
+    started = " / ".join(sorted(set(p["date"] for p in parts)))
+    load0 = "; ".join(p["load"][0] for p in parts)
+    took = max(p["took"] for p in parts)  # the parts ran side by side
     report = write_report(a, runs, overhead, command, started, load0,
                           took).replace("- load average at start / end: %s / %s" % (
-                              load0, load_average()), "- load average at start / end: %s / %s"
-                              % (load0, " / ".join(p["load"][1] for p in parts)))
+                              load0, load_average()), "- load average at start / end, each "
+                              "part: %s" % "; ".join("%s / %s" % tuple(p["load"])
+                                                     for p in parts))
     print(report)
     if a.docs:
         with open(os.path.join(a.docs, "specular_width.md"), "w") as f:
