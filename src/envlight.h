@@ -610,6 +610,33 @@ ENVL_API envl_result envl_products_get_summary(const envl_products *products,
 ENVL_API int32_t envl_products_level_count(const envl_products *products);
 ENVL_API envl_result envl_products_level(const envl_products *products, int32_t index,
                                          envl_level *out);
+/* What a level's accuracy costs (docs/design.md, "Level width for 1 %"): measured with the
+ * errors (request.measure) for each filtered level of roughness > 0 whose glossy error is
+ * over ENVL_GLOSSY_TARGET, the narrowest width (within 5 %) from which the same level's glossy
+ * error, read at the 1024 directions from texels computed there as the level computes them,
+ * meets it (there and 5 % and 10 % wider); the time estimated from the level's own seconds
+ * per texel. */
+#define ENVL_GLOSSY_TARGET 0.01
+#define ENVL_WIDTH_NOT_ESTIMATED 0 /* no errors measured, roughness 0, or the unfiltered baseline */
+#define ENVL_WIDTH_MET 1           /* the level's glossy error is within the target already */
+#define ENVL_WIDTH_FOUND 2         /* width, size, glossy_error, seconds: where it is met */
+#define ENVL_WIDTH_BEYOND 3        /* not met up to the largest size (65536 lat-long texels):
+                                      width, size, glossy_error, seconds are that size's */
+typedef struct envl_width_estimate {
+    int32_t state;            /* ENVL_WIDTH_* */
+    int32_t width;            /* the level's width there: lat-long width, or the face size
+                                 for cube faces (envl_level.layout ENVL_LAYOUT_STRIP_H) */
+    int32_t size;             /* envl_prefilter_options.width that makes the level that wide
+                                 in the same request (width << k, x 4 for faces) */
+    double glossy_error;      /* the glossy error read there */
+    double seconds;           /* estimated: the level's seconds x texels there / texels now */
+    int32_t widths_tried;     /* widths the search read */
+    int32_t directions_read;  /* of the 1024 error directions, those read at each (the ones
+                                 that carry the level's error) */
+    double seconds_spent;     /* the search's own time */
+} envl_width_estimate;
+ENVL_API envl_result envl_products_level_width(const envl_products *products, int32_t index,
+                                               envl_width_estimate *out);
 /* Index of the level of exactly `roughness` (-1 if none). */
 ENVL_API int32_t envl_products_find_level(const envl_products *products, double roughness);
 /* ENVL_ERR_ARGUMENT when the product was not requested. */

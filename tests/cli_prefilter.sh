@@ -103,6 +103,32 @@ import json
 d = json.load(open("out.txt"))
 assert "irradiance" not in d and [l["roughness"] for l in d["specular"]] == [0.4]
 PY
+# The width a level over 1 % glossy error would need (docs/design.md, "Level width for 1 %"):
+# the line under the level and prefilter.json's target_width say the same; its figures are
+# tests/test_level_width.c's to check. A level within 1 % or not measured states no width.
+run "$ENVLIGHT" prefilter - -o tw --sky-width 256 --quiet --levels 1 --roughness 0.2 \
+  --layout cube --size 16
+py <<'PY'
+import json, re
+t = json.load(open("tw/prefilter.json"))["specular"][0]["target_width"]
+assert t["target"] == 0.01 and t["state"] == "found", t
+face = t["height"]
+assert face > 16 and t["width"] == 6 * face and t["prefilter_width"] == 4 * face, t
+assert t["glossy_error"] <= 0.01 and t["seconds_estimated"] > 0 and t["widths_tried"] > 0, t
+line = [l for l in open("out.txt") if "glossy 1 % at" in l]
+assert len(line) == 1, open("out.txt").read()
+m = re.search(r"at 6 x (\d+)\^2 \(--size (\d+)\): ([0-9.]+) % there, about ([0-9.]+) s", line[0])
+assert m and int(m[1]) == face and int(m[2]) == face, line
+assert abs(float(m[3]) - 100 * t["glossy_error"]) < 6e-4, (m[3], t)
+PY
+run "$ENVLIGHT" prefilter - -o tw2 --sky-width 256 --quiet --levels 1 --roughness 0.2 \
+  --layout cube --size 16 --no-error
+grep -q "glossy 1 %" out.txt && { fails=$((fails + 1)); echo "FAIL: a width without errors"; }
+py <<'PY'
+import json
+t = json.load(open("tw2/prefilter.json"))["specular"][0]["target_width"]
+assert t["state"] == "not estimated" and t["width"] is None and t["widths_tried"] == 0, t
+PY
 # A failed run leaves the existing files as they were.
 cp ll/specular_00.exr before.exr
 status 1 "$ENVLIGHT" prefilter nonexistent.hdr -o ll

@@ -946,6 +946,21 @@ def brdf_eval(nov, roughness, samples=None):
     return ab[0], ab[1]
 
 
+def _target_width_dict(w, layout):
+    """An envl_width_estimate as prefilter.json's target_width (figures None unless found or
+    beyond): width, height of the level's image there (six faces side by side, or lat-long)."""
+    state = ("not estimated", "met", "found", "beyond")[w.state if 0 <= w.state < 4 else 0]
+    has = state in ("found", "beyond")
+    faces = _layout_name(layout) == "hstrip"
+    return {"target": 0.01, "state": state,
+            "width": (6 * w.width if faces else w.width) if has else None,
+            "height": (w.width if faces else w.width // 2) if has else None,
+            "prefilter_width": w.size if has else None,
+            "glossy_error": w.glossy_error if has else None,
+            "seconds_estimated": w.seconds if has else None, "widths_tried": w.widths_tried,
+            "directions_read": w.directions_read, "seconds_spent": w.seconds_spent}
+
+
 class Products(_Handle):
     """What Envmap.prefilter computed: .levels (list of dicts with an 'rgb' array), .irradiance
     (dict with 'rgb', or None), .sh_irradiance (coefficients or None), .brdf (array or None),
@@ -958,10 +973,13 @@ class Products(_Handle):
         _check(lib.envl_products_get_summary(handle, byref(s)))
         self.summary = {name: getattr(s, name) for name, _ in s._fields_}
         self.levels = []
-        st = _lib.Level()
+        st, wt = _lib.Level(), _lib.WidthEstimate()
         for i in range(lib.envl_products_level_count(handle)):
             _check(lib.envl_products_level(handle, i, byref(st)))
+            _check(lib.envl_products_level_width(handle, i, byref(wt)))
             self.levels.append(_level_dict(st))
+            #: the width for 1 % glossy error (docs/design.md, "Level width for 1 %")
+            self.levels[-1]["target_width"] = _target_width_dict(wt, st.layout)
         im = _lib.IrradianceMap()
         self.irradiance = None
         if s.irradiance_maps and lib.envl_products_irradiance(handle, byref(im)) == 0:

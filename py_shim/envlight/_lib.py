@@ -210,6 +210,19 @@ class Level(Structure):
     ]
 
 
+class WidthEstimate(Structure):
+    _fields_ = [
+        ("state", c_int32),
+        ("width", c_int32),
+        ("size", c_int32),
+        ("glossy_error", c_double),
+        ("seconds", c_double),
+        ("widths_tried", c_int32),
+        ("directions_read", c_int32),
+        ("seconds_spent", c_double),
+    ]
+
+
 class IrradianceMap(Structure):
     _fields_ = [
         ("method", c_int32),
@@ -389,6 +402,7 @@ STRUCTS = {
     "envl_prefilter_options": PrefilterOptions,
     "envl_texel_error": TexelError,
     "envl_level": Level,
+    "envl_width_estimate": WidthEstimate,
     "envl_irradiance_map": IrradianceMap,
     "envl_brdf_options": BrdfOptions,
     "envl_request": Request,
@@ -483,6 +497,7 @@ FUNCTIONS = {
     "envl_products_level_count": (c_int32, [_prod]),
     "envl_products_level": (_R, [_prod, c_int32, POINTER(Level)]),
     "envl_products_find_level": (c_int32, [_prod, c_double]),
+    "envl_products_level_width": (_R, [_prod, c_int32, POINTER(WidthEstimate)]),
     "envl_products_irradiance": (_R, [_prod, POINTER(IrradianceMap)]),
     "envl_products_sh": (_sh, [_prod]),
     "envl_products_lights": (_lts, [_prod]),

@@ -210,6 +210,25 @@ static void note_texel_bounds(const envl_products *p, int half)
     }
 }
 
+/* Under a level over the glossy target: the width that would meet it (envl_width_estimate),
+ * as --size gives it (the face size for cube faces), and the time estimated. */
+static void print_target_width(const envl_level *l, const envl_products *p, int32_t i)
+{
+    envl_width_estimate w;
+    if (envl_products_level_width(p, i, &w) ||
+        (w.state != ENVL_WIDTH_FOUND && w.state != ENVL_WIDTH_BEYOND))
+        return;
+    int faces = l->layout == ENVL_LAYOUT_STRIP_H;
+    char size[32];
+    size_text(size, sizeof size, l->layout, faces ? 6 * w.width : w.width,
+              faces ? w.width : w.width / 2);
+    printf("             glossy %g %% %s %s (--size %d): %.3f %% there, about %.1f s (this "
+           "level's s per texel; %d widths read at %d directions in %.3f s)\n",
+           100 * ENVL_GLOSSY_TARGET, w.state == ENVL_WIDTH_FOUND ? "at" : "not met up to", size,
+           (int)(faces ? w.size / 4 : w.size), 100 * w.glossy_error, w.seconds,
+           (int)w.widths_tried, (int)w.directions_read, w.seconds_spent);
+}
+
 /* The table of what was written: the products, their errors and seconds. */
 static int print_summary(const envl_envmap *map, const envl_products *p, const char *dir,
                          const envl_export_options *eo)
@@ -240,6 +259,7 @@ static int print_summary(const envl_envmap *map, const envl_products *p, const c
                l.samples ? (l.filtered ? " filtered" : " plain") : " (resampled)");
         printf("  %s  %s  %.3f s\n", cli_error_text(e, sizeof e, "glossy", l.glossy_error),
                cli_texel_text(t, sizeof t, &l.texel_error), l.seconds);
+        print_target_width(&l, p, i);
     }
     int32_t nsun;
     const envl_light *sun = envl_products_sun_lights(p, &nsun);

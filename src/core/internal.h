@@ -203,6 +203,14 @@ int32_t envl__footprint_subdivision(double texel, int32_t h);
 /* A strip of six faces (ENVL_LAYOUT_STRIP_H, face texels square) read bilinearly in direction
  * d, a tap beyond a face's edge read from the face it falls on (as layout.c's input cubes). */
 void envl__strip_sample(const float *strip, int32_t face, const double d[3], double out[3]);
+/* The four texels a product image (ENVL_LAYOUT_LATLONG w x h, or ENVL_LAYOUT_STRIP_H of h-texel
+ * faces) is read from bilinearly in direction d, and their weights (summing to 1): what
+ * envl_latlong_sample and envl__strip_sample read, but for a lat-long image between the first
+ * (last) row's centre and the pole the row itself, not its blend with the pole's mean, and for
+ * faces a tap beyond a face's edge clamped to the face, not read from the next face. The
+ * level-width estimate (level_width.c) reads levels it has not computed through it. */
+void envl__texel_taps(int32_t layout, int32_t w, int32_t h, const double d[3],
+                      int32_t col[4], int32_t row[4], double weight[4]);
 /* The texels of a strip of six faces put into `layout` (ENVL_LAYOUT_STRIP_H, ENVL_LAYOUT_CROSS_V
  * or ENVL__LAYOUT_GL_STRIP) of the same face size: each output texel is the input texel with
  * the same centre direction (the faces' texel grids coincide), nothing resampled. */

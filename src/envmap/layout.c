@@ -977,6 +977,39 @@ void envl__strip_sample(const float *strip, int32_t face, const double d[3], dou
     sample_layout(&img, &g, &p, out);
 }
 
+void envl__texel_taps(int32_t layout, int32_t w, int32_t h, const double d[3],
+                      int32_t col[4], int32_t row[4], double weight[4])
+{
+    double x, y;
+    int32_t x0 = 0, x1 = w, wrap = layout != ENVL_LAYOUT_STRIP_H;
+    if (wrap) {
+        envl_latlong_pixel(w, h, d, &x, &y); /* centres on integers */
+        y = clampd(y, 0, h - 1);
+    } else {
+        geom g;
+        spos p;
+        if (geom_init(&g, ENVL_LAYOUT_STRIP_H, w, h) || !dir_to_pos(&g, d, &p)) {
+            for (int k = 0; k < 4; k++)
+                col[k] = row[k] = 0, weight[k] = k == 0;
+            return;
+        }
+        x0 = p.x0, x1 = p.x1;
+        x = clampd(p.x, p.x0 + 0.5, p.x1 - 0.5) - 0.5;
+        y = clampd(p.y, p.y0 + 0.5, p.y1 - 0.5) - 0.5;
+    }
+    double fx = floor(x), fy = floor(y), tx = x - fx, ty = y - fy;
+    for (int k = 0; k < 4; k++) {
+        int32_t c = (int32_t)fx + (k & 1), r = (int32_t)fy + (k >> 1);
+        if (wrap)
+            c = ((c % w) + w) % w;
+        else
+            c = c < x0 ? x0 : c >= x1 ? x1 - 1 : c;
+        col[k] = c;
+        row[k] = r < 0 ? 0 : r >= h ? h - 1 : r;
+        weight[k] = ((k & 1) ? tx : 1 - tx) * ((k >> 1) ? ty : 1 - ty);
+    }
+}
+
 envl_result envl__faces_to_layout(const float *strip, int32_t face, int32_t layout,
                                   envl_image *out)
 {

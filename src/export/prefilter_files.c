@@ -297,6 +297,29 @@ static envl_result put_map(exporter *x, int32_t layout, int32_t frame, const cha
 
 /* A product's per-texel error (null figures when not measured), its worst direction in the
  * output frame. */
+/* "target_width": the width at which the level's glossy error would meet ENVL_GLOSSY_TARGET
+ * (level_width.c), its width and height as the level's own (six faces side by side, or
+ * lat-long), envl_prefilter_options.width for it, the error read there and the time
+ * estimated; null figures where there is none. */
+static void put_target_width(json_writer *j, const envl_level *l, const envl_width_estimate *e)
+{
+    static const char *const states[] = {"not estimated", "met", "found", "beyond"};
+    int has = e->state == ENVL_WIDTH_FOUND || e->state == ENVL_WIDTH_BEYOND;
+    int faces = l->layout == ENVL_LAYOUT_STRIP_H;
+    json_object(j, "target_width");
+    json_number(j, "target", ENVL_GLOSSY_TARGET);
+    json_string(j, "state", states[e->state >= 0 && e->state < 4 ? e->state : 0]);
+    json_number(j, "width", has ? (faces ? 6.0 : 1.0) * e->width : NAN);
+    json_number(j, "height", has ? (faces ? e->width : e->width / 2) : NAN);
+    json_number(j, "prefilter_width", has ? e->size : NAN);
+    json_number(j, "glossy_error", has ? e->glossy_error : NAN);
+    json_number(j, "seconds_estimated", has ? e->seconds : NAN);
+    json_int(j, "widths_tried", e->widths_tried);
+    json_int(j, "directions_read", e->directions_read);
+    json_number(j, "seconds_spent", e->seconds_spent);
+    json_object_end(j);
+}
+
 static void put_texel_error(json_writer *j, const envl_texel_error *t, int32_t frame)
 {
     json_object(j, "texel_error");
@@ -746,6 +769,7 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
             json_number(j, "glossy_error", l->glossy_error >= 0 ? l->glossy_error : NAN);
             put_texel_error(j, &l->texel_error, o->frame);
             json_number(j, "seconds", l->seconds);
+            put_target_width(j, l, &p->widths[i]);
             if (vk) {
                 const envl_level *l0 = &p->levels[0];
                 json_int(j, "mip_level", i);

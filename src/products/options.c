@@ -116,11 +116,15 @@ envl_result envl__prefilter_resolve(const envl_prefilter_options *o, const envl_
     return ENVL_OK;
 }
 
-int32_t envl__level_width(const resolved *r, double roughness)
+int32_t envl__level_shift(const resolved *r, double roughness)
 {
     int32_t k = r->levels > 1 ? (int32_t)floor(roughness * (r->levels - 1) + 1e-9) : 0;
-    if (k < 0)
-        k = 0;
+    return k < 0 ? 0 : k;
+}
+
+int32_t envl__level_width(const resolved *r, double roughness)
+{
+    int32_t k = envl__level_shift(r, roughness);
     int32_t w = k >= 31 ? 0 : r->width >> k;
     int32_t mn = r->min_width < r->width ? r->min_width : r->width;
     return w < mn ? mn : w;

@@ -56,6 +56,15 @@ envl_result envl__specular_level(envl_envmap *m, const resolved *o, double rough
  * ENVL_ERR_NONFINITE naming the map's file and the roughness. */
 envl_result envl__level_finite(const envl_envmap *m, const envl_level *st, float **px);
 
+/* ---- what a level's width costs (level_width.c) ---- */
+/* The width at which level l (measured: glossy_error >= 0) would meet ENVL_GLOSSY_TARGET: C the
+ * cells it was computed from, sun / n_sun the sun lights added to it, ref the glossy reference
+ * at the error directions dirs. */
+envl_result envl__level_width_estimate(const envl_cells *C, const resolved *o,
+                                       const envl_level *l, const envl_light *sun,
+                                       int32_t n_sun, const double *dirs, const double *ref,
+                                       envl_width_estimate *out);
+
 /* ---- irradiance maps (irradiance_map.c) ---- */
 /* `sh` may be given (an SH object of the right order, shared with the diffuse product);
  * *projected is set when an SH projection was made here. */
@@ -70,6 +79,7 @@ struct envl_products {
     resolved opt;
     int32_t n_levels;
     envl_level *levels;
+    envl_width_estimate *widths; /* per level: the width for ENVL_GLOSSY_TARGET (measured) */
     float **level_px;
     int32_t has_irradiance;
     int32_t measured;         /* request.measure: the errors were measured */

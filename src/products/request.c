@@ -19,6 +19,7 @@ void envl_products_free(envl_products *p)
         free(p->level_px[i]);
     free(p->level_px);
     free(p->levels);
+    free(p->widths);
     free(p->irr_px);
     envl_sh_free(p->sh);
     envl_lights_free(p->lights);
@@ -70,7 +71,8 @@ static envl_result plan_levels(const envl_request *q, envl_products *p, plan *pl
     pl->want = malloc(sizeof(double) * cap);
     p->levels = calloc((size_t)cap, sizeof(envl_level));
     p->level_px = calloc((size_t)cap, sizeof(float *));
-    if (!pl->want || !p->levels || !p->level_px)
+    p->widths = calloc((size_t)cap, sizeof(envl_width_estimate));
+    if (!pl->want || !p->levels || !p->level_px || !p->widths)
         return envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
     if (q->mirror && !q->specular_chain)
         add_level(pl, &p->opt, 0.0);
@@ -249,8 +251,10 @@ static envl_result written_error(envl_envmap *m, const envl_cells *C, const envl
 }
 
 /* The glossy error of every level and the diffuse error of the irradiance map (the sun lights
- * added as the renderer adds them), and the per-texel error of each, as written. */
-static envl_result measure(envl_envmap *m, envl_products *p)
+ * added as the renderer adds them), and the per-texel error of each, as written; for a level
+ * over ENVL_GLOSSY_TARGET the width that would meet it (sp: the split whose cells the levels
+ * were computed from, with sun lights). */
+static envl_result measure(envl_envmap *m, envl_products *p, const split *sp)
 {
     double *dirs = envl__fibonacci_dirs();
     double *ref = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
@@ -274,6 +278,9 @@ static envl_result measure(envl_envmap *m, envl_products *p)
         if (!rc)
             rc = written_error(m, C, p, dirs, ref, l->rgb, l->layout, l->width, l->height, n_sun,
                                l->roughness, &l->glossy_error, &l->texel_error);
+        if (!rc)
+            rc = envl__level_width_estimate(sp->cells ? sp->cells : C, &p->opt, l, p->sun, n_sun,
+                                            dirs, ref, &p->widths[i]);
     }
     if (!rc && p->sh)
         rc = envl__sh_measure(m, p->sh);
@@ -333,13 +340,13 @@ envl_result envl_compute(envl_envmap *map, const envl_request *q, envl_products 
         rc = compute_shadows(m, q, p);
     if (!rc)
         rc = compute_levels(m, p, &pl);
-    envl__split_free(&pl.sp);
     free(pl.want);
     if (!rc && q->brdf_lut && !(rc = step(&pl, "BRDF table")))
         rc = compute_brdf(q, p);
     p->summary.seconds = envl__seconds() - t0;
     if (!rc && q->measure && !(rc = step(&pl, "error measures")))
-        rc = measure(m, p);
+        rc = measure(m, p, &pl.sp); /* the split kept for the levels' width estimates */
+    envl__split_free(&pl.sp);
     p->measured = q->measure != 0;
     if (!rc)
         rc = envl__progress(1.0, "done");
@@ -375,6 +382,14 @@ int32_t envl_products_find_level(const envl_products *p, double roughness)
         if (p->levels[i].roughness == roughness)
             return i;
     return -1;
+}
+
+envl_result envl_products_level_width(const envl_products *p, int32_t i, envl_width_estimate *out)
+{
+    if (!p || !out || i < 0 || i >= p->n_levels)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_products_level_width: no level %d", (int)i);
+    *out = p->widths[i];
+    return ENVL_OK;
 }
 
 envl_result envl_products_irradiance(const envl_products *p, envl_irradiance_map *out)
