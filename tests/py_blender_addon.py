@@ -248,8 +248,8 @@ def spot_run(request, addon_zip, spot_hdr):
 
 
 def test_progress_bar_follows_the_library(spot_run):
-    """Create Lights' bar: its own steps (0.2, 0.6, 0.75, 1) and, between 0.2 and 0.6, the
-    library's progress callback while it fits, rising."""
+    """Create Lights' bar: its own steps (0.01, the reading's 0.02-0.2, 0.6, 0.75, 1) and, up
+    to 0.6, the library's progress callback while it fits, rising."""
     v = spot_run["progress"]
     assert v == sorted(v) and v[-1] == 1.0, v
     inside = [x for x in v if 0.2 < x < 0.6]

@@ -360,6 +360,8 @@ def repair_warnings(what, stats):
 #: the library's memory, then the span its conversion to the map reports over (the copy and
 #: the conversion take about the same time; the whole reading up to 0.2, where the fits start)
 READ_PROGRESS = ((0.02, 0.1), (0.1, 0.2))
+#: where the bar is once the suns are found (from 0.2; the fits then move it to 0.6)
+SUN_PROGRESS = 0.35
 
 
 def read_source(pkg, world, step=None):
@@ -820,18 +822,20 @@ def pixels_to_image(residual, name):
     rgba = np.ones((h, w, 4), dtype=np.float32)
     rgba[..., :3] = residual[::-1]
     img.pixels.foreach_set(rgba.ravel())
+    del rgba  # before pack() encodes the image: not both at once
     img.file_format = "OPEN_EXR"
     img.pack()
     return img
 
 
-def fit_rest(pkg, env, rest, plan, method, order, strength, step):
+def fit_rest(pkg, env, rest, plan, method, order, strength, step, start=0.2):
     """The plan's lamps (method, count) and world from `rest` (the map, or the map less its
     suns): -> (lights, summary, residual image or None, SH coefficients or None). Over a
     ground, Cycles traces the ground's bounce itself, so the lamps and the world take the sky
     half only (Envmap.sky_hemisphere; the SH fitted to the sky half, sky_sh2); EEVEE gathers
     little of it, so its world keeps the ground's bounce as the map's lower half
-    (Envmap.ground_plane, as envlight pov --ground). Closes `rest` unless it is `env`."""
+    (Envmap.ground_plane, as envlight pov --ground). Closes `rest` unless it is `env`. The
+    library's progress moves the bar from `start` to 0.6."""
     import numpy as np
     mode = plan.world_mode
     residual = sh_coeffs = None
@@ -849,10 +853,10 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step):
     elif plan.ground_albedo is not None:
         used = rest.sky_hemisphere()
     if plan.dome:
-        return dome_rest(pkg, env, rest, used, plan, step)
+        return dome_rest(pkg, env, rest, used, plan, step, start)
     try:
-        # the library's own progress moves the bar from 0.2 to 0.6 while it fits (issue 16)
-        with pkg.progress(lambda f, stage: step(min(0.6, 0.2 + 0.4 * f))), \
+        # the library's own progress moves the bar to 0.6 while it fits (issue 16)
+        with pkg.progress(lambda f, stage: step(min(0.6, start + (0.6 - start) * f))), \
                 used.lights(plan.count, method=method, order=order) as res:
             step(0.6)
             lights = list(res.lights)
@@ -892,7 +896,7 @@ def exact_figures(pkg, env, lamps, residual):
             "residual_power": residual_power}
 
 
-def dome_rest(pkg, env, rest, used, plan, step):
+def dome_rest(pkg, env, rest, used, plan, step, start=0.2):
     """EEVEE's dome (eevee_dome) over `used` (the map less the suns; over a ground its lower
     half the bounce): -> (the dome's lamps, the cut's summary, the world's image: the ground's
     bounce below the horizon over a ground, else nothing, None). Closes `used` and `rest`
@@ -903,7 +907,7 @@ def dome_rest(pkg, env, rest, used, plan, step):
     sky = eevee_dome.upper_half(np, world) if ground else world
     try:
         with pkg.from_pixels(sky, layout="latlong") as smap, \
-                pkg.progress(lambda f, stage: step(min(0.6, 0.2 + 0.4 * f))), \
+                pkg.progress(lambda f, stage: step(min(0.6, start + (0.6 - start) * f))), \
                 smap.lights(plan.dome, method="variance") as res:
             lights, summary = list(res.lights), dict(res.summary)
     finally:
@@ -1002,7 +1006,8 @@ def create_lights(context, settings, progress=None, force=False):
         if plan.suns:
             # the suns first, as lamps of their own size (sharp shadows, exact highlights):
             # the rest of the plan works on the map less exactly what they took
-            with env.lights(MAX_SUNS, method="sun") as sres:
+            with pkg.progress(lambda f, stage: step(0.2 + (SUN_PROGRESS - 0.2) * f)), \
+                    env.lights(MAX_SUNS, method="sun") as sres:
                 sun_lights = list(sres.lights)
                 sun_summary = dict(sres.summary)
                 if sun_lights:
@@ -1050,8 +1055,11 @@ def create_lights(context, settings, progress=None, force=False):
             if rest is not env:
                 rest.close()
         else:
-            lights, summary, residual, sh_coeffs = fit_rest(pkg, env, rest, plan, method,
-                                                            order, strength, step)
+            if rest is not env and not (plan.ground_albedo is not None and plan.camera_only):
+                env.close()  # the fit needs only the map less the suns: one copy fewer
+            lights, summary, residual, sh_coeffs = fit_rest(
+                pkg, env, rest, plan, method, order, strength, step,
+                SUN_PROGRESS if plan.suns else 0.2)
     if plan.suns and sun_lights:
         plan.reasons.append("%d sun%s as lamps of %s own size (%s degrees)" % (
             len(sun_lights), "s" if len(sun_lights) > 1 else "",
@@ -1103,11 +1111,14 @@ def create_lights(context, settings, progress=None, force=False):
     suns += create_suns(scene, lights, rot, strength, plan.shadows, glossy=not glossy_hdr,
                         shadow_resolution=eevee_dome.shadow_resolution(scene)
                         if plan.dome else None, over_residual=mode == "RESIDUAL")
+    # each map freed once Blender holds its image: at 16K each is 1.5 GB (docs/blender_16k.md)
     glossy_image = None
     if glossy_pixels is not None and glossy_hdr:
         glossy_image = pixels_to_image(glossy_pixels, "EnvLight Glossy")
+    glossy_pixels = None
     residual_image = pixels_to_image(residual, "EnvLight Residual") \
         if mode == "RESIDUAL" else None
+    residual = None
     notes = []
     if world.use_nodes and world.node_tree:
         _, sun_note = build_world(world, mode, original_socket, residual_image, sh_coeffs,
