@@ -24,7 +24,7 @@ import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from blender_addon_check import install  # noqa: E402
-from blender_scene import run_main  # noqa: E402
+from blender_scene import run_main, world_with_image  # noqa: E402
 
 MIB = 1024.0 * 1024.0
 
@@ -67,19 +67,10 @@ def main():
     res = {"blender": bpy.app.version_string, "envlight": pkg.version()}
     res["rss_start"], _ = memory()
 
-    scene = bpy.context.scene
-    world = bpy.data.worlds.new("Bench World")
-    scene.world = world
-    world.use_nodes = True
-    tree = world.node_tree
-    tex = tree.nodes.new("ShaderNodeTexEnvironment")
-    tree.links.new(tex.outputs["Color"], tree.nodes["Background"].inputs["Color"])
-
     def load():
-        img = bpy.data.images.load(spec["image"])
-        tex.image = img
-        return tuple(img.size)  # Blender decodes the file here
-    size, res["image_load"] = phase(load)
+        world, tex = world_with_image("Bench World", spec["image"])
+        return world, tex, tuple(tex.image.size)  # Blender decodes the file here
+    (world, tex, size), res["image_load"] = phase(load)
     res["size"] = list(size)
     res["is_float"] = tex.image.is_float
     res["rss_image"], _ = memory()  # Blender's own footprint with the image

@@ -24,20 +24,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from blender_addon_check import install  # noqa: E402
-from blender_scene import run_main  # noqa: E402
-
-
-def world_with(image_path, projection):
-    scene = bpy.context.scene
-    world = bpy.data.worlds.new("Read World")
-    scene.world = world
-    world.use_nodes = True
-    tree = world.node_tree
-    tex = tree.nodes.new("ShaderNodeTexEnvironment")
-    tex.projection = projection
-    tex.image = bpy.data.images.load(image_path)
-    tree.links.new(tex.outputs["Color"], tree.nodes["Background"].inputs["Color"])
-    return world, tex.image
+from blender_scene import run_main, world_with_image  # noqa: E402
 
 
 def main():
@@ -48,7 +35,8 @@ def main():
     pkg = core.shim()
     out = {"blender": bpy.app.version_string, "images": []}
     for item in spec["images"]:
-        world, image = world_with(item["path"], item["projection"])
+        world, tex = world_with_image("Read World", item["path"], item["projection"])
+        image = tex.image
         w, h = image.size  # Blender decodes the file: its own memory, before the reading
         ch = image.channels
         tracemalloc.start()

@@ -304,8 +304,8 @@ def envmap_of_image(pkg, fill, w, h, ch, layout, warnings=None, name="image"):
     image's right = +X and up = +Z (the centre sees -Y), the library along +X with right = -Y
     (layout.c): Blender's direction = Rz(+90 degrees) the library's. The library's lat-long of
     the ball is turned by that quarter turn as it is made (rotate=90: a shift by a quarter of
-    its width, a multiple of 4, exactly). Blender stretches the ball over the whole image: a non-square one is
-    resampled (nearest) to a square first."""
+    its width, a multiple of 4, exactly). Blender stretches the ball over the whole image: a
+    non-square one is resampled (nearest) to a square first."""
     import numpy as np
     if layout == "latlong":
         env = pkg.from_pixels_in_place(fill, w, h, ch, flip=True, layout="latlong")

@@ -33,8 +33,8 @@ except ImportError:  # pragma: no cover - numpy is optional
 
 __all__ = ["Error", "ArgumentError", "Envmap", "LightsResult", "SHResult", "Light", "load", "sky",
            "from_pixels", "from_pixels_in_place", "save_image", "fibonacci_directions",
-           "relative_rms_luminance", "sh_basis", "cosine_lobe", "brdf_lut", "brdf_eval", "Products", "version",
-           "ABI_VERSION", "library_path", "has_numpy", "progress"]
+           "relative_rms_luminance", "sh_basis", "cosine_lobe", "brdf_lut", "brdf_eval",
+           "Products", "version", "ABI_VERSION", "library_path", "has_numpy", "progress"]
 
 __version__ = "0.1.0"
 has_numpy = _np is not None
