@@ -11,8 +11,9 @@ for the button also when its progress callback first ran and how far the bar was
 image had been read. With --baseline-zip OTHER.zip (another add-on, e.g. main's) the two
 add-ons run alternately on each image, the ratio of their seconds in the table.
 
-  scripts/blender_16k_bench.py [--blender CMD] [--zip ZIP] [--baseline-zip ZIP]
-                               [--sizes W ...] [--map MAP] [--work DIR] [--docs DIR]
+  scripts/blender_16k_bench.py [--blender CMD] [--zip ZIP] [--baseline-zip ZIP] [--runs N]
+                               [--sizes W ...] [--map MAP] [--format exr|hdr] [--work DIR]
+                               [--docs DIR]
 
 Memory is in MiB and, for what the add-on adds, also in copies of the image as Blender holds
 it (W x H x 4 float32 = 16 W H bytes). Not in the test suite: 16K needs about 8 GB free and
@@ -45,6 +46,8 @@ def parse_args(argv):
     p.add_argument("--zip", help="the add-on zip (default: made from this tree and build/)")
     p.add_argument("--baseline-zip", help="another add-on zip run alternately on each image")
     p.add_argument("--sizes", type=int, nargs="+", default=[1024, 4096, 8192, 16384])
+    p.add_argument("--runs", type=int, default=1,
+                   help="runs of each add-on on each image, alternating (default 1)")
     p.add_argument("--map", default=os.path.join(DATA, "latlong_hdri", "rooitou_park_1k.hdr"))
     p.add_argument("--envlight", default=os.path.join(ROOT, "build", "envlight"))
     p.add_argument("--format", choices=("exr", "hdr"), default="exr",
@@ -94,7 +97,13 @@ def copies(mib, w, h):
     return mib * MIB / (16.0 * w * h)
 
 
-def row(tag, r, base=None):
+def median_run(runs):
+    """The run of median button seconds (the lower middle one of an even count)."""
+    return sorted(runs, key=lambda r: r["button"]["seconds"])[(len(runs) - 1) // 2]
+
+
+def row(tag, runs, ratios=None):
+    r = median_run(runs)
     w, h = r["size"]
     own = r["rss_image"] - r["rss_start"]
     read = r["read"]["peak"] - r["rss_image"]
@@ -104,7 +113,9 @@ def row(tag, r, base=None):
     button = r["button"]["peak"] - r["rss_image"]
     prog = r["button"]["progress"]
     first = prog[0][0] if prog else float("nan")
-    ratio = "%.2f" % (r["button"]["seconds"] / base["button"]["seconds"]) if base else "1"
+    ratio = "%.2f" % sorted(ratios)[(len(ratios) - 1) // 2] if ratios else "1"
+    if len(runs) > 1:
+        ratio += "; runs %s s" % " ".join("%.1f" % x["button"]["seconds"] for x in runs)
     return ("| %d x %d | %s | %.0f | %.2f s, +%.0f (%.2f) | %s | "
             "%.2f s (%s), +%.0f (%.2f) | %.2f | %.3f s | %s |"
             % (w, h, tag, own, r["read"]["seconds"], read, copies(read, w, h),
@@ -128,9 +139,12 @@ def main(argv):
     results = []
     for w in args.sizes:
         image = image_of_width(args, w)
-        base = run(args, args.baseline_zip, image, "baseline") if args.baseline_zip else None
-        new = run(args, zip_path, image, "addon")
-        results.append((base, new))
+        pairs = []
+        for k in range(args.runs):  # alternating: both add-ons see the same load, on average
+            base = run(args, args.baseline_zip, image, "baseline%d" % k) \
+                if args.baseline_zip else None
+            pairs.append((base, run(args, zip_path, image, "addon%d" % k)))
+        results.append(pairs)
         print("blender_16k_bench: %d done (load %.2f)" % (w, os.getloadavg()[0]),
               file=sys.stderr)
     load1 = os.getloadavg()
@@ -143,7 +157,7 @@ def main(argv):
              "- load average at start / end: %s / %s" % (
                  " ".join("%.2f" % v for v in load0), " ".join("%.2f" % v for v in load1)),
              "- machine: %s; Blender %s (background), envlight %s" % (
-                 machine(), results[0][1]["blender"], results[0][1]["envlight"]),
+                 machine(), results[0][0][1]["blender"], results[0][0][1]["envlight"]),
              "- image: %s resampled by `envlight convert --size W` (float .%s)"
              % (os.path.basename(args.map), args.format), "",
              "Memory in MiB of resident memory (VmRSS / VmHWM); in brackets as copies of the "
@@ -152,7 +166,9 @@ def main(argv):
              "seconds, and the peak above Blender's own: *read* the add-on reading the world "
              "image into the library (core.read_source), *file* the library reading the "
              "image's file itself (envlight.load), *button* the whole Create Lights (with the "
-             "ratio of its seconds to the baseline add-on's on the same image). *Bar at the "
+             "ratio of its seconds to the baseline add-on's on the same image, the median of the "
+             "ratios of the pairs run one after the other; the row is the run of median "
+             "seconds, all runs' seconds beside the ratio). *Bar at the "
              "peak*: the progress value when the button's resident memory, sampled every "
              "20 ms, was highest (up to 0.2 the reading; 0.2-0.35 the suns; to 0.6 the fit; "
              "0.6-0.75 its results; then the lamps, images and nodes in Blender). *First "
@@ -161,12 +177,17 @@ def main(argv):
              "| image | add-on | Blender's own | read | file | button | bar at the peak | "
              "first progress | progress |",
              "|---|---|---|---|---|---|---|---|---|"]
-    for base, new in results:
-        if base:
-            lines.append(row("baseline", base))
-        lines.append(row("this", new, base))
+    for pairs in results:
+        news = [n for _, n in pairs]
+        if pairs[0][0]:
+            lines.append(row("baseline", [b for b, _ in pairs]))
+            lines.append(row("this", news, [n["button"]["seconds"] / b["button"]["seconds"]
+                                            for b, n in pairs]))
+        else:
+            lines.append(row("this", news))
     lines += ["", "Recipes: " + "; ".join("%d: %s, %d lamps" % (
-        n["size"][0], n["button"]["recipe"], n["button"]["lamps"]) for _, n in results)]
+        p[0][1]["size"][0], p[0][1]["button"]["recipe"], p[0][1]["button"]["lamps"])
+        for p in results)]
     text = "\n".join(lines) + "\n"
     print(text)
     if args.docs:
