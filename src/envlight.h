@@ -158,6 +158,21 @@ ENVL_API envl_result envl_envmap_load(const char *path, const envl_load_options 
 ENVL_API envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t height,
                                              int32_t channels, const envl_load_options *options,
                                              envl_envmap **out);
+/* The same without a copy, for a host that writes an image's pixels straight into memory
+ * (Blender's Image.pixels.foreach_get): envl_pixels_alloc gives room for width x height pixels
+ * of `channels` floats (1, 3 or 4; options: max_pixels, else the default limit), which the
+ * caller fills (row-major, row 0 at the top, or at the bottom with bottom_up nonzero) and hands
+ * to envl_envmap_adopt_pixels. That call always takes the memory: the map's pixels are made in
+ * it (the rows put top-down, RGBA compacted to RGB, grey spread to RGB, the rest given back),
+ * and on failure it is freed; the caller must not touch it afterwards. envl_pixels_free frees
+ * memory that is never adopted. Otherwise as envl_envmap_from_pixels. */
+ENVL_API envl_result envl_pixels_alloc(int32_t width, int32_t height, int32_t channels,
+                                       const envl_load_options *options, float **out);
+ENVL_API void envl_pixels_free(float *pixels);
+ENVL_API envl_result envl_envmap_adopt_pixels(float *pixels, int32_t width, int32_t height,
+                                              int32_t channels, int32_t bottom_up,
+                                              const envl_load_options *options,
+                                              envl_envmap **out);
 ENVL_API void envl_envmap_free(envl_envmap *map);
 
 /* The environment as a scene on a ground plane sees it (ground.c). A copy of `map` whose lower

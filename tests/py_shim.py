@@ -250,6 +250,50 @@ def test_from_pixels_short_buffer_is_refused_before_the_library_reads_it():
         envlight.from_pixels(b"\0" * 100, 64, 32, 3)
 
 
+def test_from_pixels_in_place_is_from_pixels_without_the_copy(monkeypatch):
+    """The library's own memory, filled by the caller (Blender: foreach_get), becomes the same
+    map from_pixels makes: RGBA bottom-up, RGB, grey; a numpy view of format 'f' (what
+    Blender's foreach_get takes), or without numpy a memoryview of 'f'."""
+    img = spot_image()
+    h, w, _ = img.shape
+    rgba = np.concatenate([img, np.ones((h, w, 1), np.float32)], axis=2)
+    seen = []
+
+    def writer(values):
+        def fill(view):
+            seen.append((type(view).__name__, memoryview(view).format, len(view)))
+            view[:] = values
+        return fill
+    with envlight.from_pixels_in_place(writer(rgba[::-1].ravel()), w, h, 4, flip=True) as a:
+        assert np.array_equal(a.pixels(), img)
+        assert a.info()["channels"] == 4
+    with envlight.from_pixels_in_place(writer(img.ravel()), w, h, 3) as b:
+        assert np.array_equal(b.pixels(), img)
+    with envlight.from_pixels_in_place(writer(img[..., 1].ravel()), w, h, 1) as c:
+        assert np.array_equal(c.pixels()[..., 0], img[..., 1])
+    assert seen == [("ndarray", "f", w * h * 4), ("ndarray", "f", w * h * 3),
+                    ("ndarray", "f", w * h)]
+    monkeypatch.setattr(envlight, "_np", None)
+    d = envlight.from_pixels_in_place(writer(array.array("f", img.ravel().tolist())), w, h, 3)
+    monkeypatch.undo()
+    with d:
+        assert np.array_equal(d.pixels(), img)
+    assert seen[-1] == ("memoryview", "f", w * h * 3)
+
+
+def test_from_pixels_in_place_errors():
+    """A fill that raises: its exception, the memory freed (Valgrind's run of this test sees
+    any leak); bad sizes and channels: the library's ArgumentError before fill runs."""
+    def fail(view):
+        raise KeyError("fill failed")
+    with pytest.raises(KeyError, match="fill failed"):
+        envlight.from_pixels_in_place(fail, 8, 4, 4)
+    with pytest.raises(envlight.ArgumentError, match="2 channels"):
+        envlight.from_pixels_in_place(fail, 8, 4, 2)
+    with pytest.raises(envlight.ArgumentError, match="width"):
+        envlight.from_pixels_in_place(fail, 0, 4, 3)
+
+
 # ---- errors carry the library's message ----------------------------------------------------
 
 def test_errors_raise_with_the_library_message():

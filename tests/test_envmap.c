@@ -327,8 +327,71 @@ static void test_stats_threads(void)
     free(px);
 }
 
+/* envl_envmap_adopt_pixels makes, in the memory it is given, the very map that
+ * envl_envmap_from_pixels makes of the same pixels (bit for bit, info too): 1, 3 and 4
+ * channels, top-down and bottom-up (odd and even heights: the middle row stays), a negative
+ * value filled the same way; it frees the memory on a bad argument (ASan / Valgrind see a
+ * leak otherwise) and refuses what envl_pixels_alloc refuses. */
+static void test_adopt_pixels(void)
+{
+    const int w = 37;
+    for (int h = 18; h <= 19; h++)
+        for (int ch = 1; ch <= 4; ch++) {
+            if (ch == 2)
+                continue;
+            for (int bottom_up = 0; bottom_up <= 1; bottom_up++) {
+                size_t n = (size_t)w * h * ch;
+                float *src = malloc(n * sizeof(float));
+                random_pixels(src, n, 7u + (unsigned)(ch * 2 + bottom_up), 1000);
+                src[ch * (5 * w + 3)] = -0.25f; /* one negative value to fill */
+                float *top = malloc(n * sizeof(float));
+                for (int r = 0; r < h; r++) /* the reference's rows top-down */
+                    memcpy(top + (size_t)r * w * ch,
+                           src + (size_t)(bottom_up ? h - 1 - r : r) * w * ch,
+                           (size_t)w * ch * sizeof(float));
+                envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG};
+                envl_envmap *want, *got;
+                CHECK_OK(envl_envmap_from_pixels(top, w, h, ch, &o, &want));
+                float *mem;
+                CHECK_OK(envl_pixels_alloc(w, h, ch, &o, &mem));
+                memcpy(mem, src, n * sizeof(float));
+                CHECK_OK(envl_envmap_adopt_pixels(mem, w, h, ch, bottom_up, &o, &got));
+                CHECK(envl_envmap_width(got) == w && envl_envmap_height(got) == h);
+                CHECK(!memcmp(envl_envmap_pixels(got), envl_envmap_pixels(want),
+                              (size_t)w * h * 3 * sizeof(float)));
+                envl_info a, b;
+                envl_envmap_info(got, &a);
+                envl_envmap_info(want, &b);
+                CHECK(a.negative_pixels == 1 && b.negative_pixels == 1);
+                CHECK(!memcmp(a.power, b.power, sizeof a.power));
+                CHECK(!memcmp(a.filled_energy, b.filled_energy, sizeof a.filled_energy));
+                CHECK(a.channels == ch && !strcmp(a.format, "memory"));
+                envl_envmap_free(got);
+                envl_envmap_free(want);
+                free(top);
+                free(src);
+            }
+        }
+    float *mem;
+    envl_envmap *m = (envl_envmap *)&mem;
+    CHECK_RC(envl_pixels_alloc(4, 2, 2, NULL, &mem), ENVL_ERR_ARGUMENT);
+    CHECK(mem == NULL);
+    envl_load_options small = {.max_pixels = 7};
+    CHECK_RC(envl_pixels_alloc(4, 2, 4, &small, &mem), ENVL_ERR_LIMIT);
+    CHECK_OK(envl_pixels_alloc(4, 2, 4, NULL, &mem));
+    CHECK_RC(envl_envmap_adopt_pixels(mem, 4, 2, 2, 0, NULL, &m), ENVL_ERR_ARGUMENT);
+    CHECK(m == NULL); /* and mem freed */
+    CHECK_OK(envl_pixels_alloc(4, 2, 4, NULL, &mem));
+    CHECK_RC(envl_envmap_adopt_pixels(mem, 4, 2, 4, 0, &small, &m), ENVL_ERR_LIMIT);
+    CHECK(strstr(envl_last_error(), "4 x 2") != NULL);
+    CHECK_OK(envl_pixels_alloc(4, 2, 3, NULL, &mem));
+    envl_pixels_free(mem);
+    CHECK_RC(envl_envmap_adopt_pixels(NULL, 4, 2, 3, 0, NULL, &m), ENVL_ERR_ARGUMENT);
+}
+
 int main(void)
 {
+    test_adopt_pixels();
     test_solid_angles();
     test_directions();
     test_spot();

@@ -32,9 +32,9 @@ except ImportError:  # pragma: no cover - numpy is optional
     _np = None
 
 __all__ = ["Error", "ArgumentError", "Envmap", "LightsResult", "SHResult", "Light", "load", "sky",
-           "from_pixels", "save_image", "fibonacci_directions", "relative_rms_luminance",
-           "sh_basis", "cosine_lobe", "brdf_lut", "brdf_eval", "Products", "version",
-           "ABI_VERSION", "library_path", "has_numpy", "progress"]
+           "from_pixels", "from_pixels_in_place", "save_image", "fibonacci_directions",
+           "relative_rms_luminance", "sh_basis", "cosine_lobe", "brdf_lut", "brdf_eval",
+           "Products", "version", "ABI_VERSION", "library_path", "has_numpy", "progress"]
 
 __version__ = "0.1.0"
 has_numpy = _np is not None
@@ -278,6 +278,43 @@ def from_pixels(buffer, width=None, height=None, channels=None, flip=False, layo
     h = c_void_p()
     _check(lib.envl_envmap_from_pixels(ptr, width, height, channels, byref(o), byref(h)))
     del keep
+    return Envmap(h)
+
+
+def from_pixels_in_place(fill, width, height, channels, flip=False, layout="auto", rotate=0.0,
+                         map_width=None, strict=False, threads=None):
+    """An envmap from pixels written straight into the library's memory, without a copy:
+    fill(array) writes width x height x channels float32 values (row-major; rows top to
+    bottom, or bottom-up with flip=True) into `array`, a flat float32 view of memory the
+    library then takes as its map (e.g. Blender's image.pixels.foreach_get(array)): a numpy
+    array, or a memoryview of format 'f' without numpy. The view must not be used once fill has
+    returned. If fill raises, the memory is freed and the exception goes on. Otherwise as
+    from_pixels: channels 1, 3 or 4 (alpha ignored), map_width the canonical map's width."""
+    width = A.integer(width, "from_pixels_in_place: width", 1, A.INT32_MAX)
+    height = A.integer(height, "from_pixels_in_place: height", 1, A.INT32_MAX)
+    channels = A.integer(channels, "from_pixels_in_place: channels", -A.INT32_MAX - 1,
+                         A.INT32_MAX)
+    flip = A.flag(flip, "from_pixels_in_place: flip")
+    o = _load_options("from_pixels_in_place", layout, map_width, rotate, None, strict, False,
+                      None, threads, "map_width")
+    mem = c_void_p()
+    _check(lib.envl_pixels_alloc(width, height, channels, byref(o), byref(mem)))
+    n = width * height * channels
+    try:
+        # format 'f', not ctypes' '<f', which Blender's foreach_get refuses
+        floats = (c_float * n).from_address(mem.value)
+        if _np is not None:
+            view = _np.frombuffer(floats, dtype=_np.float32)
+        else:
+            view = memoryview(floats).cast("B").cast("f")
+        fill(view)
+        del view, floats
+    except BaseException:
+        lib.envl_pixels_free(mem)
+        raise
+    h = c_void_p()
+    _check(lib.envl_envmap_adopt_pixels(mem, width, height, channels, int(flip), byref(o),
+                                        byref(h)))
     return Envmap(h)
 
 

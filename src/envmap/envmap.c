@@ -437,6 +437,119 @@ envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t 
     return envl__envmap_from_image(&img, options, "", out);
 }
 
+/* Room for width x height pixels of `channels` floats and their RGB (grey is spread to RGB in
+ * place: 3 floats a pixel at least). */
+envl_result envl_pixels_alloc(int32_t width, int32_t height, int32_t channels,
+                              const envl_load_options *options, float **out)
+{
+    if (!out)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_pixels_alloc: out is NULL");
+    *out = NULL;
+    if (channels != 1 && channels != 3 && channels != 4)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_pixels_alloc: %d channels (expected 1, 3 "
+                          "or 4)", (int)channels);
+    envl_limits lim = limits_of(options);
+    envl_image img = {0};
+    envl_result rc = envl__image_alloc(&img, width, height, &lim, "pixels");
+    if (rc || channels < 4) {
+        *out = img.px;
+        return rc;
+    }
+    if ((uint64_t)width * (uint64_t)height > SIZE_MAX / (4 * sizeof(float))) {
+        envl__image_free(&img);
+        return envl__fail(ENVL_ERR_LIMIT, "pixels: image size %d x %d too large for memory",
+                          (int)width, (int)height);
+    }
+    float *px = realloc(img.px, (size_t)width * height * 4 * sizeof(float));
+    if (!px) {
+        envl__image_free(&img);
+        return envl__fail(ENVL_ERR_MEMORY, "pixels: cannot allocate %d x %d pixels",
+                          (int)width, (int)height);
+    }
+    *out = px;
+    return ENVL_OK;
+}
+
+void envl_pixels_free(float *pixels)
+{
+    free(pixels);
+}
+
+typedef struct row_swap {
+    float *px;
+    size_t row;     /* floats a row */
+    int32_t height;
+} row_swap;
+
+/* Rows [begin, end) of the top half swapped with their mirror rows. */
+static void swap_rows(void *ctx, int64_t begin, int64_t end)
+{
+    const row_swap *s = ctx;
+    float tmp[1024];
+    for (int64_t r = begin; r < end; r++) {
+        float *a = s->px + (size_t)r * s->row, *b = s->px + (size_t)(s->height - 1 - r) * s->row;
+        for (size_t i = 0; i < s->row; i += 1024) {
+            size_t k = s->row - i < 1024 ? s->row - i : 1024;
+            memcpy(tmp, a + i, k * sizeof(float));
+            memcpy(a + i, b + i, k * sizeof(float));
+            memcpy(b + i, tmp, k * sizeof(float));
+        }
+    }
+}
+
+envl_result envl_envmap_adopt_pixels(float *pixels, int32_t width, int32_t height,
+                                     int32_t channels, int32_t bottom_up,
+                                     const envl_load_options *options, envl_envmap **out)
+{
+    envl_image img = {.width = width, .height = height, .px = pixels};
+    envl_result rc = ENVL_OK;
+    if (!out)
+        rc = envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_adopt_pixels: out is NULL");
+    else
+        *out = NULL;
+    if (!rc && !pixels)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_adopt_pixels: pixels is NULL");
+    if (!rc && channels != 1 && channels != 3 && channels != 4)
+        rc = envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_adopt_pixels: %d channels (expected 1, "
+                        "3 or 4)", (int)channels);
+    envl_limits lim = limits_of(options);
+    if (!rc && (width <= 0 || height <= 0 || (int64_t)width * height > lim.max_pixels))
+        rc = envl__fail(width <= 0 || height <= 0 ? ENVL_ERR_ARGUMENT : ENVL_ERR_LIMIT,
+                        "envl_envmap_adopt_pixels: %d x %d pixels: not what envl_pixels_alloc "
+                        "allows", (int)width, (int)height);
+    if (!rc)
+        rc = envl__progress(0.0, "to the canonical lat-long frame");
+    if (rc) {
+        free(pixels);
+        return rc;
+    }
+    size_t n = (size_t)width * height;
+    if (bottom_up) {
+        row_swap s = {pixels, (size_t)width * channels, height};
+        envl__parallel_for(height / 2, envl__threads(options ? options->threads : 0), swap_rows,
+                           &s);
+    }
+    if (channels == 4) { /* forward: pixel i's RGB (3i..3i+2) never lies past its RGBA (4i..) */
+        for (size_t i = 0; i < n; i++)
+            for (int k = 0; k < 3; k++)
+                pixels[3 * i + k] = pixels[4 * i + k];
+        float *px = realloc(pixels, n * 3 * sizeof(float)); /* the alpha's room given back */
+        img.px = px ? px : pixels;
+    } else if (channels == 1) { /* backward: pixel i's RGB (3i..) never lies before its grey */
+        for (size_t i = n; i-- > 0;)
+            pixels[3 * i] = pixels[3 * i + 1] = pixels[3 * i + 2] = pixels[i];
+    }
+    snprintf(img.meta.format, sizeof img.meta.format, "memory");
+    img.meta.channels = channels;
+    img.meta.exposure = 1.0;
+    rc = envl__envmap_from_image(&img, options, "", out);
+    if (!rc && (rc = envl__progress(1.0, "done"))) {
+        envl_envmap_free(*out);
+        *out = NULL;
+    }
+    return rc;
+}
+
 void envl_envmap_free(envl_envmap *m)
 {
     if (!m)
