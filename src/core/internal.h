@@ -192,6 +192,9 @@ envl_result envl__fill_negatives(envl_image *img, int32_t layout, const char *fi
 void envl__texel_direction(int32_t layout, int32_t w, int32_t h, int32_t col, int32_t row,
                            double d[3]);
 double envl__texel_solid_angle(int32_t layout, int32_t w, int32_t h, int32_t col, int32_t row);
+/* The direction through point (s, t) of the plane of face `face` (0..5, in ENVL_LAYOUT_STRIP_H's
+ * order; s, t in [-1, 1] on the face, beyond it on the plane's extension). */
+void envl__face_direction(int32_t face, double s, double t, double d[3]);
 /* The mean of a lat-long image, read as piecewise constant (each pixel its own value, as the
  * brute force sums it), over the footprint of texel (col, row) of a product image, by n x n
  * sub-texels of equal solid angle (lat-long) or weighted by their solid angle (faces). */

@@ -893,8 +893,12 @@ void envl__texel_direction(int32_t layout, int32_t w, int32_t h, int32_t col, in
         envl_latlong_direction(w, h, col, row, d);
         return;
     }
-    const double(*fr)[3] = face_frame[strip_order[col / h]];
-    double s = 2 * (col % h + 0.5) / h - 1, t = 1 - 2 * (row + 0.5) / h;
+    envl__face_direction(col / h, 2 * (col % h + 0.5) / h - 1, 1 - 2 * (row + 0.5) / h, d);
+}
+
+void envl__face_direction(int32_t face, double s, double t, double d[3])
+{
+    const double(*fr)[3] = face_frame[strip_order[face]];
     for (int k = 0; k < 3; k++)
         d[k] = fr[0][k] + s * fr[1][k] + t * fr[2][k];
     normalize3(d);

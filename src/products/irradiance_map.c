@@ -165,6 +165,140 @@ static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t h, int
     return ENVL_OK;
 }
 
+/* Cube faces wider than REST_FACE get the rest's irradiance (the map less its bright pixels:
+ * at most the threshold anywhere, so its E is smooth) at faces of REST_FACE texels, read
+ * bilinearly (envl__strip_sample) at their texels; the bright pixels stay exact per texel.
+ * Bilinear reading of f at spacing h is off by h^2/8 (|f_ss| + |f_tt|) where f is smooth: the
+ * second differences D2 at the coarse texels are h^2 f'', so (|D2_s| + |D2_t|) / 8; a kink of
+ * slope jump g inside a cell (a source's horizon) is off by up to g h / 4, and the fourth
+ * difference D4 at one of the cell's corners is at least g h / 2 (h^4 f'''' where f is
+ * smooth), so |D4| / 2 more. The coarse texels are summed within REST_COARSE x the split's
+ * promise (ENVL_SPLIT_RELATIVE x max(E, the floor)); a texel where the largest estimate of its
+ * cell's corners passes REST_READ x the promise (8/3 of margin on the 0.8 left: an estimate,
+ * not a bound) gets the rest summed through the kernel tree at its own direction. Read
+ * everywhere, 128-texel faces were up to 9 % of a dark texel off (tests/test_irradiance.c). */
+#define REST_FACE 32
+#define REST_COARSE 0.2
+#define REST_READ 0.3
+
+/* The bound of reading the coarse faces bilinearly near each coarse texel, per channel:
+ * (|D2_s| + |D2_t|) / 8 + (|D4_s| + |D4_t|) / 2 from the second and fourth differences along
+ * s and t of the values 2 texels either side (across a face's edge: read where the face's
+ * plane continues, envl__strip_sample). */
+static void rest_curvature(const float *rest, double *bound)
+{
+    const int32_t f = REST_FACE, w = 6 * REST_FACE;
+    for (int32_t r = 0; r < f; r++)
+        for (int32_t c = 0; c < w; c++) {
+            double s = 2 * (c % f + 0.5) / f - 1, t = 1 - 2 * (r + 0.5) / f, step = 2.0 / f;
+            double v[2][5][3]; /* along s, along t: the values at -2 .. 2 steps */
+            for (int axis = 0; axis < 2; axis++)
+                for (int k = -2; k <= 2; k++) {
+                    double d[3];
+                    envl__face_direction(c / f, s + (axis ? 0 : k * step),
+                                         t + (axis ? k * step : 0), d);
+                    envl__strip_sample(rest, f, d, v[axis][k + 2]);
+                }
+            for (int ch = 0; ch < 3; ch++) {
+                double sum = 0;
+                for (int axis = 0; axis < 2; axis++) {
+                    const double(*q)[3] = v[axis];
+                    double d2 = q[1][ch] - 2 * q[2][ch] + q[3][ch];
+                    double d4 = q[0][ch] - 4 * q[1][ch] + 6 * q[2][ch] - 4 * q[3][ch] + q[4][ch];
+                    sum += fabs(d2) / 8 + fabs(d4) / 2;
+                }
+                bound[3 * ((size_t)r * w + c) + ch] = sum;
+            }
+        }
+}
+
+/* The largest bound of the (up to 4) coarse texels around fine texel (c, r) of faces of
+ * `face` texels (the same face; its texel centres at (i + 0.5) / face of the face's width). */
+static void cell_bound(const double *bound, int32_t face, int32_t c, int32_t r, double out[3])
+{
+    const int32_t f = REST_FACE, w = 6 * REST_FACE;
+    int32_t base = c / face * f;
+    double x = ((c % face) + 0.5) * f / face - 0.5, y = (r + 0.5) * f / face - 0.5;
+    int32_t x0 = (int32_t)floor(x), y0 = (int32_t)floor(y);
+    out[0] = out[1] = out[2] = 0;
+    for (int32_t v = y0; v <= y0 + 1; v++)
+        for (int32_t u = x0; u <= x0 + 1; u++) {
+            int32_t uu = u < 0 ? 0 : u > f - 1 ? f - 1 : u, vv = v < 0 ? 0 : v > f - 1 ? f - 1 : v;
+            const double *b = bound + 3 * ((size_t)vv * w + base + uu);
+            for (int ch = 0; ch < 3; ch++)
+                out[ch] = fmax(out[ch], b[ch]);
+        }
+}
+
+/* The rest's E at the n texels of faces of `face` > REST_FACE texels (dirs; lobes: the
+ * bright pixels' E there, the base of the tolerance), see above. */
+static envl_result rest_from_coarse(const envl_envmap *rest_map, const envl_sun_split *sp,
+                                    int32_t map_w, int32_t map_h, int32_t face,
+                                    const double *dirs, const double floor[3],
+                                    const double *lobes, double *e)
+{
+    const int32_t nc = 6 * REST_FACE * REST_FACE;
+    size_t n = (size_t)6 * face * face;
+    double *cdirs = texel_dirs(ENVL_LAYOUT_STRIP_H, 6 * REST_FACE, REST_FACE);
+    double *clobes = calloc(3 * (size_t)nc, sizeof(double)), *ce = malloc(sizeof(double) * 3 * nc);
+    double *bound = malloc(sizeof(double) * 3 * nc);
+    float *strip = malloc(sizeof(float) * 3 * nc);
+    int32_t *redo = malloc(sizeof(int32_t) * n);
+    envl_result rc = cdirs && clobes && ce && bound && strip && redo
+                         ? ENVL_OK
+                         : envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    if (!rc && sp->n)
+        rc = add_lobes(sp, map_w, map_h, nc, cdirs, clobes);
+    if (!rc)
+        rc = envl__irradiance_relative(rest_map, nc, cdirs, REST_COARSE * ENVL_SPLIT_RELATIVE,
+                                       floor, clobes, ce);
+    int32_t nredo = 0;
+    if (!rc) {
+        for (int32_t i = 0; i < 3 * nc; i++)
+            strip[i] = (float)ce[i];
+        rest_curvature(strip, bound);
+        for (size_t i = 0; i < n; i++) {
+            double b[3];
+            int32_t c = (int32_t)(i % (6 * (size_t)face)), r = (int32_t)(i / (6 * (size_t)face));
+            envl__strip_sample(strip, REST_FACE, dirs + 3 * i, e + 3 * i);
+            cell_bound(bound, face, c, r, b);
+            int over = 0;
+            for (int ch = 0; ch < 3; ch++)
+                over |= b[ch] > REST_READ * ENVL_SPLIT_RELATIVE *
+                                    fmax(lobes[3 * i + ch] + e[3 * i + ch], floor[ch]);
+            if (over)
+                redo[nredo++] = (int32_t)i;
+        }
+    }
+    if (!rc && nredo) {
+        /* the texels the cells cannot promise: summed at their own directions */
+        double *rd = malloc(sizeof(double) * 3 * nredo), *rl = malloc(sizeof(double) * 3 * nredo);
+        double *re = malloc(sizeof(double) * 3 * nredo);
+        rc = rd && rl && re ? ENVL_OK
+                            : envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+        for (int32_t k = 0; !rc && k < nredo; k++)
+            for (int a = 0; a < 3; a++) {
+                rd[3 * k + a] = dirs[3 * (size_t)redo[k] + a];
+                rl[3 * k + a] = lobes[3 * (size_t)redo[k] + a];
+            }
+        if (!rc)
+            rc = envl__irradiance_relative(rest_map, nredo, rd, ENVL_SPLIT_RELATIVE, floor, rl, re);
+        for (int32_t k = 0; !rc && k < nredo; k++)
+            for (int a = 0; a < 3; a++)
+                e[3 * (size_t)redo[k] + a] = re[3 * k + a];
+        free(rd);
+        free(rl);
+        free(re);
+    }
+    free(cdirs);
+    free(clobes);
+    free(ce);
+    free(bound);
+    free(strip);
+    free(redo);
+    return rc;
+}
+
 /* The split method: E(n) = sum over the split-off pixels of e max(0, n.d) (e: their excess
  * over the threshold, L dw less T's share, at their centre: a pixel as a point, off by
  * O(pixel^2) of its own part; integrated over the pixel where it straddles n's horizon) + the
@@ -172,8 +306,10 @@ static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t h, int
  * threshold) area-averaged to 256 wide, summed through the kernel tree (irradiance.c), within
  * ENVL_SPLIT_RELATIVE of each texel's E (at least ENVL_TEXEL_DARK x the mean of E): the rest's
  * sharp edges (the threshold's plateau) stay exact where an SH expansion of them rang by
- * several percent in the dark directions (docs/accuracy.md). */
-static envl_result split_irradiance(envl_envmap *m, int32_t threads, size_t n,
+ * several percent in the dark directions (docs/accuracy.md). On cube faces wider than
+ * REST_FACE the rest comes from faces of REST_FACE texels where that keeps the promise (above).
+ * face: the cube's face width, or 0 (a lat-long image). */
+static envl_result split_irradiance(envl_envmap *m, int32_t threads, int32_t face, size_t n,
                                     const double *dirs, double *e)
 {
     envl_sun_split sp;
@@ -201,8 +337,11 @@ static envl_result split_irradiance(envl_envmap *m, int32_t threads, size_t n,
         double floor[3]; /* the mean of E over the sphere is the power / 4 */
         for (int c = 0; c < 3; c++)
             floor[c] = ENVL_TEXEL_DARK * m->info.power[c] / 4;
-        rc = envl__irradiance_relative(small ? small : m, (int32_t)n, dirs, ENVL_SPLIT_RELATIVE,
-                                       floor, lobes, e);
+        rc = face > REST_FACE
+                 ? rest_from_coarse(small ? small : m, &sp, m->width, m->height, face, dirs,
+                                    floor, lobes, e)
+                 : envl__irradiance_relative(small ? small : m, (int32_t)n, dirs,
+                                             ENVL_SPLIT_RELATIVE, floor, lobes, e);
     }
     for (size_t i = 0; !rc && i < 3 * n; i++)
         e[i] += lobes[i];
@@ -249,7 +388,7 @@ envl_result envl__irradiance_map(envl_envmap *m, const resolved *o, const envl_s
         for (size_t i = 0; !rc && i < 3 * n; i++)
             e[i] = e[i] < 0 ? 0 : e[i];
     } else if (o->irr_method == ENVL_IRRADIANCE_SPLIT) {
-        rc = split_irradiance(m, o->threads, n, dirs, e);
+        rc = split_irradiance(m, o->threads, o->faces ? face : 0, n, dirs, e);
     } else {
         /* resampled: the clamped cosine is smooth: the map area-averaged to 256 x 128 changes
          * E by about h^2 relative (h = pi / 128: ~6e-4), at a fraction of the cost */
