@@ -248,6 +248,19 @@ envl_result envl__lights_residual_map(const envl_envmap *m, const envl_lights *l
                                       int32_t threads, envl_envmap **out);
 /* The same into out (w x h x 3 floats). */
 void envl__sun_residual(const envl_envmap *m, const envl_lights *ls, float *out);
+/* The sun method's residual without a copy: m's own pixels with the suns' patches written in
+ * (the pixels they replace saved in *saved, malloc'd), as a map of `threads` threads that
+ * borrows them (*out, its own tables and statistics: envl__lights_residual_map's map). Until
+ * envl__sun_residual_view_end, m's pixels are the residual's: use *out, not m. */
+envl_result envl__sun_residual_view(envl_envmap *m, const envl_lights *ls, int32_t threads,
+                                    float **saved, envl_envmap **out);
+/* Frees the view and puts m's pixels back, bit for bit (NULL view and saved: nothing to do). */
+void envl__sun_residual_view_end(envl_envmap *m, const envl_lights *ls, float *saved,
+                                 envl_envmap *view);
+/* A lat-long map over pixels it does not own (they must be finite, non-negative and outlive
+ * it): its tables and statistics only. */
+envl_result envl__envmap_borrow(float *px, int32_t w, int32_t h, int32_t threads,
+                                envl_envmap **out);
 
 /* ---- prefiltering (prefilter.c, png.c) ---- */
 /* 8-bit RGB (channels 3) or RGBA (4) pixels as a PNG in memory (*out malloc'd); srgb: with the
