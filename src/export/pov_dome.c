@@ -68,9 +68,10 @@ envl_result pov_dome_lights(const envl_envmap *upper_c, const envl_envmap *map_c
                             int32_t threads, pov_light **lights, int32_t *n, int32_t *suns,
                             int32_t *below)
 {
-    envl_envmap *upper = (envl_envmap *)upper_c, *lower = NULL, *rest = NULL;
+    envl_envmap *upper = (envl_envmap *)upper_c, *lower = NULL, *rest = NULL; /* rest: a view */
     envl_lights *sun = NULL, *cells = NULL, *down = NULL;
-    pov_light *down_lights = NULL;
+    pov_light *down_lights = NULL, *sun_lights = NULL;
+    float *saved = NULL; /* the sky's pixels under the suns while `rest` views them */
     *lights = NULL;
     *n = *suns = *below = 0;
     envl_result r = ENVL_OK;
@@ -102,15 +103,21 @@ envl_result pov_dome_lights(const envl_envmap *upper_c, const envl_envmap *map_c
     int32_t ns = nu / 4 < POV_DOME_SUNS ? nu / 4 : POV_DOME_SUNS;
     double threshold = 50.0 * pu / (4 * ENVL_PI); /* sun_split.c's SPLIT_K x the mean */
     if (ns > 0 && pu > 0) {
-        /* the residual made below, once, only with a sun (envl__lights_residual_map) */
         envl_lights_options so = {.method = ENVL_METHOD_SUN, .count = ns, .skip_residual = 1};
         if ((r = envl_lights_compute(upper, &so, &sun)))
             goto done;
-        if (envl_lights_count(sun) > 0 &&
-            (r = envl__lights_residual_map(upper, sun, threads, &rest)))
-            goto done;
     }
-    int32_t k = envl_lights_count(sun);
+    int32_t k = envl_lights_count(sun), nsun = 0;
+    sun_lights = calloc(k > 0 ? (size_t)k : 1, sizeof *sun_lights);
+    if (!sun_lights) {
+        r = envl__fail(ENVL_ERR_MEMORY, "pov: out of memory");
+        goto done;
+    }
+    append(sun, upper, threshold, 1, POV_SIDE_UP, sun_lights, &nsun); /* shaped from the sky */
+    /* The rest of the sky, cut into cells: the sky's own pixels with the suns patched in (no
+     * copy), put back before this returns. */
+    if (k > 0 && (r = envl__sun_residual_view(upper, sun, threads, &saved, &rest)))
+        goto done;
     if ((r = cut(rest ? rest : upper, nu - k, &cells)))
         goto done;
     int32_t total = k + envl_lights_count(cells) + nbelow;
@@ -119,7 +126,8 @@ envl_result pov_dome_lights(const envl_envmap *upper_c, const envl_envmap *map_c
         r = envl__fail(ENVL_ERR_MEMORY, "pov: out of memory");
         goto done;
     }
-    append(sun, upper, threshold, 1, POV_SIDE_UP, *lights, n);
+    memcpy(*lights, sun_lights, sizeof *sun_lights * (size_t)nsun);
+    *n = nsun;
     append(cells, rest ? rest : upper, 0, 0, POV_SIDE_UP, *lights, n);
     memcpy(*lights + *n, down_lights, sizeof *down_lights * (size_t)nbelow);
     *n += nbelow;
@@ -127,11 +135,12 @@ envl_result pov_dome_lights(const envl_envmap *upper_c, const envl_envmap *map_c
     *suns = k;
     *below = nbelow;
 done:
+    envl__sun_residual_view_end(upper, sun, saved, rest); /* the sky's pixels back */
+    free(sun_lights);
     free(down_lights);
     envl_lights_free(sun);
     envl_lights_free(cells);
     envl_lights_free(down);
-    envl_envmap_free(rest);
     envl_envmap_free(lower);
     return r;
 }
