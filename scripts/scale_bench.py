@@ -127,12 +127,12 @@ def command_table(t, widths, x, misses):
             fl = floats_mib(w)
             row = [LABEL.get(c, c), size_name(w), fmt(s["cpu"]), fmt(f["cpu"]), fmt(s["wall"]),
                    fmt(f["wall"]), f"{s['rss']:.0f}"]
-            for r in (s, f):
+            for r, kind in ((s, "sun"), (f, "sun-free")):
                 q = r["rss"] / fl
                 miss = w >= 16384 and q > 1.3
                 row.append(bold(f"{q:.2f}", miss))
                 if miss:
-                    misses.append(f"{c} .{x} {size_name(w)}: peak RSS {q:.2f}x the floats "
+                    misses.append(f"{c} .{x} {size_name(w)} ({kind}): peak RSS {q:.2f}x the floats "
                                   f"({r['rss']:.0f} MiB)")
             for r, rd, kind in ((s, rs, "sun"), (f, rf, "sun-free")):
                 q = r["cpu"] / rd["cpu"] if rd and rd.get("cpu") else None
