@@ -243,7 +243,8 @@ envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h
 /* The residual of the lights `ls` of m as a map of `threads` threads that owns its pixels (one
  * copy): for the sun method (computed with skip_residual or not) made now from the map and the
  * suns' pixels at the split's threshold, for the others a copy of ls's residual (an error when
- * skipped). gltf.c and pov_dome.c ask for it only when there is a light. */
+ * skipped). gltf.c asks for it for the other methods, only when there is a light (the sun
+ * method's: envl__sun_residual_view). */
 envl_result envl__lights_residual_map(const envl_envmap *m, const envl_lights *ls,
                                       int32_t threads, envl_envmap **out);
 /* The same into out (w x h x 3 floats). */
