@@ -138,19 +138,16 @@ done
 
 # one timed whole process: TASK LABEL TOOL VARIANT CMD... (run in an empty folder)
 printf 'task\tsize\ttool\tvariant\trun\twall\tuser\tsys\trss_kb\trc\n' >"$work/times.tsv"
+source "$top/scripts/timed_run.sh"
 measure() {
   local task=$1 label=$2 tool=$3 variant=$4 run=$5; shift 5
-  rm -rf "$tmp/out"; mkdir "$tmp/out"
-  local rc=0
-  (cd "$tmp/out" && /usr/bin/time -f '%e %U %S %M' -o "$tmp/time" "$@" >"$tmp/stdout" 2>"$tmp/stderr") || rc=$?
-  local wall user sys rss
-  read -r wall user sys rss < <(tail -1 "$tmp/time")
-  if [ "$rc" != 0 ]; then
-    echo "peer_bench: $task $label $tool $variant failed ($rc): $*" >&2
+  timed_run "$tmp/out" "$tmp/stdout" "$tmp/stderr" "$@"
+  if [ "$TIMED_RC" != 0 ]; then
+    echo "peer_bench: $task $label $tool $variant failed ($TIMED_RC): $*" >&2
     tail -3 "$tmp/stderr" >&2
   fi
   printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$task" "$label" "$tool" "$variant" "$run" \
-    "$wall" "$user" "$sys" "$rss" "$rc" >>"$work/times.tsv"
+    "$TIMED_WALL" "$TIMED_USER" "$TIMED_SYS" "$TIMED_RSS" "$TIMED_RC" >>"$work/times.tsv"
 }
 # envlight with its error measures, and with --no-error where the command's --help lists it;
 # VARIANTS (a global array) adds runs with those extra arguments (each a word list)

@@ -389,6 +389,56 @@ static void test_adopt_pixels(void)
     CHECK_RC(envl_envmap_adopt_pixels(NULL, 4, 2, 3, 0, NULL, &m), ENVL_ERR_ARGUMENT);
 }
 
+/* The sun method's residual as a view of the map's own pixels (gltf.c: no copy) is the copy
+ * envl__lights_residual_map makes, bit for bit: pixels, info (power, maxima, brightest
+ * direction) and the SH projected from it; afterwards the map's pixels are its own again, bit
+ * for bit. Two suns (3 x 3 pixels of 1e5 and 2 x 2 of 5e4) on a random map. */
+static void test_sun_residual_view(void)
+{
+    const int w = 256, h = 128;
+    size_t n = (size_t)w * h * 3;
+    float *px = malloc(sizeof(float) * n), *before = malloc(sizeof(float) * n);
+    random_pixels(px, n, 4242u, 1000);
+    for (int r = 30; r < 33; r++)
+        for (int c = 40; c < 43; c++)
+            px[3 * (r * w + c)] = px[3 * (r * w + c) + 1] = px[3 * (r * w + c) + 2] = 1e5f;
+    for (int r = 50; r < 52; r++)
+        for (int c = 200; c < 202; c++)
+            px[3 * (r * w + c)] = px[3 * (r * w + c) + 1] = px[3 * (r * w + c) + 2] = 5e4f;
+    envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG, .threads = 2};
+    envl_envmap *m = NULL, *copy = NULL, *view = NULL;
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &m));
+    memcpy(before, envl_envmap_pixels(m), sizeof(float) * n);
+    envl_lights_options lo = {.method = ENVL_METHOD_SUN, .count = 4, .skip_residual = 1};
+    envl_lights *ls = NULL;
+    CHECK_OK(envl_lights_compute(m, &lo, &ls));
+    CHECK(envl_lights_count(ls) == 2);
+    CHECK_OK(envl__lights_residual_map(m, ls, 2, &copy));
+    float *saved = NULL;
+    CHECK_OK(envl__sun_residual_view(m, ls, 2, &saved, &view));
+    CHECK(envl_envmap_pixels(view) == envl_envmap_pixels(m)); /* borrowed, not copied */
+    CHECK(!memcmp(envl_envmap_pixels(view), envl_envmap_pixels(copy), sizeof(float) * n));
+    CHECK(memcmp(envl_envmap_pixels(view), before, sizeof(float) * n)); /* the suns are out */
+    envl_info a, b;
+    envl_envmap_info(view, &a);
+    envl_envmap_info(copy, &b);
+    CHECK(!memcmp(&a, &b, sizeof a));
+    envl_sh_options so = {.order = 4};
+    envl_sh *sa = NULL, *sb = NULL;
+    CHECK_OK(envl_sh_compute(view, &so, &sa));
+    CHECK_OK(envl_sh_compute(copy, &so, &sb));
+    CHECK(!memcmp(envl_sh_radiance(sa), envl_sh_radiance(sb), sizeof(double) * 3 * 25));
+    envl__sun_residual_view_end(m, ls, saved, view);
+    CHECK(!memcmp(envl_envmap_pixels(m), before, sizeof(float) * n));
+    envl_sh_free(sa);
+    envl_sh_free(sb);
+    envl_envmap_free(copy);
+    envl_lights_free(ls);
+    envl_envmap_free(m);
+    free(px);
+    free(before);
+}
+
 int main(void)
 {
     test_adopt_pixels();
@@ -398,6 +448,7 @@ int main(void)
     test_resample_power();
     test_resample_patched();
     test_stats_threads();
+    test_sun_residual_view();
     test_sanitise();
     test_infinite();
     test_arguments();

@@ -254,11 +254,25 @@ envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h
 /* The residual of the lights `ls` of m as a map of `threads` threads that owns its pixels (one
  * copy): for the sun method (computed with skip_residual or not) made now from the map and the
  * suns' pixels at the split's threshold, for the others a copy of ls's residual (an error when
- * skipped). gltf.c and pov_dome.c ask for it only when there is a light. */
+ * skipped). gltf.c asks for it for the other methods, only when there is a light (the sun
+ * method's: envl__sun_residual_view). */
 envl_result envl__lights_residual_map(const envl_envmap *m, const envl_lights *ls,
                                       int32_t threads, envl_envmap **out);
 /* The same into out (w x h x 3 floats). */
 void envl__sun_residual(const envl_envmap *m, const envl_lights *ls, float *out);
+/* The sun method's residual without a copy: m's own pixels with the suns' patches written in
+ * (the pixels they replace saved in *saved, malloc'd), as a map of `threads` threads that
+ * borrows them (*out, its own tables and statistics: envl__lights_residual_map's map). Until
+ * envl__sun_residual_view_end, m's pixels are the residual's: use *out, not m. */
+envl_result envl__sun_residual_view(envl_envmap *m, const envl_lights *ls, int32_t threads,
+                                    float **saved, envl_envmap **out);
+/* Frees the view and puts m's pixels back, bit for bit (NULL view and saved: nothing to do). */
+void envl__sun_residual_view_end(envl_envmap *m, const envl_lights *ls, float *saved,
+                                 envl_envmap *view);
+/* A lat-long map over pixels it does not own (they must be finite, non-negative and outlive
+ * it): its tables and statistics only. */
+envl_result envl__envmap_borrow(float *px, int32_t w, int32_t h, int32_t threads,
+                                envl_envmap **out);
 
 /* ---- prefiltering (prefilter.c, png.c) ---- */
 /* 8-bit RGB (channels 3) or RGBA (4) pixels as a PNG in memory (*out malloc'd); srgb: with the

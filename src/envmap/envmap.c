@@ -409,6 +409,38 @@ envl_result envl__envmap_adopt(float *px, int32_t w, int32_t h, const envl_load_
     return envl__envmap_from_image(&img, o, name, out);
 }
 
+envl_result envl__envmap_borrow(float *px, int32_t w, int32_t h, int32_t threads,
+                                envl_envmap **out)
+{
+    *out = NULL;
+    envl_envmap *m = calloc(1, sizeof *m);
+    if (!m)
+        return envl__fail(ENVL_ERR_MEMORY, "envmap: out of memory");
+    /* the info as envl__envmap_adopt gives a lat-long map of finite, non-negative pixels */
+    envl_info *info = &m->info;
+    snprintf(info->format, sizeof info->format, "memory");
+    info->source_width = w;
+    info->source_height = h;
+    info->channels = 3;
+    info->exposure = 1.0;
+    info->layout = ENVL_LAYOUT_LATLONG;
+    m->threads = envl__threads(threads);
+    m->px = px;
+    m->px_borrowed = 1;
+    m->width = w;
+    m->height = h;
+    envl_result rc = build_tables(m);
+    if (!rc)
+        rc = compute_stats(m);
+    if (rc) {
+        envl_envmap_free(m);
+        return rc;
+    }
+    memcpy(info->signed_power, info->power, sizeof info->power);
+    *out = m;
+    return ENVL_OK;
+}
+
 envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t height,
                                     int32_t channels, const envl_load_options *options,
                                     envl_envmap **out)
@@ -554,7 +586,8 @@ void envl_envmap_free(envl_envmap *m)
 {
     if (!m)
         return;
-    free(m->px);
+    if (!m->px_borrowed)
+        free(m->px);
     free(m->source_path);
     free(m->row_omega);
     free(m->row_cos);

@@ -524,7 +524,8 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         s.texel_error[k] = envl__texel_error_none;
     }
     envl_lights *ls = NULL;
-    envl_envmap *residual = NULL;
+    envl_envmap *residual = NULL; /* a copy (not the sun method) or a view of map's pixels */
+    float *saved = NULL;          /* the view's: the map's pixels under the suns' patches */
     envl_products *p = NULL;
     face_images img = {0};
     double measuring = 0;
@@ -537,8 +538,12 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         lo.skip_residual = lo.method == ENVL_METHOD_SUN; /* made below, only with a sun */
         lo.measure = 0;
         rc = envl_lights_compute(map, &lo, &ls);
-        if (!rc && envl_lights_count(ls)) /* one copy, the residual map's own pixels */
-            rc = envl__lights_residual_map(map, ls, o->threads, &residual);
+        /* the sun method's residual: the map's own pixels with the suns patched in until the
+         * products are made (no copy); another method's: a copy of what it left */
+        if (!rc && envl_lights_count(ls))
+            rc = lo.method == ENVL_METHOD_SUN
+                     ? envl__sun_residual_view(map, ls, o->threads, &saved, &residual)
+                     : envl__lights_residual_map(map, ls, o->threads, &residual);
     }
     envl_envmap *env = residual ? residual : map;
     /* the IBL: SH order 2 and the chain, mip k face >> k wide as cube faces (lat-long 4x) */
@@ -561,6 +566,11 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
             s.prefiltered_width = ps.prefiltered_width;
             s.prefiltered_height = ps.prefiltered_height;
         }
+    }
+    if (saved) { /* the map's pixels back before anything reads the map again */
+        envl__sun_residual_view_end(map, ls, saved, residual);
+        saved = NULL;
+        residual = NULL;
     }
     ibl b = {.face = face, .mips = mips, .roughness = roughness};
     if (!rc) {

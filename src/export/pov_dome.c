@@ -15,20 +15,24 @@
 #include <string.h>
 
 /* The map less its upper hemisphere: map - upper, pixel by pixel (upper is map with its lower
- * half black, the row across the horizon mixed: the two add up to the map). */
+ * half black, the row across the horizon mixed: the two add up to the map). Above the horizon
+ * the difference is 0: those pixels are left as calloc gave them, pages backed by the system's
+ * one zero page until written (half a map of memory, not a whole one), and the pixels are the
+ * new map's own (adopted, not copied). */
 static envl_result lower_half(const envl_envmap *map, const envl_envmap *upper, int32_t threads,
                               envl_envmap **out)
 {
     size_t n = (size_t)3 * map->width * map->height;
-    float *px = malloc(sizeof(float) * n);
+    float *px = calloc(n, sizeof(float));
     if (!px)
         return envl__fail(ENVL_ERR_MEMORY, "pov: out of memory");
-    for (size_t i = 0; i < n; i++)
-        px[i] = fmaxf(0, map->px[i] - upper->px[i]);
+    for (size_t i = 0; i < n; i++) {
+        float d = fmaxf(0, map->px[i] - upper->px[i]);
+        if (d != 0)
+            px[i] = d;
+    }
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
-    envl_result r = envl_envmap_from_pixels(px, map->width, map->height, 3, &lo, out);
-    free(px);
-    return r;
+    return envl__envmap_adopt(px, map->width, map->height, &lo, "", out);
 }
 
 static double power_lum(const envl_envmap *m)
@@ -64,8 +68,10 @@ envl_result pov_dome_lights(const envl_envmap *upper_c, const envl_envmap *map_c
                             int32_t threads, pov_light **lights, int32_t *n, int32_t *suns,
                             int32_t *below)
 {
-    envl_envmap *upper = (envl_envmap *)upper_c, *lower = NULL, *rest = NULL;
+    envl_envmap *upper = (envl_envmap *)upper_c, *lower = NULL, *rest = NULL; /* rest: a view */
     envl_lights *sun = NULL, *cells = NULL, *down = NULL;
+    pov_light *down_lights = NULL, *sun_lights = NULL;
+    float *saved = NULL; /* the sky's pixels under the suns while `rest` views them */
     *lights = NULL;
     *n = *suns = *below = 0;
     envl_result r = ENVL_OK;
@@ -79,38 +85,62 @@ envl_result pov_dome_lights(const envl_envmap *upper_c, const envl_envmap *map_c
         nd = nd < least ? least : nd > most ? most : nd;
     }
     int32_t nu = count - nd;
+    /* The lower half first, shaped and let go before the upper half's suns leave their rest:
+     * never the two copies at once. */
+    int32_t nbelow = 0;
+    if ((r = cut(lower, nd, &down)))
+        goto done;
+    down_lights = calloc(envl_lights_count(down) > 0 ? (size_t)envl_lights_count(down) : 1,
+                         sizeof *down_lights);
+    if (!down_lights) {
+        r = envl__fail(ENVL_ERR_MEMORY, "pov: out of memory");
+        goto done;
+    }
+    append(down, lower, 0, 0, POV_SIDE_DOWN, down_lights, &nbelow);
+    envl_envmap_free(lower);
+    lower = NULL;
     /* the suns take at most a quarter of the sky's lights */
     int32_t ns = nu / 4 < POV_DOME_SUNS ? nu / 4 : POV_DOME_SUNS;
     double threshold = 50.0 * pu / (4 * ENVL_PI); /* sun_split.c's SPLIT_K x the mean */
     if (ns > 0 && pu > 0) {
-        /* the residual made below, once, only with a sun (envl__lights_residual_map) */
         envl_lights_options so = {.method = ENVL_METHOD_SUN, .count = ns, .skip_residual = 1};
         if ((r = envl_lights_compute(upper, &so, &sun)))
             goto done;
-        if (envl_lights_count(sun) > 0 &&
-            (r = envl__lights_residual_map(upper, sun, threads, &rest)))
-            goto done;
     }
-    int32_t k = envl_lights_count(sun);
-    if ((r = cut(rest ? rest : upper, nu - k, &cells)) || (r = cut(lower, nd, &down)))
+    int32_t k = envl_lights_count(sun), nsun = 0;
+    sun_lights = calloc(k > 0 ? (size_t)k : 1, sizeof *sun_lights);
+    if (!sun_lights) {
+        r = envl__fail(ENVL_ERR_MEMORY, "pov: out of memory");
         goto done;
-    int32_t total = k + envl_lights_count(cells) + envl_lights_count(down);
+    }
+    append(sun, upper, threshold, 1, POV_SIDE_UP, sun_lights, &nsun); /* shaped from the sky */
+    /* The rest of the sky, cut into cells: the sky's own pixels with the suns patched in (no
+     * copy), put back before this returns. */
+    if (k > 0 && (r = envl__sun_residual_view(upper, sun, threads, &saved, &rest)))
+        goto done;
+    if ((r = cut(rest ? rest : upper, nu - k, &cells)))
+        goto done;
+    int32_t total = k + envl_lights_count(cells) + nbelow;
     *lights = calloc(total > 0 ? (size_t)total : 1, sizeof **lights);
     if (!*lights) {
         r = envl__fail(ENVL_ERR_MEMORY, "pov: out of memory");
         goto done;
     }
-    append(sun, upper, threshold, 1, POV_SIDE_UP, *lights, n);
+    memcpy(*lights, sun_lights, sizeof *sun_lights * (size_t)nsun);
+    *n = nsun;
     append(cells, rest ? rest : upper, 0, 0, POV_SIDE_UP, *lights, n);
-    append(down, lower, 0, 0, POV_SIDE_DOWN, *lights, n);
+    memcpy(*lights + *n, down_lights, sizeof *down_lights * (size_t)nbelow);
+    *n += nbelow;
     pov_area_samples(*lights, *n);
     *suns = k;
-    *below = envl_lights_count(down);
+    *below = nbelow;
 done:
+    envl__sun_residual_view_end(upper, sun, saved, rest); /* the sky's pixels back */
+    free(sun_lights);
+    free(down_lights);
     envl_lights_free(sun);
     envl_lights_free(cells);
     envl_lights_free(down);
-    envl_envmap_free(rest);
     envl_envmap_free(lower);
     return r;
 }

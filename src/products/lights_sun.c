@@ -126,6 +126,42 @@ void envl__sun_residual(const envl_envmap *m, const envl_lights *ls, float *out)
                sizeof ls->patch[i].rgb);
 }
 
+envl_result envl__sun_residual_view(envl_envmap *m, const envl_lights *ls, int32_t threads,
+                                    float **saved, envl_envmap **out)
+{
+    *saved = NULL;
+    *out = NULL;
+    float *keep = malloc(sizeof(float) * 3 * (size_t)(ls->npatch > 0 ? ls->npatch : 1));
+    if (!keep)
+        return envl__fail(ENVL_ERR_MEMORY, "lights: cannot save the suns' pixels");
+    for (int32_t i = 0; i < ls->npatch; i++)
+        memcpy(keep + 3 * (size_t)i, m->px + 3 * ((size_t)ls->patch[i].r * m->width +
+                                                  ls->patch[i].c), sizeof(float) * 3);
+    for (int32_t i = 0; i < ls->npatch; i++)
+        memcpy(m->px + 3 * ((size_t)ls->patch[i].r * m->width + ls->patch[i].c),
+               ls->patch[i].rgb, sizeof ls->patch[i].rgb);
+    *saved = keep;
+    envl_result rc = envl__envmap_borrow(m->px, m->width, m->height, threads, out);
+    if (rc) {
+        envl__sun_residual_view_end(m, ls, keep, NULL);
+        *saved = NULL;
+    }
+    return rc;
+}
+
+void envl__sun_residual_view_end(envl_envmap *m, const envl_lights *ls, float *saved,
+                                 envl_envmap *view)
+{
+    envl_envmap_free(view);
+    if (!saved)
+        return;
+    /* backwards: a pixel patched twice gets the value saved first, the map's own */
+    for (int32_t i = ls->npatch - 1; i >= 0; i--)
+        memcpy(m->px + 3 * ((size_t)ls->patch[i].r * m->width + ls->patch[i].c),
+               saved + 3 * (size_t)i, sizeof(float) * 3);
+    free(saved);
+}
+
 /* Exact irradiance of the sun method's residual at the error measure's normals, added to
  * approx: the residual stays an environment map (drawn as one), so it is part of what the
  * method hands a renderer. Computed as the map's reference is (envl_envmap_reference_irradiance,
