@@ -119,20 +119,21 @@ if [ ! -x "$CMFT" ]; then
   commit hash in $cache/cmft/COMMIT, or pass --cmft PATH"
 fi
 cmft_commit=$(commit_of "$CMFT" dariomanesku+cmft)
-if [ "$CMGEN" = none ] || [ ! -x "$CMGEN" ]; then
-  [ "$CMGEN" = none ] || echo "peer_bench: no cmgen at $CMGEN (Filament's tools/cmgen built from" \
-    "github google/filament, outside the repository; or --cmgen PATH): skipped" >&2
-  CMGEN=
-else
-  cmgen_commit=$(commit_of "$CMGEN" CFeng+filament)
-fi
-if [ "$PROBULATOR" = none ] || [ ! -x "$PROBULATOR" ]; then
-  [ "$PROBULATOR" = none ] || echo "peer_bench: no Probulator at $PROBULATOR (github kayru/Probulator;" \
-    "its ProbulatorCLI there, or --probulator PATH): skipped" >&2
-  PROBULATOR=
-else
-  prob_commit=$(commit_of "$PROBULATOR" kayru+Probulator)
-fi
+# an optional peer: NAME VARIABLE COMMIT_VARIABLE SNAPSHOT WHERE -> VARIABLE emptied (with a
+# note unless it was "none") when there is no binary, else COMMIT_VARIABLE set
+optional_peer() {
+  local bin=${!2}
+  if [ "$bin" = none ] || [ ! -x "$bin" ]; then
+    [ "$bin" = none ] || echo "peer_bench: no $1 at $bin ($5): skipped" >&2
+    printf -v "$2" '%s' ""
+  else
+    printf -v "$3" '%s' "$(commit_of "$bin" "$4")"
+  fi
+}
+optional_peer cmgen CMGEN cmgen_commit CFeng+filament \
+  "Filament's tools/cmgen built from github google/filament, outside the repository; or --cmgen PATH"
+optional_peer Probulator PROBULATOR prob_commit kayru+Probulator \
+  "github kayru/Probulator; its ProbulatorCLI there, or --probulator PATH"
 
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 work=$tmp/work; mkdir -p "$work/sh"
