@@ -127,6 +127,9 @@ run "$ENVLIGHT" pov - $S --scene boxfloor.pov --ground 0.4 -o boxfloor_g.inc
 has boxfloor_g.inc "#declare EnvLight_Ground_Albedo = 0.4;"
 has boxfloor_g.inc "^// ground: albedo from --ground$"
 hasnt boxfloor_g.inc "of the ground half"
+# image-radiosity has no dome: its header does not speak of the lower half as lights
+run "$ENVLIGHT" pov - $S --scene boxfloor.pov --recipe image-radiosity -o boxfloor_ir.inc
+hasnt boxfloor_ir.inc "the map's lower half stays lights"
 has default.inc "of the ground half"
 # a scene with light sources of its own: envlight's are declared, not placed, nor the bounce
 # pass (the scene would be lit twice); a warning says so

@@ -123,13 +123,11 @@ static void plan_scene(const char *path, pov_plan *p)
                  "than it receives: albedo 1 used (moved by %g)", path, a, a - 1);
         p->ground = a >= 0 ? fmin(a, 1) : 0.5;
         p->ground_box = p->scene->ground_box;
-        p->ground_from = p->ground_box
-                             ? (a >= 0 ? "the scene's floor box"
-                                       : "the scene's floor box, whose colour is not a literal: "
-                                         "0.5 assumed")
-                             : (a >= 0 ? "the scene's plane"
-                                       : "the scene's plane, whose colour is not a literal: "
-                                         "0.5 assumed");
+        static const char *const from[2][2] = {
+            {"the scene's plane", "the scene's plane, whose colour is not a literal: 0.5 assumed"},
+            {"the scene's floor box",
+             "the scene's floor box, whose colour is not a literal: 0.5 assumed"}};
+        p->ground_from = from[p->ground_box != 0][a < 0];
     }
 }
 

@@ -191,7 +191,7 @@ static void text_recipe(FILE *f, const pov_plan *p, const pov_work *w)
               "holds the lights' highlights)\n", f);
     if (p->ground_from)
         fprintf(f, "// ground: albedo from %s\n", p->ground_from);
-    else if (p->ground_box)
+    else if (p->ground_box && p->recipe == POV_RECIPE_DOME && p->bounce) /* plan_recipe */
         fputs("// ground: the scene's floor is a box, finite: the map's lower half stays lights "
               "(cut apart), the box\n//   hides what it covers and radiosity bounces it "
               "(--ground A: an endless plane instead)\n", f);
