@@ -24,19 +24,16 @@ import os
 import sys
 import time
 
-# --help (after "--" under Blender, or as usual under python3) prints the above and ends here,
-# before bpy is imported or anything runs.
-if __name__ == "__main__" and {"-h", "--help"} & set(
-        sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]):
-    print("usage: blender -b --factory-startup --python %s -- SPEC.json\n\n%s"
-          % ("scripts/" + os.path.basename(__file__), __doc__))
-    sys.exit(0)
+# --help prints the above and ends here, before bpy is imported or anything runs
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_help import exit_on_help  # noqa: E402
+if __name__ == "__main__":
+    exit_on_help(__doc__, __file__)
 
 import bpy
 import mathutils
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from blender_scene import add_white_sphere_and_camera, node_material, run_main  # noqa: E402
 
 

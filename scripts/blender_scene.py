@@ -19,6 +19,21 @@ def run_main(main):
     sys.exit(0)
 
 
+def world_with_image(name, image_path, projection="EQUIRECTANGULAR"):
+    """A new world `name`, made the scene's, lit by an Environment Texture of the image file
+    (Blender loads it; its pixels are decoded on first use): -> (world, texture node)."""
+    scene = bpy.context.scene
+    world = bpy.data.worlds.new(name)
+    scene.world = world
+    world.use_nodes = True
+    tree = world.node_tree
+    tex = tree.nodes.new("ShaderNodeTexEnvironment")
+    tex.projection = projection
+    tex.image = bpy.data.images.load(image_path)
+    tree.links.new(tex.outputs["Color"], tree.nodes["Background"].inputs["Color"])
+    return world, tex
+
+
 def node_material(name, shader="ShaderNodeBsdfDiffuse", color=(1, 1, 1)):
     """A material whose surface is one shader node (Diffuse BSDF, Emission...) of `color`."""
     mat = bpy.data.materials.new(name)

@@ -58,7 +58,11 @@ def parse_args(argv):
                         "reference: an end-to-end check")
     p.add_argument("--recipes", metavar="R1,R2", help="only these recipes")
     p.add_argument("--scenes", metavar="a,b", default=None,
-                   help="scenes (default: all of the host's: a,b for pov, a,b,c for blender)")
+                   help="scenes (default: all of the host's: a,b,still,interior,csg,x for "
+                        "pov, a,b,c for blender; --quick: the host's quick set)")
+    p.add_argument("--floor", metavar="MAP1,MAP2", default="",
+                   help="pov: the maps (by name: sky, rooitou_park_1k...) whose reference is "
+                        "rendered again finer, to measure its own noise")
     p.add_argument("--envlight", default=os.path.join("build", "envlight"),
                    help="the envlight CLI (default build/envlight)")
     p.add_argument("--library", default=os.path.join("build", "libenvlight.so"),
@@ -67,6 +71,9 @@ def parse_args(argv):
                    help="no runs: rescore a run's JSON (the host's own scoring, when it has "
                         "one) and write --docs / --json from it (the picture grid needs the "
                         "run's images: kept from that run)")
+    p.add_argument("--resume", action="store_true",
+                   help="with --json: keep the maps a partial --json of the same run already "
+                        "holds (a run stopped part way) and run the others")
     p.add_argument("--tmp", default=None,
                    help="work folder (default $ENVL_TEST_TMP or /tmp/envl_scene_bench)")
     return p.parse_args(argv)
@@ -159,9 +166,10 @@ def report(result, out_dir, host, module=None):
         if result.get("notes"):
             L += ["Notes: " + " ".join(result["notes"]), ""]
         L += module.report_lines(result, target_check(result, module))
-        L += ["", "![grid](%s_scene_grid.png)" % host, "",
-              getattr(module, "GRID_CAPTION", GRID_CAPTION), "",
-              "![error against time](%s_scene_error_time.png)" % host, ""]
+        if not hasattr(module, "figures"):   # a host with its own figures names them itself
+            L += ["", "![grid](%s_scene_grid.png)" % host, "",
+                  getattr(module, "GRID_CAPTION", GRID_CAPTION), "",
+                  "![error against time](%s_scene_error_time.png)" % host, ""]
         write_atomic(os.path.join(out_dir, "scene_bench_%s.md" % host), "\n".join(L))
         return
     maps = list(result["maps"])
@@ -350,9 +358,15 @@ def report_from(args):
     host = importlib.import_module(HOSTS[args.host])
     with open(args.report_from) as f:
         result = json.load(f)
+    images = None
+    if hasattr(host, "load_images"):   # a host that keeps its run's images draws from them
+        tmp = os.path.abspath(args.tmp or os.environ.get("ENVL_TEST_TMP")
+                              or "/tmp/envl_scene_bench")
+        host.setup(os.path.abspath(args.envlight), os.path.abspath(args.library), tmp)
+        images = {m: host.load_images(m, dict(tmp=tmp)) for m in result["maps"]}
     if hasattr(host, "rescore"):
         host.rescore(result)
-    write_out(args, host, result)
+    write_out(args, host, result, images)
 
 
 def write_out(args, host, result, images=None):
@@ -365,8 +379,11 @@ def write_out(args, host, result, images=None):
         write_atomic(os.path.join(args.docs, "scene_bench_%s.json" % args.host), text)
         report(result, args.docs, args.host, host)
         if images is not None:
-            grid(images, result, args.docs, args.host,
-                 getattr(host, "GRID_COLUMNS", GRID_COLUMNS))
+            if hasattr(host, "figures"):
+                host.figures(result, images, args.docs)
+            else:
+                grid(images, result, args.docs, args.host,
+                     getattr(host, "GRID_COLUMNS", GRID_COLUMNS))
         plot(result, args.docs, args.host, host.family)
     print()
     for m, (met, text_) in target_check(result, host).items():
@@ -391,7 +408,8 @@ def main(argv=None):
     r = subprocess.run([envlight, "--version"], capture_output=True, text=True)
     envlight_version = (r.stdout or r.stderr).strip().splitlines()[0] if r.returncode == 0 \
         else "envlight"
-    scenes = [s for s in args.scenes.split(",") if s] if args.scenes else list(host.SCENES)
+    scenes = [s for s in args.scenes.split(",") if s] if args.scenes else \
+        list(getattr(host, "QUICK_SCENES", host.SCENES) if args.quick else host.SCENES)
     bad = [s for s in scenes if s not in host.SCENES]
     if bad:
         sys.exit("--scenes: %s unknown (known: %s)" % (",".join(bad), ",".join(host.SCENES)))
@@ -437,8 +455,19 @@ def main(argv=None):
                   maps={}, runs=[], notes=[])
     images = {}
     opts = dict(quick=args.quick, recipes=recipes, scenes=scenes, tmp=tmp, envlight=envlight,
-                library=library)
+                library=library, floor=[m for m in args.floor.split(",") if m])
+    done = {}
+    if args.resume and args.json and os.path.exists(args.json):
+        with open(args.json) as f:
+            done = json.load(f)
+        print("resume: %d maps from %s" % (len(done["maps"]), args.json))
     for name, path in maps:
+        if name in done.get("maps", {}):   # kept as that run measured it
+            result["maps"][name] = done["maps"][name]
+            result["runs"] += [r for r in done["runs"] if r["map"] == name]
+            if hasattr(host, "load_images"):
+                images[name] = host.load_images(name, opts)
+            continue
         entry, runs, imgs = host.run_map(name, path, opts)
         result["maps"][name] = entry
         result["runs"] += runs

@@ -68,6 +68,9 @@ cpu=$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1)
   echo "  level read bilinearly plus the sun lights, against the glossy reference (within 0.1 %"
   echo "  RMS of the sum over every pixel) at 1024 Fibonacci directions; seconds per level, the"
   echo "  error measure excluded"
+  echo "- what a level's width costs in accuracy (the width each level would need for 1 %, its"
+  echo "  time, and the curve against width at roughness 0.05-0.4):"
+  echo "  [specular_width.md](specular_width.md)"
   echo
   cat "$tmp/table.md"
 } >"$tmp/report.md"

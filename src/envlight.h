@@ -158,6 +158,21 @@ ENVL_API envl_result envl_envmap_load(const char *path, const envl_load_options 
 ENVL_API envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t height,
                                              int32_t channels, const envl_load_options *options,
                                              envl_envmap **out);
+/* The same without a copy, for a host that writes an image's pixels straight into memory
+ * (Blender's Image.pixels.foreach_get): envl_pixels_alloc gives room for width x height pixels
+ * of `channels` floats (1, 3 or 4; options: max_pixels, else the default limit), which the
+ * caller fills (row-major, row 0 at the top, or at the bottom with bottom_up nonzero) and hands
+ * to envl_envmap_adopt_pixels. That call always takes the memory: the map's pixels are made in
+ * it (the rows put top-down, RGBA compacted to RGB, grey spread to RGB, the rest given back),
+ * and on failure it is freed; the caller must not touch it afterwards. envl_pixels_free frees
+ * memory that is never adopted. Otherwise as envl_envmap_from_pixels. */
+ENVL_API envl_result envl_pixels_alloc(int32_t width, int32_t height, int32_t channels,
+                                       const envl_load_options *options, float **out);
+ENVL_API void envl_pixels_free(float *pixels);
+ENVL_API envl_result envl_envmap_adopt_pixels(float *pixels, int32_t width, int32_t height,
+                                              int32_t channels, int32_t bottom_up,
+                                              const envl_load_options *options,
+                                              envl_envmap **out);
 ENVL_API void envl_envmap_free(envl_envmap *map);
 
 /* The environment as a scene on a ground plane sees it (ground.c). A copy of `map` whose lower
@@ -300,9 +315,9 @@ typedef struct envl_lights_options {
                                  default 2; ENVL_REMAINDER_NONE for lights only */
     int32_t measure;          /* nonzero: also measure diffuse_error (default 0: -1, not
                                  measured; the fit's own target is computed either way) */
-    int32_t skip_residual;    /* fit: nonzero keeps no residual map (the lights are the same;
-                                 the map's floats once, not twice); envl_lights_residual is
-                                 then NULL. Default 0: kept (ABI 4) */
+    int32_t skip_residual;    /* fit, sun: nonzero keeps no residual map (the lights and the
+                                 error are the same; the map's floats once, not twice);
+                                 envl_lights_residual is then NULL. Default 0: kept (ABI 4) */
 } envl_lights_options;
 
 typedef struct envl_light {
@@ -351,7 +366,7 @@ ENVL_API envl_result envl_lights_get_summary(const envl_lights *lights,
  * order -1 when there is none. */
 ENVL_API const double *envl_lights_remainder(const envl_lights *lights, int32_t *order);
 /* The residual environment (same size as the map), RGB floats owned by the lights object;
- * NULL (and an error message) for a fit computed with skip_residual. */
+ * NULL (and an error message) for a fit or sun lights computed with skip_residual. */
 ENVL_API const float *envl_lights_residual(const envl_lights *lights);
 /* The delta light that stands for `light` over the residual map (ABI 5): direction =
  * take_direction, rgb = light->rgb (1 - take_solid_angle / 4 pi). A disc lamp of the light's
@@ -453,8 +468,9 @@ ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l; 0 for l < 0 (no such ban
 #define ENVL_DEFAULT_LEVELS 6
 
 #define ENVL_IRRADIANCE_SPLIT 0     /* default: the bright pixels (the sun split's, more than 50x
-                                       the mean luminance) exactly, the rest by SH of order 16 of
-                                       a 256-wide copy: one pass and the output's size */
+                                       the mean luminance) exactly, the rest (a 256-wide copy)
+                                       through the kernel tree, each texel within 0.5 % of its
+                                       E (or of 1 % of the mean, ABI 5; SH order 16 before) */
 #define ENVL_IRRADIANCE_SH 1        /* from the SH irradiance of order irradiance_order (fast) */
 #define ENVL_IRRADIANCE_EXACT 2     /* envl_irradiance_exact per texel (reference; slow) */
 #define ENVL_IRRADIANCE_RESAMPLED 3 /* envl_irradiance_exact per texel over an area-resampled copy
@@ -469,9 +485,10 @@ typedef struct envl_prefilter_options {
     int32_t width;            /* lat-long width of the roughness-0 level; default 512 */
     int32_t min_width;        /* no specular level narrower than this; default 64 */
     int32_t samples;          /* the filtered levels' density, default 64: a level w wide sums
-                                 pyramid cells whole from rho = sqrt(n) / 4 of their widths from R,
-                                 n = samples (width / w)^2 at most 8 x samples (rho 2, 4, 5.7 at
-                                 512, 256, <= 128 wide); unfiltered: GGX samples per texel */
+                                 pyramid cells whole from rho = 1 + sqrt(n) / 8 of their widths
+                                 from R, n = samples (width / w)^2 within 4 and 8 x samples (rho
+                                 3, 3, 3.8 at 512, 256, <= 128 wide); unfiltered: GGX samples per
+                                 texel */
     int32_t unfiltered;       /* nonzero: plain GGX importance sampling of the full-resolution
                                  map (no pyramid): the benchmark's baseline */
     int32_t irradiance_method;/* ENVL_IRRADIANCE_*; default SPLIT */
@@ -489,6 +506,13 @@ typedef struct envl_prefilter_options {
                                  "ktx2"): each is measured as written, its values rounded to
                                  half and those above ENVL_HALF_MAX written as ENVL_HALF_MAX
                                  (ABI 5); default 0: 32-bit floats */
+    int32_t layout;           /* the texels the maps are computed at (ABI 5): ENVL_EXPORT_LATLONG
+                                 (default; also ATLAS) lat-long images; ENVL_EXPORT_CUBE (or
+                                 CROSS) cube faces of width / 4 texels (irradiance_width / 4),
+                                 each texel computed at its own centre direction, held as a
+                                 horizontal strip (envl_level.layout ENVL_LAYOUT_STRIP_H): what
+                                 envl_products_export writes as cube faces, a cross or KTX2
+                                 without resampling */
 } envl_prefilter_options;
 /* The largest finite IEEE half float: larger values are written as it (KTX2 "ktx2", EXR half). */
 #define ENVL_HALF_MAX 65504.0
@@ -497,18 +521,39 @@ typedef struct envl_prefilter_options {
 ENVL_API int32_t envl_prefilter_level_width(const envl_prefilter_options *options,
                                             double roughness);
 
+/* The per-texel error of a map product (docs/design.md, "Error measures"): at each texel's
+ * centre direction, e = (Y - Y_exact) / max(Y_exact, ENVL_TEXEL_DARK x the mean of Y_exact
+ * over the sphere), Y luminance, Y_exact the exact value there (the brute force's, summed
+ * within a stated tolerance; roughness 0: the map's mean over the texel); the RMS weighted
+ * by the texels' solid angles, and the largest |e|. Over every texel, or over
+ * ENVL_TEXEL_SAMPLES of them spread evenly through the image when it has more. */
+#define ENVL_TEXEL_DARK 0.01
+#define ENVL_TEXEL_SAMPLES 8192
+typedef struct envl_texel_error {
+    double rms;               /* -1 when not measured */
+    double worst;             /* the largest |e| (-1 when not measured) */
+    double worst_direction[3];/* that texel's centre direction (canonical frame) */
+    int32_t measured, texels; /* texels measured, of all the product has */
+} envl_texel_error;
+
 typedef struct envl_level {
     double roughness, alpha;  /* alpha = roughness^2 */
-    int32_t width, height;    /* lat-long */
+    int32_t width, height;    /* of rgb: the lat-long map, or the strip of six faces (6F x F) */
     const float *rgb;         /* width * height * 3, row 0 = top; owned by the products */
     int32_t samples;          /* filtered: pyramid cells summed per texel (mean); unfiltered: GGX
                                  samples per texel; 0 for roughness 0 (the map resampled by area) */
     int32_t filtered;         /* 1: the cell pyramid's quadrature, 0: plain GGX sampling */
-    double energy_scale;      /* factor applied so that the level's integral of L dw equals the
-                                 map's (the continuous P(R) preserves it exactly); luminance
-                                 ratio before the correction, 1 when none was needed */
+    double energy_scale;      /* the level's texel sum of P dw against the map's integral of
+                                 L dw (luminance; the continuous P(R) keeps it exactly): how
+                                 well its grid resolves the lobe. Filtered levels are not scaled
+                                 by it (each texel is P at its centre, ABI 5); the unfiltered
+                                 baseline is scaled to the map's power, per channel */
     double glossy_error;      /* docs/design.md's glossy error (request.measure), else -1 */
     double seconds;           /* to compute the level (the error measure excluded) */
+    int32_t layout;           /* ENVL_LAYOUT_LATLONG, or ENVL_LAYOUT_STRIP_H: six cube faces of
+                                 height texels side by side, px nx py ny pz nz, each as
+                                 docs/design.md's face table (prefilter options.layout) */
+    envl_texel_error texel_error; /* request.measure; else rms and worst -1 */
 } envl_level;
 
 typedef struct envl_irradiance_map {
@@ -516,6 +561,8 @@ typedef struct envl_irradiance_map {
     const float *rgb;         /* owned by the products */
     double diffuse_error;     /* docs/design.md's diffuse error (request.measure), else -1 */
     double seconds;
+    int32_t layout;           /* as envl_level's */
+    envl_texel_error texel_error;
 } envl_irradiance_map;
 
 #define ENVL_BRDF_DEFAULT_SIZE 128
@@ -578,6 +625,33 @@ ENVL_API envl_result envl_products_get_summary(const envl_products *products,
 ENVL_API int32_t envl_products_level_count(const envl_products *products);
 ENVL_API envl_result envl_products_level(const envl_products *products, int32_t index,
                                          envl_level *out);
+/* What a level's accuracy costs (docs/design.md, "Level width for 1 %"): measured with the
+ * errors (request.measure) for each filtered level of roughness > 0 whose glossy error is
+ * over ENVL_GLOSSY_TARGET, the narrowest width (within 5 %) from which the same level's glossy
+ * error, read at the 1024 directions from texels computed there as the level computes them,
+ * meets it (there and 5 % and 10 % wider); the time estimated from the level's own seconds
+ * per texel. */
+#define ENVL_GLOSSY_TARGET 0.01
+#define ENVL_WIDTH_NOT_ESTIMATED 0 /* no errors measured, roughness 0, or the unfiltered baseline */
+#define ENVL_WIDTH_MET 1           /* the level's glossy error is within the target already */
+#define ENVL_WIDTH_FOUND 2         /* width, size, glossy_error, seconds: where it is met */
+#define ENVL_WIDTH_BEYOND 3        /* not met up to the largest size (65536 lat-long texels):
+                                      width, size, glossy_error, seconds are that size's */
+typedef struct envl_width_estimate {
+    int32_t state;            /* ENVL_WIDTH_* */
+    int32_t width;            /* the level's width there: lat-long width, or the face size
+                                 for cube faces (envl_level.layout ENVL_LAYOUT_STRIP_H) */
+    int32_t size;             /* envl_prefilter_options.width that makes the level that wide
+                                 in the same request (width << k, x 4 for faces) */
+    double glossy_error;      /* the glossy error read there */
+    double seconds;           /* estimated: the level's seconds x texels there / texels now */
+    int32_t widths_tried;     /* widths the search read */
+    int32_t directions_read;  /* of the 1024 error directions, those read at each (the ones
+                                 that carry the level's error) */
+    double seconds_spent;     /* the search's own time */
+} envl_width_estimate;
+ENVL_API envl_result envl_products_level_width(const envl_products *products, int32_t index,
+                                               envl_width_estimate *out);
 /* Index of the level of exactly `roughness` (-1 if none). */
 ENVL_API int32_t envl_products_find_level(const envl_products *products, double roughness);
 /* ENVL_ERR_ARGUMENT when the product was not requested. */
@@ -710,13 +784,18 @@ typedef struct envl_gltf_summary {
     double diffuse_error;     /* docs/design.md's diffuse error of the lights + the SH
                                  irradiance against the whole map's exact irradiance; -1 when
                                  not measured */
-    double glossy_error[16];  /* mip k's glossy error (its float lat-long level against the
-                                 residual's reference); -1 when not measured */
+    double glossy_error[16];  /* mip k's glossy error (its float cube faces read bilinearly,
+                                 against the residual's reference); -1 when not measured */
     double rgbd_error;        /* largest relative RMS (luminance) over the mips of the decoded
                                  RGBD faces against the float faces they encode (none clamps:
                                  intensity is the chain's largest value / 255) */
     int64_t bytes;            /* of the file */
     double seconds;           /* everything (the error measures excluded) */
+    envl_texel_error texel_error[16]; /* mip k's per-texel error (its float faces, each texel
+                                 computed at its centre, against the residual's reference) */
+    int32_t prefiltered_width, prefiltered_height; /* the map the mips were computed from: the
+                                 map's own size, or a finer copy of a map too coarse for the GGX
+                                 sums (envl_products_summary's) */
 } envl_gltf_summary;
 
 /* Writes `path` (.glb or .gltf) atomically. summary (may be NULL) gets the figures above. */
@@ -794,9 +873,13 @@ ENVL_API int32_t envl_pov_recipe_from_name(const char *name); /* -1 if unknown *
 #define ENVL_POV_AMBIENT_HEMI 2     /* its hemispheric form (sky, ground, axis: the pair of
                                        envl_sh_summary, never negative) */
 #define ENVL_POV_AMBIENT_NONE 3
-#define ENVL_POV_SHADOWS_HARD 0     /* default */
-#define ENVL_POV_SHADOWS_SOFT 1     /* area lights sized by each light's angular diameter */
+#define ENVL_POV_SHADOWS_AUTO 0     /* default: the recipe's: a dome's lights soft, every other
+                                       light hard (ABI 5; HARD was 0 before) */
+#define ENVL_POV_SHADOWS_SOFT 1     /* area lights: a dome's light shaped as the sky it stands for
+                                       (its region's spread), any other a disc of its angular
+                                       diameter */
 #define ENVL_POV_SHADOWS_NONE 2     /* shadowless lights */
+#define ENVL_POV_SHADOWS_HARD 3     /* point lights: hard shadows (a dome's draw rings) */
 #define ENVL_POV_EXPOSURE_AUTO (-1.0) /* envl_pov_options.exposure: a white surface facing up,
                                          unshadowed, reads 0.6 (for an 8-bit image) */
 #define ENVL_POV_MAX_ORDER 8        /* the ambient's largest SH order */
@@ -832,7 +915,7 @@ typedef struct envl_pov_options {
                                  has one (its literal colour's luminance, else 0.5), else none;
                                  image-radiosity uses none (radiosity bounces the scene's) */
     double ground_albedo;     /* 0..1, with ground_plane */
-    int32_t shadows;          /* ENVL_POV_SHADOWS_*; default hard */
+    int32_t shadows;          /* ENVL_POV_SHADOWS_*; default AUTO */
     int32_t sky;              /* nonzero: declare the environment as a sky_sphere
                                  (EnvLight_Sky(); under a dome's radiosity a backdrop) */
     int32_t sky_residual;     /* nonzero: the sky shows the residual (what the lights did not

@@ -30,6 +30,28 @@ for l in d["specular"]:
     assert l["glossy_error"] is not None and l["seconds"] >= 0
 assert d["irradiance"]["diffuse_error"] < 0.02
 PY
+# The per-texel error beside each figure (text and JSON), and the note when a product is beyond
+# RMS 0.5 % / worst 2 %: the SH order 2 irradiance map of the sky (a sun: far beyond) and a
+# level summed from 1.25 cell widths (--samples 1) are; the default split map and chain are
+# not (the figures against the brute force: tests/py_texel.py).
+grep -q "per texel RMS" out.txt || { fails=$((fails + 1)); echo "FAIL: no per-texel figure"; cat out.txt; }
+py <<'PY'
+import json
+d = json.load(open("ll/prefilter.json"))
+for p in [d["irradiance"]] + d["specular"]:
+    t = p["texel_error"]
+    assert 0 <= t["rms"] <= t["worst"] and 0 < t["texels_measured"] <= t["texels"], t
+    assert len(t["worst_direction"]) == 3 and p["resampled"] is False, p
+    if p is d["irradiance"] or p["roughness"] > 0:
+        assert t["rms"] <= 0.005 and t["worst"] <= 0.02, p
+PY
+status 0 "$ENVLIGHT" prefilter - -o note1 --sky-width 128 --irradiance --irradiance-method sh \
+    --irradiance-order 2
+grep -q "note: the irradiance map's per texel RMS" err.txt || { fails=$((fails + 1)); echo "FAIL: no note on the SH irradiance map"; cat err.txt; }
+status 0 "$ENVLIGHT" prefilter - -o note2 --sky-width 256 --roughness 0.2 --samples 1 --size 128
+grep -q "note: specular_00's per texel" err.txt || { fails=$((fails + 1)); echo "FAIL: no note on a coarse level"; cat err.txt; }
+status 0 "$ENVLIGHT" prefilter - -o note3 --sky-width 128 --size 64
+grep -q "note:" err.txt && { fails=$((fails + 1)); echo "FAIL: a note on the defaults"; cat err.txt; }
 # Cube faces and the cross; hdr and pfm.
 run "$ENVLIGHT" prefilter - -o cube $S --size 16 --samples 16 --layout cube --format hdr --no-error
 for f in px nx py ny pz nz; do [ -s cube/specular_05_$f.hdr ] || { fails=$((fails + 1)); echo "FAIL: cube face $f"; }; done
@@ -80,6 +102,32 @@ py <<'PY'
 import json
 d = json.load(open("out.txt"))
 assert "irradiance" not in d and [l["roughness"] for l in d["specular"]] == [0.4]
+PY
+# The width a level over 1 % glossy error would need (docs/design.md, "Level width for 1 %"):
+# the line under the level and prefilter.json's target_width say the same; its figures are
+# tests/test_level_width.c's to check. A level within 1 % or not measured states no width.
+run "$ENVLIGHT" prefilter - -o tw --sky-width 256 --quiet --levels 1 --roughness 0.2 \
+  --layout cube --size 16
+py <<'PY'
+import json, re
+t = json.load(open("tw/prefilter.json"))["specular"][0]["target_width"]
+assert t["target"] == 0.01 and t["state"] == "found", t
+face = t["height"]
+assert face > 16 and t["width"] == 6 * face and t["prefilter_width"] == 4 * face, t
+assert t["glossy_error"] <= 0.01 and t["seconds_estimated"] > 0 and t["widths_tried"] > 0, t
+line = [l for l in open("out.txt") if "glossy 1 % at" in l]
+assert len(line) == 1, open("out.txt").read()
+m = re.search(r"at 6 x (\d+)\^2 \(--size (\d+)\): ([0-9.]+) % there, about ([0-9.]+) s", line[0])
+assert m and int(m[1]) == face and int(m[2]) == face, line
+assert abs(float(m[3]) - 100 * t["glossy_error"]) < 6e-4, (m[3], t)
+PY
+run "$ENVLIGHT" prefilter - -o tw2 --sky-width 256 --quiet --levels 1 --roughness 0.2 \
+  --layout cube --size 16 --no-error
+grep -q "glossy 1 %" out.txt && { fails=$((fails + 1)); echo "FAIL: a width without errors"; }
+py <<'PY'
+import json
+t = json.load(open("tw2/prefilter.json"))["specular"][0]["target_width"]
+assert t["state"] == "not estimated" and t["width"] is None and t["widths_tried"] == 0, t
 PY
 # A failed run leaves the existing files as they were.
 cp ll/specular_00.exr before.exr

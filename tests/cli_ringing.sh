@@ -79,6 +79,8 @@ run "$ENVLIGHT" sh ring.pfm --json -o sh.json
 within sh.json 'near([c * 2 * 3.141592653589793 ** 0.5 for c in d["radiance"][0]], s["signed"], 1e-5) and d["repair"]["negative_pixels"] > 0' \
   "sh: 2 sqrt(pi) L00"
 run "$ENVLIGHT" prefilter ring.pfm -o maps --irradiance --specular --levels 3 --no-error
+within maps/prefilter.json 'd["repair"]["negative_pixels"] > 0 and near(d["repair"]["signed_power"], s["signed"], 1e-5)' \
+  "prefilter.json: repair"
 run "$ENVLIGHT" info maps/irradiance.exr --json
 cp out.txt irr.json
 within irr.json 'near([p / 3.141592653589793 for p in d["power"]], s["signed"], 0.01)' \
@@ -91,12 +93,14 @@ done
 run "$ENVLIGHT" gltf ring.pfm -o env.gltf --json
 cp out.txt gltf_summary.json
 within gltf_summary.json '"repair" in d and d["repair"]["negative_pixels"] > 0' "gltf --json: repair"
+within env.gltf 'd["asset"]["extras"]["repair"]["negative_pixels"] > 0' "the glTF file's extras: repair"
 # the glTF: directional lights (color x intensity = irradiance) + the IBL's SH irradiance,
 # whose sphere mean is intensity x c00 x 0.282095 (Babylon's basis): power = 4 mean
 within env.gltf 'near([sum(l["color"][c] * l["intensity"] for l in d["extensions"]["KHR_lights_punctual"]["lights"]) + 4 * d["extensions"]["EXT_lights_image_based"]["lights"][0]["intensity"] * d["extensions"]["EXT_lights_image_based"]["lights"][0]["irradianceCoefficients"][0][c] * 0.28209479177387814 for c in range(3)], s["signed"], 0.01)' \
   "glTF: lights + IBL"
 # the POV-Ray include, sh recipe: the lights' irradiance + the ambient's (E00 2 / sqrt(pi))
 run "$ENVLIGHT" pov ring.pfm -o env.inc --recipe sh
+has env.inc "^// loaded: [0-9]* pixels with negative values (down to -[0-9.]*): filled from the light around them"
 checks=$((checks + 1))
 python3 - <<'PY' || fail "pov: lights + ambient"
 import json, math, re

@@ -248,8 +248,8 @@ def spot_run(request, addon_zip, spot_hdr):
 
 
 def test_progress_bar_follows_the_library(spot_run):
-    """Create Lights' bar: its own steps (0.2, 0.6, 0.75, 1) and, between 0.2 and 0.6, the
-    library's progress callback while it fits, rising."""
+    """Create Lights' bar: its own steps (0.01, the reading's 0.02-0.2, 0.6, 0.75, 1) and, up
+    to 0.6, the library's progress callback while it fits, rising."""
     v = spot_run["progress"]
     assert v == sorted(v) and v[-1] == 1.0, v
     inside = [x for x in v if 0.2 < x < 0.6]
@@ -911,3 +911,60 @@ def test_eevee_says_the_volume_probe_is_off(addon_zip, spot_hdr):
                        "further on others)"] if next_ else \
         ["volume probe: EEVEE-Next's (Blender 4.2+) only"], skipped
     assert not any("volume probe" in r for r in run["plan"]["reasons"])
+
+
+# ---- reading the world's image: one copy, the progress bar first (issue 29) -------------------
+
+def write_png_rgb8(path, rgb):
+    """A (h, w, 3) uint8 array as an 8-bit RGB PNG (zlib and the PNG chunks, no other
+    library): Blender reads it as an 8-bit sRGB image."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data +
+                struct.pack(">I", zlib.crc32(kind + data) & 0xffffffff))
+    h, w, _ = rgb.shape
+    raw = b"".join(b"\0" + rgb[r].tobytes() for r in range(h))
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+                + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
+
+
+def test_reads_the_image_in_one_copy_with_the_progress_bar_first(addon_zip):
+    """The world's image goes into the library with no copy of it in Python (tracemalloc counts
+    numpy's and ctypes' allocations, not the library's malloc: the map, the one copy allowed):
+    the most Python memory the reading holds at once stays under one float per pixel
+    (w h 4 bytes), where any copy of the pixels needs w h 4 bytes or more (the add-on's
+    other allocations do not grow with the image: a few kB); the map is the one a plain copy
+    of Image.pixels gives, bit for bit. And Create Lights calls its progress callback before
+    it copies the pixels (Image.pixels.foreach_get), and again while it reads the image
+    (under 0.2, where the fits start). Float EXR, 8-bit sRGB PNG (decoded in blocks) and a
+    square mirror ball."""
+    rng = np.random.default_rng(29)
+    sky = (rng.random((512, 1024, 3)) * 2.0).astype(np.float32)
+    sky[100, 300] = (2000.0, 1800.0, 1500.0)  # a sun: lamps to make
+    exr = os.path.join(TMP, "read_latlong.exr")
+    envlight.save_image(exr, sky)
+    png = os.path.join(TMP, "read_srgb.png")
+    write_png_rgb8(png, (rng.random((512, 1024, 3)) * 255).astype(np.uint8))
+    ball = os.path.join(TMP, "read_ball.exr")
+    envlight.save_image(ball, np.ascontiguousarray(sky[:, 256:768]))
+    spec = {"images": [{"path": exr, "projection": "EQUIRECTANGULAR"},
+                       {"path": png, "projection": "EQUIRECTANGULAR"},
+                       {"path": ball, "projection": "MIRROR_BALL"}]}
+    res, _ = run_blender("read_copies", spec, addon_zip,
+                         script=os.path.join(SRC, "scripts", "blender_read_check.py"))
+    assert [i["is_float"] for i in res["images"]] == [True, False, True]
+    for item in res["images"]:
+        w, h = item["size"]
+        name = os.path.basename(item["path"])
+        assert item["same_pixels"], name
+        assert item["peak"] < w * h * 4, (name, item["peak"], w * h * 4)
+        events = [tuple(e) for e in item["events"]]
+        assert events and events[0][0] == "progress", (name, events[:5])
+        first = [e[0] for e in events].index("foreach_get")
+        before = [v for kind, v in events[:first] if kind == "progress"]
+        after = [v for kind, v in events[first + 1:] if kind == "progress"]
+        assert before and 0.0 < before[-1] < 0.2, (name, events[:first + 3])
+        assert after and after[0] < 0.2, (name, events[first:first + 3])

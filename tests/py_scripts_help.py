@@ -32,7 +32,7 @@ def runs_in_blender(path):
 
 # Modules the scripts import, with no command line of their own; every other scripts/*.py is a
 # command (a new one joins the test by itself).
-MODULES = {"blender_scene.py", "scene_bench_pov.py"}
+MODULES = {"blender_scene.py", "scene_bench_pov.py", "blender_help.py"}
 # Commands outside scripts/: the Python package's build backend (CMake runs it to write the
 # wheel).
 ELSEWHERE = [os.path.join(SOURCE, "py_shim", "backend", "envlight_wheel.py")]

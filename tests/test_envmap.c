@@ -92,16 +92,23 @@ static void test_spot(void)
     free(px);
 }
 
+/* n floats of a fixed pseudo-random sequence (the C standard's example LCG from `seed`), each
+ * in [0, 100) in steps of 100 / steps: a map with detail everywhere, the same on every machine. */
+static void random_pixels(float *px, size_t n, unsigned seed, unsigned steps)
+{
+    unsigned s = seed;
+    for (size_t i = 0; i < n; i++) {
+        s = s * 1103515245u + 12345u;
+        px[i] = (float)((s >> 8) % steps) / (float)(steps / 100);
+    }
+}
+
 /* Resampling to other sizes keeps the integral of L dw (area weights are exact). */
 static void test_resample_power(void)
 {
     const int w = 200, h = 100;
     float *px = malloc(sizeof(float) * w * h * 3);
-    unsigned s = 12345;
-    for (int i = 0; i < w * h * 3; i++) {
-        s = s * 1103515245u + 12345u;
-        px[i] = (float)((s >> 8) % 1000) / 10.0f;
-    }
+    random_pixels(px, (size_t)w * h * 3, 12345u, 1000);
     px[3 * (17 * w + 3)] = 1e6f; /* a sun */
     envl_envmap *ref;
     envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG};
@@ -243,12 +250,205 @@ static void test_atomic_save(void)
     free(after);
 }
 
+/* Resampling with a few pixels patched (resample.c) gives what resampling a patched copy gives,
+ * bit for bit: down, the same size (plain, and turned), up, odd sizes; patches in the first
+ * and last rows, on the seam, several in one row. */
+static void test_resample_patched(void)
+{
+    const int w = 200, h = 100;
+    float *px = malloc(sizeof(float) * w * h * 3), *copy = malloc(sizeof(float) * w * h * 3);
+    random_pixels(px, (size_t)w * h * 3, 777u, 1000);
+    envl_pixel_patch patch[8] = {{0, 0, {1e5f, 2e5f, 3e5f}},  {0, 199, {7, 8, 9}},
+                                 {17, 3, {1e6f, 0, 0}},        {17, 4, {0, 1e6f, 0}},
+                                 {17, 150, {0, 0, 1e6f}},      {50, 100, {0.5f, 0.25f, 0.125f}},
+                                 {98, 42, {3e4f, 3e4f, 3e4f}}, {99, 199, {11, 12, 13}}};
+    memcpy(copy, px, sizeof(float) * w * h * 3);
+    for (int i = 0; i < 8; i++)
+        memcpy(copy + 3 * (patch[i].r * w + patch[i].c), patch[i].rgb, sizeof patch[i].rgb);
+    const struct { int w, h; double rot; } out[] = {{64, 32, 0}, {200, 100, 0}, {200, 100, 33.3},
+                                                    {1000, 500, 0}, {199, 37, 12}, {1, 1, 0}};
+    for (size_t k = 0; k < sizeof out / sizeof *out; k++) {
+        float *a = NULL, *b = NULL;
+        CHECK_OK(envl__latlong_resample(copy, w, h, out[k].w, out[k].h, out[k].rot, &a));
+        CHECK_OK(envl__latlong_resample_patched(px, w, h, patch, 8, out[k].w, out[k].h,
+                                                out[k].rot, &b));
+        CHECK(a && b && !memcmp(a, b, sizeof(float) * 3 * out[k].w * out[k].h));
+        free(a);
+        free(b);
+    }
+    free(px);
+    free(copy);
+}
+
+/* The map's statistics (power, maxima, brightest pixel: rows in parallel, combined in row order)
+ * are those of one plain pass, bit for bit, at 1 and 3 threads; the parallel look for NaN,
+ * Inf and negative values finds one value of each at the far ends of the map. */
+static void test_stats_threads(void)
+{
+    const int w = 300, h = 151;
+    float *px = malloc(sizeof(float) * w * h * 3);
+    random_pixels(px, (size_t)w * h * 3, 99u, 100000);
+    px[3 * (70 * w + 12) + 1] = 1e4f;  /* the brightest, twice: the first counts */
+    px[3 * (120 * w + 5) + 1] = 1e4f;
+    double power[3] = {0, 0, 0};
+    for (int r = 0; r < h; r++) {
+        double row[3] = {0, 0, 0};
+        for (int c = 0; c < w; c++)
+            for (int k = 0; k < 3; k++)
+                row[k] += px[3 * (r * w + c) + k];
+        for (int k = 0; k < 3; k++)
+            power[k] += row[k] * envl_latlong_solid_angle(w, h, r);
+    }
+    for (int32_t t = 1; t <= 3; t += 2) {
+        envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG, .threads = t};
+        envl_envmap *m;
+        CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &m));
+        envl_info info;
+        envl_envmap_info(m, &info);
+        for (int k = 0; k < 3; k++)
+            CHECK(info.power[k] == power[k]);
+        CHECK(info.max[1] == 1e4);
+        double d[3];
+        envl_envmap_direction(m, 12, 70, d);
+        CHECK(!memcmp(d, info.brightest_direction, sizeof d));
+        envl_envmap_free(m);
+    }
+    px[0] = -1.0f;                           /* first value: negative */
+    px[3 * w * h - 1] = NAN;                 /* last value: NaN */
+    for (int32_t t = 1; t <= 3; t += 2) {
+        envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG, .threads = t};
+        envl_envmap *m;
+        CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &m));
+        envl_info info;
+        envl_envmap_info(m, &info);
+        CHECK(info.negative_pixels == 1 && info.nonfinite_pixels == 1);
+        envl_envmap_free(m);
+    }
+    free(px);
+}
+
+/* envl_envmap_adopt_pixels makes, in the memory it is given, the very map that
+ * envl_envmap_from_pixels makes of the same pixels (bit for bit, info too): 1, 3 and 4
+ * channels, top-down and bottom-up (odd and even heights: the middle row stays), a negative
+ * value filled the same way; it frees the memory on a bad argument (ASan / Valgrind see a
+ * leak otherwise) and refuses what envl_pixels_alloc refuses. */
+static void test_adopt_pixels(void)
+{
+    const int w = 37;
+    for (int h = 18; h <= 19; h++)
+        for (int ch = 1; ch <= 4; ch++) {
+            if (ch == 2)
+                continue;
+            for (int bottom_up = 0; bottom_up <= 1; bottom_up++) {
+                size_t n = (size_t)w * h * ch;
+                float *src = malloc(n * sizeof(float));
+                random_pixels(src, n, 7u + (unsigned)(ch * 2 + bottom_up), 1000);
+                src[ch * (5 * w + 3)] = -0.25f; /* one negative value to fill */
+                float *top = malloc(n * sizeof(float));
+                for (int r = 0; r < h; r++) /* the reference's rows top-down */
+                    memcpy(top + (size_t)r * w * ch,
+                           src + (size_t)(bottom_up ? h - 1 - r : r) * w * ch,
+                           (size_t)w * ch * sizeof(float));
+                envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG};
+                envl_envmap *want, *got;
+                CHECK_OK(envl_envmap_from_pixels(top, w, h, ch, &o, &want));
+                float *mem;
+                CHECK_OK(envl_pixels_alloc(w, h, ch, &o, &mem));
+                memcpy(mem, src, n * sizeof(float));
+                CHECK_OK(envl_envmap_adopt_pixels(mem, w, h, ch, bottom_up, &o, &got));
+                CHECK(envl_envmap_width(got) == w && envl_envmap_height(got) == h);
+                CHECK(!memcmp(envl_envmap_pixels(got), envl_envmap_pixels(want),
+                              (size_t)w * h * 3 * sizeof(float)));
+                envl_info a, b;
+                envl_envmap_info(got, &a);
+                envl_envmap_info(want, &b);
+                CHECK(a.negative_pixels == 1 && b.negative_pixels == 1);
+                CHECK(!memcmp(a.power, b.power, sizeof a.power));
+                CHECK(!memcmp(a.filled_energy, b.filled_energy, sizeof a.filled_energy));
+                CHECK(a.channels == ch && !strcmp(a.format, "memory"));
+                envl_envmap_free(got);
+                envl_envmap_free(want);
+                free(top);
+                free(src);
+            }
+        }
+    float *mem;
+    envl_envmap *m = (envl_envmap *)&mem;
+    CHECK_RC(envl_pixels_alloc(4, 2, 2, NULL, &mem), ENVL_ERR_ARGUMENT);
+    CHECK(mem == NULL);
+    envl_load_options small = {.max_pixels = 7};
+    CHECK_RC(envl_pixels_alloc(4, 2, 4, &small, &mem), ENVL_ERR_LIMIT);
+    CHECK_OK(envl_pixels_alloc(4, 2, 4, NULL, &mem));
+    CHECK_RC(envl_envmap_adopt_pixels(mem, 4, 2, 2, 0, NULL, &m), ENVL_ERR_ARGUMENT);
+    CHECK(m == NULL); /* and mem freed */
+    CHECK_OK(envl_pixels_alloc(4, 2, 4, NULL, &mem));
+    CHECK_RC(envl_envmap_adopt_pixels(mem, 4, 2, 4, 0, &small, &m), ENVL_ERR_LIMIT);
+    CHECK(strstr(envl_last_error(), "4 x 2") != NULL);
+    CHECK_OK(envl_pixels_alloc(4, 2, 3, NULL, &mem));
+    envl_pixels_free(mem);
+    CHECK_RC(envl_envmap_adopt_pixels(NULL, 4, 2, 3, 0, NULL, &m), ENVL_ERR_ARGUMENT);
+}
+
+/* The sun method's residual as a view of the map's own pixels (gltf.c: no copy) is the copy
+ * envl__lights_residual_map makes, bit for bit: pixels, info (power, maxima, brightest
+ * direction) and the SH projected from it; afterwards the map's pixels are its own again, bit
+ * for bit. Two suns (3 x 3 pixels of 1e5 and 2 x 2 of 5e4) on a random map. */
+static void test_sun_residual_view(void)
+{
+    const int w = 256, h = 128;
+    size_t n = (size_t)w * h * 3;
+    float *px = malloc(sizeof(float) * n), *before = malloc(sizeof(float) * n);
+    random_pixels(px, n, 4242u, 1000);
+    for (int r = 30; r < 33; r++)
+        for (int c = 40; c < 43; c++)
+            px[3 * (r * w + c)] = px[3 * (r * w + c) + 1] = px[3 * (r * w + c) + 2] = 1e5f;
+    for (int r = 50; r < 52; r++)
+        for (int c = 200; c < 202; c++)
+            px[3 * (r * w + c)] = px[3 * (r * w + c) + 1] = px[3 * (r * w + c) + 2] = 5e4f;
+    envl_load_options o = {.layout = ENVL_LAYOUT_LATLONG, .threads = 2};
+    envl_envmap *m = NULL, *copy = NULL, *view = NULL;
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &o, &m));
+    memcpy(before, envl_envmap_pixels(m), sizeof(float) * n);
+    envl_lights_options lo = {.method = ENVL_METHOD_SUN, .count = 4, .skip_residual = 1};
+    envl_lights *ls = NULL;
+    CHECK_OK(envl_lights_compute(m, &lo, &ls));
+    CHECK(envl_lights_count(ls) == 2);
+    CHECK_OK(envl__lights_residual_map(m, ls, 2, &copy));
+    float *saved = NULL;
+    CHECK_OK(envl__sun_residual_view(m, ls, 2, &saved, &view));
+    CHECK(envl_envmap_pixels(view) == envl_envmap_pixels(m)); /* borrowed, not copied */
+    CHECK(!memcmp(envl_envmap_pixels(view), envl_envmap_pixels(copy), sizeof(float) * n));
+    CHECK(memcmp(envl_envmap_pixels(view), before, sizeof(float) * n)); /* the suns are out */
+    envl_info a, b;
+    envl_envmap_info(view, &a);
+    envl_envmap_info(copy, &b);
+    CHECK(!memcmp(&a, &b, sizeof a));
+    envl_sh_options so = {.order = 4};
+    envl_sh *sa = NULL, *sb = NULL;
+    CHECK_OK(envl_sh_compute(view, &so, &sa));
+    CHECK_OK(envl_sh_compute(copy, &so, &sb));
+    CHECK(!memcmp(envl_sh_radiance(sa), envl_sh_radiance(sb), sizeof(double) * 3 * 25));
+    envl__sun_residual_view_end(m, ls, saved, view);
+    CHECK(!memcmp(envl_envmap_pixels(m), before, sizeof(float) * n));
+    envl_sh_free(sa);
+    envl_sh_free(sb);
+    envl_envmap_free(copy);
+    envl_lights_free(ls);
+    envl_envmap_free(m);
+    free(px);
+    free(before);
+}
+
 int main(void)
 {
+    test_adopt_pixels();
     test_solid_angles();
     test_directions();
     test_spot();
     test_resample_power();
+    test_resample_patched();
+    test_stats_threads();
+    test_sun_residual_view();
     test_sanitise();
     test_infinite();
     test_arguments();

@@ -32,6 +32,40 @@ static const float *px_at(const envl_image *img, int x, int y)
     return img->px + ((size_t)y * (size_t)img->width + (size_t)x) * 3;
 }
 
+/* The loader's path, the open file read by offset with its chunks decoded in parallel (1 and 3
+ * threads), against the same bytes read from memory (format detection included): the same
+ * result code, the same floats bit for bit or the same message. */
+static void check_file_reader(const char *path)
+{
+    uint8_t *data;
+    size_t size;
+    envl_image m = {0};
+    envl_result rc = envl__read_file(path, (size_t)1 << 32, &data, &size);
+    if (rc == ENVL_OK) {
+        rc = envl__read_image_memory(data, size, path, &default_limits, &m);
+        free(data);
+    }
+    char msg[2048];
+    snprintf(msg, sizeof msg, "%s", envl_last_error());
+    for (int32_t threads = 1; threads <= 3; threads += 2) {
+        envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, NULL, threads};
+        envl_image f = {0};
+        envl_result frc = envl__read_image_file(path, &lim, &f);
+        CHECK(frc == rc);
+        if (frc == ENVL_OK && rc == ENVL_OK) {
+            CHECK(f.width == m.width && f.height == m.height &&
+                  !memcmp(f.px, m.px, sizeof(float) * 3 * (size_t)f.width * f.height));
+            CHECK(f.meta.envmap_layout == m.meta.envmap_layout &&
+                  f.meta.channels == m.meta.channels);
+        } else if (strcmp(msg, envl_last_error())) {
+            CHECK(!"the same message from the file as from memory");
+            fprintf(stderr, "  memory: %s\n  file:   %s\n", msg, envl_last_error());
+        }
+        envl__image_free(&f);
+    }
+    envl__image_free(&m);
+}
+
 static float bits_to_float(uint32_t u)
 {
     float f;
@@ -411,6 +445,66 @@ static void test_windows(void)
                 CHECK(check_window_pixels(&img, tp.disp, tp.dw) == 0);
             envl__image_free(&img);
         }
+}
+
+/* More chunks than one block of the parallel decoder (1024): 2100 one-line ZIPS chunks and 1200
+ * tiles of 8 x 8, read from the file at 1 and 3 threads as from memory; then one chunk of the
+ * second block damaged (its packed size): the same message, naming that chunk. */
+static void test_many_chunks(void)
+{
+    for (int tiled = 0; tiled < 2; tiled++) {
+        test_part tp = {.nch = 3, .ch = {"R", "G", "B"},
+                        .type = {EXR_PIXEL_HALF, EXR_PIXEL_FLOAT, EXR_PIXEL_HALF},
+                        .value_index = {0, 1, 2}, .envmap = -1};
+        tp.dw = tp.disp = tiled ? box(0, 0, 319, 239) : box(0, 0, 63, 2099);
+        tp.comp = tiled ? EXR_COMPRESSION_PIZ : EXR_COMPRESSION_ZIPS;
+        tp.tiled = tiled, tp.tile_w = 8, tp.tile_h = 8, tp.levels = EXR_TILE_ONE_LEVEL;
+        const char *path = tmp_path(tiled ? "many_tiles.exr" : "many_lines.exr");
+        CHECK(write_test_file(path, &tp, 1) == 0);
+        envl_image img;
+        CHECK_OK(read_exr_file(path, NULL, &img));
+        int wrong = 0;
+        for (int y = 0; y < img.height && img.px; y++)
+            for (int x = 0; x < img.width; x++)
+                for (int c = 0; c < 3; c++)
+                    wrong += px_at(&img, x, y)[c] != test_value(c, x, y, 0);
+        CHECK(wrong == 0);
+        check_file_reader(path);
+        envl__image_free(&img);
+
+        /* damage: the packed size of chunk 1500 (tiles: 1100) in its chunk header, made huge */
+        int64_t chunk = tiled ? 1100 : 1500;
+        exr_context_t f;
+        exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+        exr_chunk_info_t ci = {0};
+        CHECK(exr_start_read(&f, path, &init) == 0);
+        if (tiled)
+            CHECK(exr_read_tile_chunk_info(f, 0, (int)(chunk % 40), (int)(chunk / 40), 0, 0,
+                                           &ci) == 0);
+        else
+            CHECK(exr_read_scanline_chunk_info(f, 0, (int)chunk, &ci) == 0);
+        exr_finish(&f);
+        /* scanline chunk: y (4), size (4), data; tile: tx, ty, lx, ly (16), size (4), data */
+        uint64_t at = ci.data_offset - 4;
+        int fd = open(path, O_WRONLY);
+        const uint8_t ff[4] = {0xff, 0xff, 0xff, 0x0f};
+        CHECK(fd >= 0 && pwrite(fd, ff, 4, (off_t)at) == 4);
+        close(fd);
+        envl_result rc = read_exr_file(path, NULL, &img);
+        CHECK(rc != ENVL_OK);
+        char msg[2048], want[64];
+        snprintf(msg, sizeof msg, "%s", envl_last_error());
+        if (tiled)
+            snprintf(want, sizeof want, "tile (%d, %d)", (int)(chunk % 40), (int)(chunk / 40));
+        else
+            snprintf(want, sizeof want, "scanline %d", (int)chunk);
+        CHECK(strstr(msg, want) != NULL);
+        if (!strstr(msg, want))
+            fprintf(stderr, "  %s\n", msg);
+        check_file_reader(path);
+        envl__image_free(&img);
+        remove(path);
+    }
 }
 
 static void test_tiled_mipmap(void)
@@ -974,6 +1068,7 @@ static void check_sample(const char *path)
     const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
     envl_image img;
     envl_result rc = read_exr_file(path, NULL, &img);
+    check_file_reader(path);
     sample_count++;
     if (is_damaged(base)) {
         CHECK_RC(rc, ENVL_ERR_FORMAT);
@@ -1239,6 +1334,7 @@ int main(void)
     test_envmap_attribute();
     test_windows();
     test_tiled_mipmap();
+    test_many_chunks();
     test_luminance_and_uint();
     test_float_range();
     test_parts_and_layers();

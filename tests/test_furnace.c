@@ -6,7 +6,8 @@
  * A map whose pixels are too coarse for that (fewer than 16 columns, or wider than tall) is
  * now prefiltered from a copy with each pixel split evenly (the same function), which the
  * products' summary reports. Checked on 1x1 .. 7x100 maps and on the 1x16384 and 16384x1
- * extremes: every texel L within 2e-6 relative (float sums), the irradiance map pi L, every
+ * extremes: every texel L within 2e-6 relative (float sums), the irradiance map pi L (exact;
+ * the default split method within its promise, ENVL_SPLIT_RELATIVE), every
  * stated error within 2e-6 (the diffuse one within the reference's tolerance when the tree
  * sums it); an elevation ramp one pixel wide gives the levels of its split copy. */
 #include "error_measure.h"
@@ -39,8 +40,11 @@ static void furnace(int32_t w, int32_t h, int coarse)
 {
     const float rgb[3] = {1.0f, 0.37f, 2.5f};
     envl_envmap *m = constant(w, h, rgb);
+    /* the irradiance map by the exact integrator, exact for a constant map; the default
+     * (split) is checked below against its promise */
     envl_request q = {.irradiance_map = 1, .specular_chain = 1, .measure = 1,
-                      .prefilter = {.levels = 4, .width = 64, .irradiance_width = 32}};
+                      .prefilter = {.levels = 4, .width = 64, .irradiance_width = 32,
+                                    .irradiance_method = ENVL_IRRADIANCE_EXACT}};
     envl_products *p = NULL;
     CHECK_OK(envl_compute(m, &q, &p));
     if (!p) {
@@ -83,6 +87,18 @@ static void furnace(int32_t w, int32_t h, int coarse)
         CHECK(s.prefiltered_width == 1024 && s.prefiltered_height == 512);
     else
         CHECK(s.prefiltered_width == w && s.prefiltered_height == h);
+    /* the default irradiance method, split: every texel within ENVL_SPLIT_RELATIVE of pi L */
+    envl_request qs = {.irradiance_map = 1,
+                       .prefilter = {.irradiance_width = 32,
+                                     .irradiance_method = ENVL_IRRADIANCE_SPLIT}};
+    envl_products *ps = NULL;
+    CHECK_OK(envl_compute(m, &qs, &ps));
+    envl_irradiance_map irs;
+    if (ps && envl_products_irradiance(ps, &irs) == ENVL_OK)
+        CHECK(worst(irs.rgb, (size_t)irs.width * irs.height, e_rgb) <= ENVL_SPLIT_RELATIVE);
+    else
+        CHECK(0);
+    envl_products_free(ps);
     /* one level on its own */
     float *lv = NULL;
     envl_level st;

@@ -1019,6 +1019,184 @@ static void test_threads(void)
     free(src);
 }
 
+/* ---- reading from a file in windows (hdr.c: pass 1 in 4 MiB windows, pass 2 in 1 MiB
+ * batches per thread) against reading the same bytes from memory ---------------------------- */
+
+/* A 2048 x 1200 adaptive-RLE file written by hand so that every scanline takes the same 8260
+ * bytes (2, 2, 8, 0; then per plane 16 literals of 128 bytes): scanline s starts at
+ * header + 8260 s, and at 9.9 MB the file spans three 4 MiB windows, with scanlines across
+ * their ends. Component c of pixel i of scanline s is (s 31 + i 7 + c 13) mod 256, the
+ * exponent 100 + (s + i) mod 60. */
+enum { LW = 2048, LH = 1200, LINE_BYTES = 4 + 4 * 16 * 129 };
+static const char long_header[] = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1200 +X 2048\n";
+
+static uint8_t long_byte(int s, int i, int c)
+{
+    return c == 3 ? (uint8_t)(100 + (s + i) % 60) : (uint8_t)((s * 31 + i * 7 + c * 13) % 256);
+}
+
+static uint8_t *long_file(size_t *size)
+{
+    size_t hl = strlen(long_header), n = hl + (size_t)LH * LINE_BYTES;
+    uint8_t *d = malloc(n), *q = d + hl;
+    memcpy(d, long_header, hl);
+    for (int s = 0; s < LH; s++) {
+        *q++ = 2, *q++ = 2, *q++ = LW >> 8, *q++ = LW & 255;
+        for (int c = 0; c < 4; c++)
+            for (int i = 0; i < LW; i++) {
+                if (i % 128 == 0)
+                    *q++ = 128;
+                *q++ = long_byte(s, i, c);
+            }
+    }
+    *size = n;
+    return d;
+}
+
+static int write_bytes(const char *path, const uint8_t *d, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    int ok = f && fwrite(d, 1, n, f) == n;
+    if (f && fclose(f) != 0)
+        ok = 0;
+    return ok;
+}
+
+/* The file read from disk and the same bytes read from memory: the same result code, and the
+ * same floats bit for bit or the same message (file offsets, whatever window they fell in). */
+static void check_file_as_memory(const char *path, const uint8_t *d, size_t n, int32_t threads)
+{
+    envl_limits lim = {ENVL_DEFAULT_MAX_PIXELS, NULL, threads};
+    envl_image a = {0}, b = {0};
+    envl_result ra = envl__read_hdr(d, n, path, &lim, &a);
+    char ma[2048];
+    snprintf(ma, sizeof ma, "%s", envl_last_error());
+    envl_result rb = envl__read_image_file(path, &lim, &b);
+    CHECK(ra == rb);
+    if (ra == ENVL_OK && rb == ENVL_OK) {
+        CHECK(a.width == b.width && a.height == b.height);
+        CHECK(a.px && b.px &&
+              !memcmp(a.px, b.px, sizeof(float) * 3 * (size_t)a.width * (size_t)a.height));
+    } else if (strcmp(ma, envl_last_error())) {
+        CHECK(!"the same message");
+        fprintf(stderr, "  memory: %s\n  file:   %s\n", ma, envl_last_error());
+    }
+    envl__image_free(&a);
+    envl__image_free(&b);
+}
+
+static void test_streamed(void)
+{
+    size_t n;
+    uint8_t *d = long_file(&n);
+    const char *path = tmp_path("windows.hdr");
+    CHECK(write_bytes(path, d, n));
+    envl_limits two = {ENVL_DEFAULT_MAX_PIXELS, NULL, 2};
+    envl_image img = {0};
+    CHECK_OK(envl__read_image_file(path, &two, &img));
+    CHECK(img.width == LW && img.height == LH);
+    int wrong = 0;
+    for (int s = 0; s < LH && img.px; s += 7)      /* "-Y H +X W": scanline s is row s */
+        for (int i = 0; i < LW; i += 3)
+            for (int c = 0; c < 3; c++)
+                wrong += pix(&img, i, s)[c] != (float)dec(long_byte(s, i, c), long_byte(s, i, 3));
+    CHECK(wrong == 0);
+    envl__image_free(&img);
+    for (int32_t t = 1; t <= 3; t++)
+        check_file_as_memory(path, d, n, t);
+
+    /* damage in the third window: scanline 1100's length header, then a zero-length literal
+     * in scanline 700 (the first error in file order is named), then the file cut short */
+    size_t hl = strlen(long_header);
+    size_t s1100 = hl + (size_t)1100 * LINE_BYTES, s700 = hl + (size_t)700 * LINE_BYTES;
+    d[s1100 + 3] = 1; /* claims 2049 pixels */
+    CHECK(write_bytes(path, d, n));
+    CHECK_RC(envl__read_image_file(path, &two, &img), ENVL_ERR_FORMAT);
+    char want[256];
+    snprintf(want, sizeof want, "scanline 1100 at byte %zu: run-length header claims 2049", s1100);
+    CHECK(strstr(envl_last_error(), want) != NULL);
+    check_file_as_memory(path, d, n, 2);
+    d[s700 + 4 + 129 * 5] = 0; /* plane 0, the 6th literal's code */
+    CHECK(write_bytes(path, d, n));
+    CHECK_RC(envl__read_image_file(path, &two, &img), ENVL_ERR_FORMAT);
+    snprintf(want, sizeof want, "zero-length RLE literal at byte %zu in scanline 700",
+             s700 + 4 + 129 * 5);
+    CHECK(strstr(envl_last_error(), want) != NULL);
+    check_file_as_memory(path, d, n, 2);
+    free(d);
+    d = long_file(&n);
+    size_t cut = hl + (size_t)1150 * LINE_BYTES + 1000;
+    CHECK(write_bytes(path, d, cut));
+    CHECK_RC(envl__read_image_file(path, &two, &img), ENVL_ERR_FORMAT);
+    CHECK(strstr(envl_last_error(), "truncated in scanline 1150") != NULL);
+    check_file_as_memory(path, d, cut, 2);
+    free(d);
+
+    /* a scanline longer than the window: flat, 1.2 M pixels (4.8 MB) x 2, the second one
+     * column-major too ("+X W -Y H": scanlines are columns), after a header of 100 kB of
+     * history (longer than its first window) ending in an EXPOSURE line */
+    const int W = 1200000;
+    for (int xmajor = 0; xmajor < 2; xmajor++) {
+        char res[64];
+        if (xmajor)
+            snprintf(res, sizeof res, "+X 2 -Y %d\n", W);
+        else
+            snprintf(res, sizeof res, "-Y 2 +X %d\n", W);
+        size_t hist = 100000;
+        n = 11 + hist + 15 + 1 + strlen(res) + (size_t)8 * W;
+        d = malloc(n);
+        uint8_t *q = d;
+        memcpy(q, "#?RADIANCE\n", 11), q += 11;
+        for (size_t k = 0; k < hist; k++)
+            *q++ = k % 50 == 49 ? '\n' : 'h';
+        memcpy(q, "EXPOSURE=0.25\n\n", 15), q += 15;
+        memcpy(q, res, strlen(res)), q += strlen(res);
+        for (int k = 0; k < 2 * W; k++) {
+            *q++ = (uint8_t)(k * 7), *q++ = (uint8_t)(k * 11), *q++ = (uint8_t)(k * 13);
+            *q++ = (uint8_t)(120 + k % 16);
+        }
+        n = (size_t)(q - d);
+        CHECK(write_bytes(path, d, n));
+        CHECK_OK(envl__read_image_file(path, &two, &img));
+        CHECK(img.meta.exposure == 0.25);
+        CHECK(xmajor ? img.width == 2 && img.height == W : img.width == W && img.height == 2);
+        /* the last pixel of the file: (2 W - 1); "-Y 2 +X W" puts it at the bottom right, "+X 2
+         * -Y W" (columns left to right, each top to bottom) too */
+        int k = 2 * W - 1;
+        if (img.px)
+            CHECK(pix(&img, img.width - 1, img.height - 1)[0] ==
+                  (float)dec((uint8_t)(k * 7), 120 + k % 16));
+        envl__image_free(&img);
+        check_file_as_memory(path, d, n, 2);
+        free(d);
+    }
+    remove(path);
+}
+
+/* An open file that shrinks or changes while it is read is an error naming it. */
+static void test_infile_changes(void)
+{
+    const char *path = tmp_path("changes.bin");
+    const uint8_t bytes[100] = {1, 2, 3};
+    CHECK(write_bytes(path, bytes, sizeof bytes));
+    envl_infile f;
+    CHECK_OK(envl__infile_open(path, 1000, &f));
+    CHECK(f.size == 100);
+    uint8_t got[100];
+    CHECK_OK(envl__infile_read(&f, 0, got, 100));
+    CHECK(got[2] == 3);
+    CHECK_OK(envl__infile_unchanged(&f));
+    CHECK_RC(envl__infile_read(&f, 50, got, 51), ENVL_ERR_IO);
+    CHECK(strstr(envl_last_error(), "shrank") != NULL);
+    CHECK(write_bytes(path, bytes, 60)); /* the same file rewritten shorter */
+    CHECK_RC(envl__infile_unchanged(&f), ENVL_ERR_IO);
+    CHECK(strstr(envl_last_error(), "changed while it was read") != NULL);
+    envl__infile_close(&f);
+    CHECK_RC(envl__infile_open(path, 59, &f), ENVL_ERR_LIMIT);
+    CHECK_RC(envl__infile_open(ENVL_TEST_TMP, 1000, &f), ENVL_ERR_IO);
+    remove(path);
+}
+
 int main(void)
 {
     test_orientations();
@@ -1034,5 +1212,7 @@ int main(void)
     test_save_refuses();
     test_real_files();
     test_threads();
+    test_streamed();
+    test_infile_changes();
     return check_report("test_hdr");
 }

@@ -602,6 +602,46 @@ static void test_sun_sky(void)
     CHECK(s.diffuse_error >= 0 && s.diffuse_error < 1e-3);
     envl_lights_free(ls);
     envl_envmap_free(m);
+
+    /* 2048 wide (the error's reference resampled to 1024): skip_residual keeps no residual,
+     * the same light and error bit for bit; the error is the residual's exact irradiance
+     * (its pixels, resampled, as the map's reference is) + the light's, against the map's */
+    so.width = 2048;
+    CHECK_OK(envl_envmap_sky(&so, &m));
+    envl_lights *lk;
+    CHECK_OK(envl_lights_compute(m, &o, &ls));
+    o.skip_residual = 1;
+    CHECK_OK(envl_lights_compute(m, &o, &lk));
+    envl_light l2;
+    envl_lights_summary s2;
+    CHECK_OK(envl_lights_get(ls, 0, &l));
+    CHECK_OK(envl_lights_get(lk, 0, &l2));
+    CHECK(!memcmp(&l, &l2, sizeof l));
+    CHECK_OK(envl_lights_get_summary(ls, &s));
+    CHECK_OK(envl_lights_get_summary(lk, &s2));
+    CHECK(s.diffuse_error == s2.diffuse_error && s.diffuse_error > 0);
+    CHECK(envl_lights_residual(lk) == NULL);
+    const float *res = envl_lights_residual(ls);
+    envl_envmap *rm;
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG};
+    CHECK(res && !envl_envmap_from_pixels(res, 2048, 1024, 3, &lo, &rm));
+    const double *ref, *eres;
+    double *dirs = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
+    double *e = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
+    for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
+        envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, dirs + 3 * i);
+    CHECK_OK(envl_envmap_reference_irradiance(m, &ref));
+    CHECK_OK(envl_envmap_reference_irradiance(rm, &eres));
+    CHECK_OK(envl_lights_irradiance(ls, ENVL_ERROR_NORMALS, dirs, e));
+    for (int32_t i = 0; i < 3 * ENVL_ERROR_NORMALS; i++)
+        e[i] += eres[i];
+    CHECK(envl_relative_rms_luminance(ENVL_ERROR_NORMALS, e, ref) == s.diffuse_error);
+    free(dirs);
+    free(e);
+    envl_envmap_free(rm);
+    envl_lights_free(lk);
+    envl_lights_free(ls);
+    envl_envmap_free(m);
 }
 
 /* No sun: a constant map (nothing above the threshold), and a bright patch 20 degrees wide (a

@@ -66,6 +66,30 @@ static void test_bench_scene(void)
                            .ground_height = 0, .ground_albedo = -1});
 }
 
+/* The scenes written as users write them (povray_include/examples, the scene benchmark's). */
+static void test_user_scenes(void)
+{
+    char path[4096];
+    pov_scene s;
+    snprintf(path, sizeof path, "%s/povray_include/examples/still_life.pov", ENVL_SOURCE_DIR);
+    CHECK(pov_scene_read(path, &s) == 0 && !s.note[0]);
+    /* a plane, two wall boxes, five objects, the shelf (a union) and the ball under it */
+    CHECK(s.objects == 10 && s.casters == 10 && s.glossy && s.ground && !s.ground_box);
+    CHECK(s.ground_albedo == -1 && !s.sky && !s.lights && !s.radiosity);
+    CHECK(s.reflective && s.double_highlights == 1 && s.double_line == 27); /* T_Gold */
+    CHECK(s.includes == 1 && !strcmp(s.include_name, "env.inc"));
+    snprintf(path, sizeof path, "%s/povray_include/examples/interior_window.pov",
+             ENVL_SOURCE_DIR);
+    CHECK(pov_scene_read(path, &s) == 0 && !s.note[0]);
+    /* the floor is a box (the ceiling slab is one too, smaller) */
+    CHECK(s.objects == 6 && s.ground && s.ground_box && s.ground_height == 0);
+    CHECK(s.glossy && !s.reflective && !s.double_highlights && !s.sky && s.includes == 1);
+    snprintf(path, sizeof path, "%s/povray_include/examples/csg_sky.pov", ENVL_SOURCE_DIR);
+    CHECK(pov_scene_read(path, &s) == 0 && !s.note[0]);
+    CHECK(s.objects == 4 && s.casters == 4 && s.ground && !s.ground_box && s.sky);
+    CHECK(s.glossy && !s.reflective && s.includes == 1); /* colors.inc is standard */
+}
+
 static void test_glossy(void)
 {
     pov_scene s = scene("sphere { 0, 1 pigment { rgb 1 } finish { ambient 0 diffuse 0.8 } }\n");
@@ -156,6 +180,14 @@ static void test_albedo(void)
     /* srgb is gamma-encoded: 0.5 is ((0.5 + 0.055) / 1.055)^2.4 linear */
     CHECK_NEAR(scene("plane { y, 0 pigment { srgb 0.5 } }").ground_albedo,
                pow(0.555 / 1.055, 2.4), 1e-12);
+    /* a negative literal (a pigment that takes light away) is albedo 0, with a note; the
+     * fuzzer's find (CI, 2026-11-28): -5 was returned as it was, below the -1 "unknown" */
+    pov_scene neg = scene("plane { y, 0 pigment { rgb -5 } }");
+    CHECK(neg.ground == 1 && neg.ground_albedo == 0 && strstr(neg.note, "luminance -5"));
+    CHECK(scene("plane { y, 0 pigment { rgb <1, -1, 0> } }").ground_albedo == 0);
+    CHECK(scene("box { <-9, -1, -9>, <9, 0, 9> pigment { rgb -0.5 } }").ground_albedo == 0);
+    /* above 1 as written: the include clamps it and says so */
+    CHECK_NEAR(scene("plane { y, 0 pigment { rgb 2 } }").ground_albedo, 2, 1e-12);
     /* not literals: -1 */
     CHECK(scene("plane { y, 0 pigment { Grey } }").ground_albedo == -1);
     CHECK(scene("plane { y, 0 pigment { color Grey } }").ground_albedo == -1);
@@ -166,6 +198,83 @@ static void test_albedo(void)
     /* only inside the plane's block, only a ground */
     CHECK(scene("plane { y, 0 } sphere { 0, 1 pigment { rgb 0.5 } }").ground_albedo == -1);
     CHECK(scene("plane { x, 0 pigment { rgb 0.5 } }").ground_albedo == -1);
+}
+
+/* A floor made of a box: placed, literal corners, no transform of its own, at least 4 x wider
+ * and deeper than high; the largest such box; a plane facing up wins over any box. */
+static void test_ground_box(void)
+{
+    pov_scene s = scene("box { <-5, -0.2, -5>, <5, 0, 5> pigment { rgb 0.4 } }\n"
+                        "sphere { <0, 1, 0>, 1 }\n");
+    CHECK(s.ground == 1 && s.ground_box == 1 && s.ground_height == 0 && s.objects == 2);
+    CHECK_NEAR(s.ground_albedo, 0.4, 1e-12);
+    s = scene("box { <3, 1, 3>, <-3, 0.9, -3> }"); /* corners in any order: the top is 1 */
+    CHECK(s.ground_box == 1 && s.ground_height == 1 && s.ground_albedo == -1);
+    s = scene("box { -1, <1, 1, 1> }"); /* a cube is no floor */
+    CHECK(s.ground == 0);
+    CHECK(scene("box { <-5, 0, -0.5>, <5, 1, 0.5> }").ground == 0);   /* a wall */
+    CHECK(scene("box { <-5, -1, -5>, <5, 0, 5> rotate 10 * x }").ground == 0);
+    CHECK(scene("box { <-5, -1, -5>, <5, 0, 5> translate y }").ground == 0);
+    CHECK(scene("box { <-5, -1, -5>, <5, 0, 5> texture { T rotate 20 * y } }").ground == 1);
+    CHECK(scene("box { <-5, -1, -5>, <5, H, 5> }").ground == 0);        /* not literal */
+    CHECK(scene("#declare F = box { <-5, -1, -5>, <5, 0, 5> }\nobject { F }").ground == 0);
+    /* the largest wins: a table top, then the floor, then a shelf */
+    s = scene("box { <-0.7, 0.7, -0.5>, <0.7, 0.76, 0.5> pigment { rgb 0.2 } }\n"
+              "box { <-4, -0.1, -4>, <4, 0, 4> pigment { rgb 0.6 } }\n"
+              "box { <-1, 1.5, -0.2>, <1, 1.52, 0.2> }\n");
+    CHECK(s.ground_box == 1 && s.ground_height == 0 && s.objects == 3);
+    CHECK_NEAR(s.ground_albedo, 0.6, 1e-12);
+    /* a plane facing up, before or after, is the ground */
+    s = scene("box { <-4, -0.1, -4>, <4, 0, 4> } plane { y, -1 pigment { rgb 0.3 } }");
+    CHECK(s.ground == 1 && s.ground_box == 0 && s.ground_height == -1);
+    CHECK_NEAR(s.ground_albedo, 0.3, 1e-12);
+    s = scene("plane { y, -1 } box { <-4, -0.1, -4>, <4, 0, 4> pigment { rgb 0.3 } }");
+    CHECK(s.ground_box == 0 && s.ground_height == -1 && s.ground_albedo == -1);
+}
+
+/* Light sources the scene places (they light it already) or only declares. */
+static void test_lights(void)
+{
+    pov_scene s = scene("light_source { <1, 2, 3> rgb 1 }\nsphere { 0, 1 }\n");
+    CHECK(s.lights == 1 && s.lights_declared == 0 && s.objects == 1 && s.casters == 1);
+    s = scene("#declare L = light_source { <1, 2, 3> rgb 1 }\n"
+              "union { light_source { 0, 1 } sphere { 0, 1 } }\n"
+              "#if (A) light_source { y, 1 } #end\n"
+              "#macro Lamp() light_source { x, 1 } #end\n");
+    CHECK(s.lights == 2 && s.lights_declared == 1 && s.objects == 1);
+    CHECK(scene("sphere { 0, 1 } // light_source { 0, 1 }\n").lights == 0);
+}
+
+/* A finish that reflects and has highlights (under a sky, its reflection holds them): counted,
+ * the first one's line kept; either alone is not. */
+static void test_reflective_highlights(void)
+{
+    pov_scene s = scene("sphere { 0, 1 }\n"
+                        "sphere { 1, 1 finish { reflection { 0.7 metallic } } }\n"
+                        "#declare Gold = texture {\n  pigment { rgb <1, 0.7, 0.2> }\n"
+                        "  finish { specular 0.7 roughness 0.01 metallic\n"
+                        "           reflection { 0.7 metallic } }\n}\n"
+                        "torus { 1, 0.2 finish { phong 1 reflection 0.2 } }\n");
+    CHECK(s.reflective == 1 && s.double_highlights == 2 && s.double_line == 5);
+    s = scene("sphere { 0, 1 finish { specular 0.5 } } sphere { 1, 1 finish { reflection 0.3 } }");
+    CHECK(s.reflective == 1 && s.double_highlights == 0 && s.double_line == 0);
+    s = scene("sphere { 0, 1 finish { specular 0.5 reflection 0 } }");
+    CHECK(s.reflective == 0 && s.double_highlights == 0);
+    s = scene("sphere { 0, 1 finish { specular 0 phong 0 reflection { 0.5 } } }");
+    CHECK(s.reflective == 1 && s.double_highlights == 0);
+    /* photons' `reflection on` is no finish */
+    s = scene("sphere { 0, 1 finish { specular 1 } photons { reflection on } }");
+    CHECK(s.reflective == 0 && s.double_highlights == 0);
+}
+
+/* #include files other than POV-Ray's standard ones (their contents are not read). */
+static void test_includes(void)
+{
+    pov_scene s = scene("#include \"colors.inc\"\n#include \"textures.inc\"\n"
+                        "#include \"envlight.inc\"\n#include \"env.inc\"\n"
+                        "#include \"my_objects.inc\"\n");
+    CHECK(s.includes == 2 && !strcmp(s.include_name, "env.inc") && s.objects == 0);
+    CHECK(scene("#include \"colors.inc\"\nsphere { 0, 1 }").includes == 0);
 }
 
 static void test_radiosity_and_sky(void)
@@ -298,6 +407,11 @@ static void test_problems(void)
 static void check_sane(const pov_scene *s)
 {
     CHECK(s->objects >= 0 && s->casters >= 0 && s->casters <= s->objects);
+    CHECK(s->lights >= 0 && s->lights_declared >= 0 && s->includes >= 0);
+    CHECK(s->double_highlights >= 0 && (s->double_highlights == 0) == (s->double_line == 0));
+    CHECK(!s->double_highlights || s->reflective);
+    CHECK(!s->ground_box || s->ground);
+    CHECK(memchr(s->include_name, 0, sizeof s->include_name) != NULL);
     CHECK(s->ground_albedo == -1 || isfinite(s->ground_albedo));
     CHECK(isfinite(s->ground_height));
     CHECK(memchr(s->note, 0, sizeof s->note) != NULL);
@@ -384,6 +498,11 @@ int main(void)
     test_ground();
     test_albedo();
     test_radiosity_and_sky();
+    test_ground_box();
+    test_lights();
+    test_reflective_highlights();
+    test_includes();
+    test_user_scenes();
     test_shadows_and_declarations();
     test_conditionals_and_macros();
     test_comments_and_strings();

@@ -218,7 +218,7 @@ def projection_warning(layout, w, h, name):
                     "Texture's projection to Mirror Ball) or an angular probe (Blender has no "
                     "such projection: convert it with `envlight convert`)" if w == h else
                     "a lat-long map is twice as wide as high"))
-    return None   # (a stretched mirror ball: envmap_of_pixels says how it reads it)
+    return None   # (a stretched mirror ball: envmap_of_image says how it reads it)
 
 
 def _image_file(image):
@@ -228,13 +228,10 @@ def _image_file(image):
         return image.filepath
 
 
-def image_pixels(image, warnings=None):
-    """Blender's pixels (RGBA, row 0 at the bottom) -> numpy float32 (flat, linear), width,
-    height, channels, for envlight.from_pixels(..., flip=True). An 8-bit image's pixels are
-    its stored values (Image.pixels does not colour-manage them): sRGB ones are decoded to
-    linear here, as Cycles does. RuntimeError naming the image and what is wrong when there
-    are no pixels (missing or unreadable file, render result, UDIM); notes in `warnings`."""
-    import numpy as np
+def image_layout(image):
+    """(width, height, channels) of an image whose pixels can be read; RuntimeError naming the
+    image and what is wrong when there are none (missing or unreadable file, render result,
+    UDIM). Blender decodes the file here (Image.size) if it had not yet."""
     if image.source == "VIEWER":
         raise RuntimeError("image '%s' is a render result or viewer: not an environment"
                            % image.name)
@@ -257,56 +254,79 @@ def image_pixels(image, warnings=None):
     if ch not in (1, 3, 4) or n != w * h * ch:
         raise RuntimeError("image '%s': %d values for %d x %d pixels of %d channels: cannot be "
                            "read" % (image.name, n, w, h, ch))
-    buf = np.empty(n, dtype=np.float32)
-    image.pixels.foreach_get(buf)
+    return w, h, ch
+
+
+#: values an 8-bit image's sRGB decode works on at a time: its temporaries stay this small
+#: whatever the image's size (the image is copied once, into the library's memory)
+DECODE_BLOCK = 1 << 14
+
+
+def pixel_writer(image, ch, warnings=None):
+    """fill(buf): Blender's pixels of `image` (RGBA..., row 0 at the bottom, `ch` channels)
+    written straight into buf (flat float32: the library's memory, envlight's
+    from_pixels_in_place) by Image.pixels.foreach_get, linear. An 8-bit image's pixels are its
+    stored values (Image.pixels does not colour-manage them): sRGB ones are decoded to linear in
+    buf, DECODE_BLOCK values at a time, as Cycles does; notes in `warnings`."""
+    decode = False
     if not image.is_float:
         space = image.colorspace_settings.name
         notes = warnings if warnings is not None else []
         notes.append("image '%s' is 8-bit (low dynamic range): light brighter than white is "
                      "clipped, so the lamps are weaker than the real light" % image.name)
-        if space == "sRGB":
-            rgb = buf.reshape(-1, ch)[:, :3] if ch == 4 else buf
-            rgb[...] = np.where(rgb <= 0.04045, rgb / 12.92,
-                                ((rgb + 0.055) / 1.055) ** 2.4)
-        elif space not in _LINEAR_SPACES:
+        decode = space == "sRGB"
+        if not decode and space not in _LINEAR_SPACES:
             notes.append("image '%s': colour space '%s' is not decoded: its 8-bit values are "
                          "read as linear" % (image.name, space))
-    return buf, w, h, ch
+
+    def fill(buf):
+        import numpy as np
+        image.pixels.foreach_get(buf)
+        if not decode:
+            return
+        step = DECODE_BLOCK * ch
+        for start in range(0, len(buf), step):
+            block = buf[start:start + step]
+            rgb = block.reshape(-1, ch)[:, :3] if ch == 4 else block
+            rgb[...] = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    return fill
 
 
-def envmap_of_pixels(pkg, buf, w, h, ch, layout, warnings=None, name="image"):
-    """The library's envmap of Blender pixels (bottom-up) in the frame the Environment
-    Texture looks them up in, and the library's info() of the pixels as read (the counts of
-    NaN/Inf and negative pixels it set to 0 or the largest value).
+def envmap_of_image(pkg, fill, w, h, ch, layout, warnings=None, name="image"):
+    """The library's envmap of an image's pixels (fill: pixel_writer's, bottom-up) in the frame
+    the Environment Texture looks them up in, and the library's info() of the pixels as read
+    (the counts of NaN/Inf and negative pixels it set to 0 or the largest value). The pixels
+    are written straight into the library's memory, which becomes the map (from_pixels_in_place:
+    no other copy of the image), but for a non-square mirror ball, resampled first.
 
     Lat-long: Blender's equirectangular frame is the library's canonical one. Mirror ball:
     Blender (Cycles' direction_to_mirrorball) photographs the ball looking along +Y with the
     image's right = +X and up = +Z (the centre sees -Y), the library along +X with right = -Y
     (layout.c): Blender's direction = Rz(+90 degrees) the library's. The library's lat-long of
-    the ball is turned by that quarter turn exactly (a shift by a quarter of its width, a
-    multiple of 4). Blender stretches the ball over the whole image: a non-square one is
-    resampled (nearest) to a square first."""
+    the ball is turned by that quarter turn as it is made (rotate=90: a shift by a quarter of
+    its width, a multiple of 4, exactly). Blender stretches the ball over the whole image: a
+    non-square one is resampled (nearest) to a square first."""
     import numpy as np
     if layout == "latlong":
-        env = pkg.from_pixels(buf, w, h, ch, flip=True, layout="latlong")
+        env = pkg.from_pixels_in_place(fill, w, h, ch, flip=True, layout="latlong")
         return env, env.info()
-    if w != h:
-        n = max(w, h)
-        rows = ((np.arange(n) + 0.5) * h / n).astype(np.int64)
-        cols = ((np.arange(n) + 0.5) * w / n).astype(np.int64)
-        buf = np.ascontiguousarray(buf.reshape(h, w, ch)[rows][:, cols]).ravel()
-        if warnings is not None:
-            warnings.append("mirror ball %s is %d x %d, not square: Blender stretches the "
-                            "ball over the image; read resampled to %d x %d"
-                            % (name, w, h, n, n))
-        w = h = n
-    width = 4 * ((w + 1) // 2)  # 2 x the ball's diameter, a multiple of 4
-    with pkg.from_pixels(buf, w, h, ch, flip=True, layout="mirrorball",
-                         map_width=width) as ball:
-        stats = ball.info()
-        ll = ball.pixels()
-    ll = np.ascontiguousarray(np.roll(ll, -(ll.shape[1] // 4), axis=1))
-    return pkg.from_pixels(ll, layout="latlong"), stats
+    width = 4 * ((max(w, h) + 1) // 2)  # 2 x the ball's diameter, a multiple of 4
+    if w == h:
+        ball = pkg.from_pixels_in_place(fill, w, h, ch, flip=True, layout="mirrorball",
+                                        map_width=width, rotate=90.0)
+        return ball, ball.info()
+    buf = np.empty(w * h * ch, dtype=np.float32)
+    fill(buf)
+    n = max(w, h)
+    rows = ((np.arange(n) + 0.5) * h / n).astype(np.int64)
+    cols = ((np.arange(n) + 0.5) * w / n).astype(np.int64)
+    buf = np.ascontiguousarray(buf.reshape(h, w, ch)[rows][:, cols]).ravel()
+    if warnings is not None:
+        warnings.append("mirror ball %s is %d x %d, not square: Blender stretches the ball "
+                        "over the image; read resampled to %d x %d" % (name, w, h, n, n))
+    ball = pkg.from_pixels(buf, n, n, ch, flip=True, layout="mirrorball", map_width=width,
+                           rotate=90.0)
+    return ball, ball.info()
 
 
 def repair_warnings(what, stats):
@@ -336,12 +356,23 @@ def repair_warnings(what, stats):
     return out
 
 
-def read_source(pkg, world):
+#: the progress bar while the image is read: (before, after) Blender's pixels are copied into
+#: the library's memory, then the span its conversion to the map reports over (the copy and
+#: the conversion take about the same time; the whole reading up to 0.2, where the fits start)
+READ_PROGRESS = ((0.02, 0.1), (0.1, 0.2))
+#: where the bar is once the suns are found (from 0.2; the fits then move it to 0.6)
+SUN_PROGRESS = 0.35
+
+
+def read_source(pkg, world, step=None):
     """Create Lights' first step for Source: World Texture: the world's Environment Texture
     (with its Mapping and strength: inspect_source) and the library's envmap of its image, in
     the texture's lookup frame. Nothing in the scene changes. RuntimeError naming the world,
     the node or image and what is wrong: no nodes, no Environment Texture, no image, missing
-    or unreadable file, no pixels, an unsupported projection, an image without light."""
+    or unreadable file, no pixels, an unsupported projection, an image without light.
+    step(fraction): the progress, 0.02 before the pixels are copied, 0.1 once they are, then
+    to 0.2 as the library makes its map of them (READ_PROGRESS)."""
+    step = step or (lambda v: None)
     if not world.use_nodes or not world.node_tree:
         raise RuntimeError("the world '%s' does not use nodes: there is no Environment Texture "
                            "to read (Use Nodes and an Environment Texture, or Source: File)"
@@ -357,15 +388,24 @@ def read_source(pkg, world):
     inspect_source(src)
     try:
         layout = source_layout(src.node)
-        buf, w, h, ch = image_pixels(image, src.warnings)
+        w, h, ch = image_layout(image)
+        fill = pixel_writer(image, ch, src.warnings)
     except RuntimeError as e:
         raise RuntimeError("%s: %s" % (where, e)) from None
     shape = projection_warning(layout, w, h, image.name)
     if shape:
         src.warnings.append(shape)
     what = "image '%s'" % image.name
+    copy, convert = READ_PROGRESS
+
+    def fill_reported(buf):
+        step(copy[0])
+        fill(buf)
+        step(copy[1])
     try:
-        env, stats = envmap_of_pixels(pkg, buf, w, h, ch, layout, src.warnings, what)
+        with pkg.progress(lambda f, stage: step(convert[0] + (convert[1] - convert[0]) * f)):
+            env, stats = envmap_of_image(pkg, fill_reported, w, h, ch, layout, src.warnings,
+                                         what)
     except pkg.Error as e:
         raise RuntimeError("%s: the library cannot use %s: %s" % (where, what, e)) from None
     src.warnings.extend(repair_warnings(what, stats))
@@ -782,18 +822,20 @@ def pixels_to_image(residual, name):
     rgba = np.ones((h, w, 4), dtype=np.float32)
     rgba[..., :3] = residual[::-1]
     img.pixels.foreach_set(rgba.ravel())
+    del rgba  # before pack() encodes the image: not both at once
     img.file_format = "OPEN_EXR"
     img.pack()
     return img
 
 
-def fit_rest(pkg, env, rest, plan, method, order, strength, step):
+def fit_rest(pkg, env, rest, plan, method, order, strength, step, start=0.2):
     """The plan's lamps (method, count) and world from `rest` (the map, or the map less its
     suns): -> (lights, summary, residual image or None, SH coefficients or None). Over a
     ground, Cycles traces the ground's bounce itself, so the lamps and the world take the sky
     half only (Envmap.sky_hemisphere; the SH fitted to the sky half, sky_sh2); EEVEE gathers
     little of it, so its world keeps the ground's bounce as the map's lower half
-    (Envmap.ground_plane, as envlight pov --ground). Closes `rest` unless it is `env`."""
+    (Envmap.ground_plane, as envlight pov --ground). Closes `rest` unless it is `env`. The
+    library's progress moves the bar from `start` to 0.6."""
     import numpy as np
     mode = plan.world_mode
     residual = sh_coeffs = None
@@ -811,10 +853,10 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step):
     elif plan.ground_albedo is not None:
         used = rest.sky_hemisphere()
     if plan.dome:
-        return dome_rest(pkg, env, rest, used, plan, step)
+        return dome_rest(pkg, env, rest, used, plan, step, start)
     try:
-        # the library's own progress moves the bar from 0.2 to 0.6 while it fits (issue 16)
-        with pkg.progress(lambda f, stage: step(min(0.6, 0.2 + 0.4 * f))), \
+        # the library's own progress moves the bar to 0.6 while it fits (issue 16)
+        with pkg.progress(lambda f, stage: step(min(0.6, start + (0.6 - start) * f))), \
                 used.lights(plan.count, method=method, order=order) as res:
             step(0.6)
             lights = list(res.lights)
@@ -854,7 +896,7 @@ def exact_figures(pkg, env, lamps, residual):
             "residual_power": residual_power}
 
 
-def dome_rest(pkg, env, rest, used, plan, step):
+def dome_rest(pkg, env, rest, used, plan, step, start=0.2):
     """EEVEE's dome (eevee_dome) over `used` (the map less the suns; over a ground its lower
     half the bounce): -> (the dome's lamps, the cut's summary, the world's image: the ground's
     bounce below the horizon over a ground, else nothing, None). Closes `used` and `rest`
@@ -865,7 +907,7 @@ def dome_rest(pkg, env, rest, used, plan, step):
     sky = eevee_dome.upper_half(np, world) if ground else world
     try:
         with pkg.from_pixels(sky, layout="latlong") as smap, \
-                pkg.progress(lambda f, stage: step(min(0.6, 0.2 + 0.4 * f))), \
+                pkg.progress(lambda f, stage: step(min(0.6, start + (0.6 - start) * f))), \
                 smap.lights(plan.dome, method="variance") as res:
             lights, summary = list(res.lights), dict(res.summary)
     finally:
@@ -911,6 +953,7 @@ def create_lights(context, settings, progress=None, force=False):
         raise RuntimeError("the scene has no world")
     t0 = time.perf_counter()
     step = progress or (lambda v: None)
+    step(0.01)  # the bar moves as the button is pressed, before the scene and image are read
     warnings = []
     plan = (scene_reader.read_scene(scene, settings.volume_probe, settings.eevee_dome)
             if settings.read_scene else scene_reader.plan_from_settings(settings, scene))
@@ -926,7 +969,7 @@ def create_lights(context, settings, progress=None, force=False):
     # ---- 1. read the source (nothing in the scene changes) ----
     if settings.source == "WORLD":
         # the image in the texture's lookup frame (lat-long or mirror ball), checked
-        env, src = read_source(pkg, world)
+        env, src = read_source(pkg, world, step)
         warnings += src.warnings
         rot = mapping_matrix(src.mapping)
         mapping_node = src.mapping
@@ -936,7 +979,8 @@ def create_lights(context, settings, progress=None, force=False):
         if not settings.filepath:
             raise RuntimeError("no file chosen")
         path = bpy.path.abspath(settings.filepath)
-        env = pkg.load(path)
+        with pkg.progress(lambda f, stage: step(0.2 * f)):
+            env = pkg.load(path)
     step(0.2)
     if not plan.compute:
         env.close()
@@ -962,7 +1006,8 @@ def create_lights(context, settings, progress=None, force=False):
         if plan.suns:
             # the suns first, as lamps of their own size (sharp shadows, exact highlights):
             # the rest of the plan works on the map less exactly what they took
-            with env.lights(MAX_SUNS, method="sun") as sres:
+            with pkg.progress(lambda f, stage: step(0.2 + (SUN_PROGRESS - 0.2) * f)), \
+                    env.lights(MAX_SUNS, method="sun") as sres:
                 sun_lights = list(sres.lights)
                 sun_summary = dict(sres.summary)
                 if sun_lights:
@@ -1010,8 +1055,11 @@ def create_lights(context, settings, progress=None, force=False):
             if rest is not env:
                 rest.close()
         else:
-            lights, summary, residual, sh_coeffs = fit_rest(pkg, env, rest, plan, method,
-                                                            order, strength, step)
+            if rest is not env and not (plan.ground_albedo is not None and plan.camera_only):
+                env.close()  # the fit needs only the map less the suns: one copy fewer
+            lights, summary, residual, sh_coeffs = fit_rest(
+                pkg, env, rest, plan, method, order, strength, step,
+                SUN_PROGRESS if plan.suns else 0.2)
     if plan.suns and sun_lights:
         plan.reasons.append("%d sun%s as lamps of %s own size (%s degrees)" % (
             len(sun_lights), "s" if len(sun_lights) > 1 else "",
@@ -1063,11 +1111,14 @@ def create_lights(context, settings, progress=None, force=False):
     suns += create_suns(scene, lights, rot, strength, plan.shadows, glossy=not glossy_hdr,
                         shadow_resolution=eevee_dome.shadow_resolution(scene)
                         if plan.dome else None, over_residual=mode == "RESIDUAL")
+    # each map freed once Blender holds its image: at 16K each is 1.5 GB (docs/blender_16k.md)
     glossy_image = None
     if glossy_pixels is not None and glossy_hdr:
         glossy_image = pixels_to_image(glossy_pixels, "EnvLight Glossy")
+    glossy_pixels = None
     residual_image = pixels_to_image(residual, "EnvLight Residual") \
         if mode == "RESIDUAL" else None
+    residual = None
     notes = []
     if world.use_nodes and world.node_tree:
         _, sun_note = build_world(world, mode, original_socket, residual_image, sh_coeffs,

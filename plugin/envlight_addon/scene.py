@@ -10,6 +10,8 @@ import math
 import bpy
 import mathutils
 
+from .figures import BENCH_DATE, EXPECTED_ERROR
+
 #: a surface is glossy when its roughness is below this (Principled BSDF, Glossy BSDF) or it
 #: is metallic above GLOSSY_METALLIC: its reflection shows the environment, not only its
 #: irradiance. Principled's default roughness is 0.5 (a broad dielectric sheen).
@@ -25,16 +27,11 @@ GROUND_BELOW = 0.05
 DEFAULT_ALBEDO = 0.8
 LUMINANCE = (0.2126, 0.7152, 0.0722)
 
-#: the in-scene error to expect per recipe: the median over the scenes where the add-on picks
-#: it in the scene benchmark
-#: (scripts/scene_bench.py --host blender, docs/scene_bench_blender.md) of the converged error
-#: against a path-traced reference, relative RMS over the objects' pixels, and its worst map;
-#: a figure of the benchmark's scenes, not of the user's map
-EXPECTED_ERROR = {
-    "eevee-residual-ground": (0.0573, 0.1091),
-    "eevee-residual-ground-probe": (0.0820, 0.1810),   # with Bake Volume Probe, scene (a)
-    "sun-residual": (0.0000, 0.0008),
-}
+#: the in-scene error to expect per recipe (figures.py, written by scripts/figures.py from the
+#: scene benchmark's JSON, docs/scene_bench_blender.json): the median over the scenes where the
+#: add-on picks it of the converged error against a path-traced reference, relative RMS over
+#: the objects' pixels, and its worst; a figure of the benchmark's scenes, not of the user's map
+#: (EXPECTED_ERROR, imported above)
 
 #: the fit's SH remainder order for EEVEE: its world diffuse light is an L1 SH
 EEVEE_ORDER = 1
@@ -133,8 +130,8 @@ class Plan:
         if fig is None:
             return None
         return ("in-scene error to expect: %.1f %% (median over the benchmark's scenes where "
-                "this recipe is picked, worst %.1f %%; scene benchmark, not this map)"
-                % (100 * fig[0], 100 * fig[1]))
+                "this recipe is picked, worst %.1f %%; scene benchmark of %s, not this map)"
+                % (100 * fig[0], 100 * fig[1], BENCH_DATE))
 
 
 def _ours(obj):

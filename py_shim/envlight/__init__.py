@@ -17,6 +17,7 @@ import ctypes
 import math
 import numbers
 import threading
+import warnings
 from ctypes import byref, c_double, c_float, c_int32, c_void_p, pointer
 from dataclasses import dataclass
 from typing import Optional, Tuple
@@ -31,9 +32,9 @@ except ImportError:  # pragma: no cover - numpy is optional
     _np = None
 
 __all__ = ["Error", "ArgumentError", "Envmap", "LightsResult", "SHResult", "Light", "load", "sky",
-           "from_pixels", "save_image", "fibonacci_directions", "relative_rms_luminance",
-           "sh_basis", "cosine_lobe", "brdf_lut", "brdf_eval", "Products", "version",
-           "ABI_VERSION", "library_path", "has_numpy", "progress"]
+           "from_pixels", "from_pixels_in_place", "save_image", "fibonacci_directions",
+           "relative_rms_luminance", "sh_basis", "cosine_lobe", "brdf_lut", "brdf_eval",
+           "Products", "version", "ABI_VERSION", "library_path", "has_numpy", "progress"]
 
 __version__ = "0.1.0"
 has_numpy = _np is not None
@@ -170,7 +171,9 @@ def load(path, layout="auto", rotate=0.0, width=None, strict=False, apply_exposu
                       exr_part, threads)
     h = c_void_p()
     _check(lib.envl_envmap_load(p, byref(o), byref(h)))
-    return Envmap(h)
+    env = Envmap(h)
+    env._source = p  # the file, which no output of its products may replace
+    return env
 
 
 def sky(sun_elevation=35.0, sun_azimuth=0.0, width=1024, sun_irradiance=None,
@@ -278,6 +281,43 @@ def from_pixels(buffer, width=None, height=None, channels=None, flip=False, layo
     return Envmap(h)
 
 
+def from_pixels_in_place(fill, width, height, channels, flip=False, layout="auto", rotate=0.0,
+                         map_width=None, strict=False, threads=None):
+    """An envmap from pixels written straight into the library's memory, without a copy:
+    fill(array) writes width x height x channels float32 values (row-major; rows top to
+    bottom, or bottom-up with flip=True) into `array`, a flat float32 view of memory the
+    library then takes as its map (e.g. Blender's image.pixels.foreach_get(array)): a numpy
+    array, or a memoryview of format 'f' without numpy. The view must not be used once fill has
+    returned. If fill raises, the memory is freed and the exception goes on. Otherwise as
+    from_pixels: channels 1, 3 or 4 (alpha ignored), map_width the canonical map's width."""
+    width = A.integer(width, "from_pixels_in_place: width", 1, A.INT32_MAX)
+    height = A.integer(height, "from_pixels_in_place: height", 1, A.INT32_MAX)
+    channels = A.integer(channels, "from_pixels_in_place: channels", -A.INT32_MAX - 1,
+                         A.INT32_MAX)
+    flip = A.flag(flip, "from_pixels_in_place: flip")
+    o = _load_options("from_pixels_in_place", layout, map_width, rotate, None, strict, False,
+                      None, threads, "map_width")
+    mem = c_void_p()
+    _check(lib.envl_pixels_alloc(width, height, channels, byref(o), byref(mem)))
+    n = width * height * channels
+    try:
+        # format 'f', not ctypes' '<f', which Blender's foreach_get refuses
+        floats = (c_float * n).from_address(mem.value)
+        if _np is not None:
+            view = _np.frombuffer(floats, dtype=_np.float32)
+        else:
+            view = memoryview(floats).cast("B").cast("f")
+        fill(view)
+        del view, floats
+    except BaseException:
+        lib.envl_pixels_free(mem)
+        raise
+    h = c_void_p()
+    _check(lib.envl_envmap_adopt_pixels(mem, width, height, channels, int(flip), byref(o),
+                                        byref(h)))
+    return Envmap(h)
+
+
 def save_image(path, rgb, width=None, height=None, format=None, half=False):
     """Writes RGB floats (row 0 at the top) as .hdr / .exr / .pfm (by extension or format),
     atomically. rgb: a (height, width, 3) numpy array or a flat float32 buffer/sequence."""
@@ -293,7 +333,35 @@ def save_image(path, rgb, width=None, height=None, format=None, half=False):
     o = _save_options("save_image", format, half)
     keep, ptr = _float_buffer(rgb, width, height, 3, False)
     _check(lib.envl_image_save(p, ptr, width, height, byref(o)))
+    if half:
+        _half_warning("save_image: " + path, ptr, 3 * width * height)
     del keep
+
+
+HALF_MAX = 65504.0  # ENVL_HALF_MAX: the largest finite IEEE half float
+
+
+def _half_warning(what, ptr, n):
+    """A file of half floats holds at most HALF_MAX: warns (HalfClampWarning) how many of the n
+    floats at ptr go above it and how much lower the largest is written, as the command line
+    says it on stderr."""
+    if _np is not None:
+        v = _np.abs(_np.ctypeslib.as_array(ptr, shape=(n,)))
+        over = v > HALF_MAX
+        count, largest = int(over.sum()), float(v[over].max()) if over.any() else 0.0
+    else:
+        big = [abs(x) for x in ptr[:n] if abs(x) > HALF_MAX]
+        count, largest = len(big), max(big, default=0.0)
+    if count:
+        warnings.warn("%s: %d values above %g (the largest half float) written as %g: the "
+                      "largest was %g (%.1f %% lower)" % (what, count, HALF_MAX, HALF_MAX,
+                                                          largest,
+                                                          100 * (1 - HALF_MAX / largest)),
+                      HalfClampWarning, stacklevel=3)
+
+
+class HalfClampWarning(UserWarning):
+    """Values above the largest half float were written as it (save(..., half=True))."""
 
 
 def _save_options(f, format, half):
@@ -459,6 +527,7 @@ class Light:
 class Envmap(_Handle):
     """The canonical lat-long map (float RGB, row 0 at the top) with its cached tables."""
     _free = "envl_envmap_free"
+    _source = None  # the file it was loaded from (bytes), None for pixels and the sky
 
     @property
     def width(self):
@@ -545,11 +614,15 @@ class Envmap(_Handle):
             lib.envl_envmap_drop_caches(h, which)
 
     def save(self, path, format=None, half=False):
-        """Writes the canonical map (.hdr, .exr, .pfm by extension or format), atomically."""
+        """Writes the canonical map (.hdr, .exr, .pfm by extension or format), atomically; never
+        over the file it was loaded from. half: a HalfClampWarning says what went above 65504."""
         p = A.path(path, "Envmap.save: path")
         o = _save_options("Envmap.save", format, half)
         with self._use() as h:
             _check(lib.envl_envmap_save(h, p, byref(o)))
+            if half:
+                _half_warning("Envmap.save: " + path, lib.envl_envmap_pixels(h),
+                              3 * lib.envl_envmap_width(h) * lib.envl_envmap_height(h))
 
     def ground_plane(self, albedo):
         """The map as a scene on a ground plane (canonical z = 0) of this albedo sees it: a new
@@ -591,7 +664,8 @@ class Envmap(_Handle):
         exactly; the residual is the map less their excess); order: fit's SH remainder order
         (0..8), None for lights only (ignored by the cuts and sun); measure: also measure the
         diffuse error (summary["diffuse_error"]; None when False); residual: keep the residual map
-        (fit: False keeps none, the same lights for half the memory; .residual then raises).
+        (fit, sun: False keeps none, the same lights for half the memory; .residual then
+        raises).
         Returns a LightsResult (a context manager)."""
         o = _lib.LightsOptions()
         o.method = _method(method, "Envmap.lights: method")
@@ -605,7 +679,7 @@ class Envmap(_Handle):
             _check(lib.envl_lights_compute(m, byref(o), byref(h)))
             # the residual has the map's size (the lights object does not export it)
             size = lib.envl_envmap_width(m), lib.envl_envmap_height(m)
-        return LightsResult(h, *size, kept=not o.skip_residual)
+        return LightsResult(h, *size, kept=not o.skip_residual, source=self._source)
 
     def gltf(self, path, size=256, mips=None, lights="sun", n=None, measure=True):
         """Writes a glTF 2.0 file (.glb or .gltf), as `envlight gltf`: the suns (lights: 'sun',
@@ -633,8 +707,10 @@ class Envmap(_Handle):
                 "intensity": s.intensity,
                 "diffuse_error": s.diffuse_error if measured else None,
                 "glossy_error": [e if e >= 0 else None for e in s.glossy_error[:s.mips]],
+                "texel_error": [_texel_dict(t) for t in s.texel_error[:s.mips]],
                 "rgbd_error": s.rgbd_error, "bytes": s.bytes,
-                "seconds": s.seconds}
+                "seconds": s.seconds,
+                "prefiltered_size": (s.prefiltered_width, s.prefiltered_height)}
 
     def sh(self, order=2, window="auto", measure=True):
         """Real SH projection of the map (order 0..32; window 'auto', the default as in
@@ -654,7 +730,7 @@ class Envmap(_Handle):
         return SHResult(h)
 
     def pov_include(self, path=None, recipe=None, scene=None, ground=None, method=None,
-                    n=None, order=None, ambient=None, shadows="hard", sky=False,
+                    n=None, order=None, ambient=None, shadows="auto", sky=False,
                     sky_residual=False, sky_image=None, scene_radius=None, exposure=None,
                     place=True, source=None, command=None, threads=None):
         """A POV-Ray 3.7 include for povray_include/envlight.inc (envl_pov_include_write: what
@@ -668,7 +744,8 @@ class Envmap(_Handle):
         scene: the .pov file the include is for (what it uses picks the recipe and the ground);
         ground: the albedo 0..1 of a ground plane (None: the scene's, if any); method: 'fit',
         'median' or 'variance'; n: lights 1..65536 (fit 1..32); order: the ambient's SH order
-        -1..8; ambient: 'sh', 'hemi' or 'none'; shadows: 'hard', 'soft' or 'none'; sky: declare
+        -1..8; ambient: 'sh', 'hemi' or 'none'; shadows: 'auto' (a dome's soft, others hard),
+        'soft', 'hard' or 'none'; sky: declare
         the sky (sky_residual: the residual as the sky), its image written to sky_image (None:
         next to the include, or the map's own lat-long .hdr); scene_radius > 0; exposure: 'auto'
         or > 0 (None: not declared); place: False only declares; source: the map's name in the
@@ -733,8 +810,10 @@ class Envmap(_Handle):
     def _prefilter_options(f, levels=None, width=None, min_width=None, samples=None,
                            unfiltered=False, irradiance_method="resampled",
                            irradiance_width=None, irradiance_order=2, threads=None,
-                           sun_lights=False, half=False):
-        """envl_prefilter_options for function f; None = the library's default (envlight.h, docs/design.md)."""
+                           sun_lights=False, half=False, layout="latlong"):
+        """envl_prefilter_options for function f; None = the library's default (envlight.h, docs/design.md).
+        layout: the texels the maps are computed at, 'latlong' (also 'atlas') or 'cube' (also
+        'cross': faces of width / 4, each texel at its centre, as an (F, 6 F, 3) strip)."""
         o = _lib.PrefilterOptions()
         o.levels = A.integer(levels, f + ": levels", 1, A.PREFILTER_MAX_LEVELS, 0, "the default 6")
         o.width = A.integer(width, f + ": width", 2, A.PREFILTER_MAX_WIDTH, 0, "the default 512")
@@ -750,6 +829,8 @@ class Envmap(_Handle):
         o.threads = _threads(threads, f + ": threads")
         o.sun_lights = A.flag(sun_lights, f + ": sun_lights")
         o.half = A.flag(half, f + ": half")
+        o.layout = A.enum(layout, f + ": layout", lib.envl_export_layout_from_name,
+                          lib.envl_export_layout_name)
         return o
 
     def prefilter(self, roughness=None, chain=False, mirror=False, irradiance=False,
@@ -848,11 +929,25 @@ def _pov_result(r):
     }
 
 
+def _texel_dict(t):
+    """An envl_texel_error as a dict (rms, worst: None when not measured)."""
+    measured = t.rms >= 0 and t.worst >= 0
+    return {"rms": t.rms if measured else None, "worst": t.worst if measured else None,
+            "worst_direction": _t(t.worst_direction) if measured else None,
+            "texels_measured": t.measured, "texels": t.texels}
+
+
+def _layout_name(layout):
+    """'latlong' or 'hstrip' (six cube faces side by side) of an envl_level.layout."""
+    return _str(lib.envl_layout_name(layout))
+
+
 def _level_dict(st, with_rgb=True):
     d = {"roughness": st.roughness, "alpha": st.alpha, "width": st.width, "height": st.height,
+         "layout": _layout_name(st.layout),
          "samples": st.samples, "filtered": bool(st.filtered), "energy_scale": st.energy_scale,
          "glossy_error": st.glossy_error if st.glossy_error >= 0 else None,
-         "seconds": st.seconds}
+         "texel_error": _texel_dict(st.texel_error), "seconds": st.seconds}
     if with_rgb:
         d["rgb"] = _image(st.rgb, st.width, st.height)
     return d
@@ -888,6 +983,21 @@ def brdf_eval(nov, roughness, samples=None):
     return ab[0], ab[1]
 
 
+def _target_width_dict(w, layout):
+    """An envl_width_estimate as prefilter.json's target_width (figures None unless found or
+    beyond): width, height of the level's image there (six faces side by side, or lat-long)."""
+    state = ("not estimated", "met", "found", "beyond")[w.state if 0 <= w.state < 4 else 0]
+    has = state in ("found", "beyond")
+    faces = _layout_name(layout) == "hstrip"
+    return {"target": 0.01, "state": state,
+            "width": (6 * w.width if faces else w.width) if has else None,
+            "height": (w.width if faces else w.width // 2) if has else None,
+            "prefilter_width": w.size if has else None,
+            "glossy_error": w.glossy_error if has else None,
+            "seconds_estimated": w.seconds if has else None, "widths_tried": w.widths_tried,
+            "directions_read": w.directions_read, "seconds_spent": w.seconds_spent}
+
+
 class Products(_Handle):
     """What Envmap.prefilter computed: .levels (list of dicts with an 'rgb' array), .irradiance
     (dict with 'rgb', or None), .sh_irradiance (coefficients or None), .brdf (array or None),
@@ -900,18 +1010,23 @@ class Products(_Handle):
         _check(lib.envl_products_get_summary(handle, byref(s)))
         self.summary = {name: getattr(s, name) for name, _ in s._fields_}
         self.levels = []
-        st = _lib.Level()
+        st, wt = _lib.Level(), _lib.WidthEstimate()
         for i in range(lib.envl_products_level_count(handle)):
             _check(lib.envl_products_level(handle, i, byref(st)))
+            _check(lib.envl_products_level_width(handle, i, byref(wt)))
             self.levels.append(_level_dict(st))
+            #: the width for 1 % glossy error (docs/design.md, "Level width for 1 %")
+            self.levels[-1]["target_width"] = _target_width_dict(wt, st.layout)
         im = _lib.IrradianceMap()
         self.irradiance = None
         if s.irradiance_maps and lib.envl_products_irradiance(handle, byref(im)) == 0:
             self.irradiance = {"method": _str(lib.envl_irradiance_method_name(im.method)),
                                "width": im.width, "height": im.height,
+                               "layout": _layout_name(im.layout),
                                "rgb": _image(im.rgb, im.width, im.height),
                                "diffuse_error": im.diffuse_error if im.diffuse_error >= 0
-                               else None, "seconds": im.seconds}
+                               else None, "texel_error": _texel_dict(im.texel_error),
+                               "seconds": im.seconds}
         shp = lib.envl_products_sh(handle)
         self.sh_irradiance = None
         if shp:
@@ -956,10 +1071,11 @@ class LightsResult(_Handle):
     """Lights, their summary, the fit remainder and the residual environment."""
     _free = "envl_lights_free"
 
-    def __init__(self, handle, width, height, kept=True):
+    def __init__(self, handle, width, height, kept=True, source=None):
         super().__init__(handle)
         self._wh = (width, height)
         self._kept = kept
+        self._source = source  # the map's file (bytes) or None: save_residual never replaces it
         s = _lib.LightsSummary()
         _check(lib.envl_lights_get_summary(handle, byref(s)))
         self.summary = {
@@ -1027,12 +1143,18 @@ class LightsResult(_Handle):
         return _rows(out, n, 3)
 
     def save_residual(self, path, format=None, half=False):
-        """Writes the residual environment (.hdr, .exr, .pfm), atomically."""
+        """Writes the residual environment (.hdr, .exr, .pfm), atomically; never over the map's
+        own file (ArgumentError). half: a HalfClampWarning says what went above 65504."""
         f = "LightsResult.save_residual"
         p = A.path(path, f + ": path")
         o = _save_options(f, format, half)
+        if self._source:  # never the map's own file (envl_outputs_check)
+            _check(lib.envl_outputs_check((ctypes.c_char_p * 1)(self._source), 1,
+                                          (ctypes.c_char_p * 1)(p), 1))
         keep, ptr = _float_buffer(self.residual, self._wh[0], self._wh[1], 3, False)
         _check(lib.envl_image_save(p, ptr, self._wh[0], self._wh[1], byref(o)))
+        if half:
+            _half_warning(f + ": " + path, ptr, 3 * self._wh[0] * self._wh[1])
         del keep
 
 

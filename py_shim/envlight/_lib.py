@@ -179,6 +179,17 @@ class PrefilterOptions(Structure):
         ("threads", c_int32),
         ("sun_lights", c_int32),
         ("half", c_int32),
+        ("layout", c_int32),
+    ]
+
+
+class TexelError(Structure):
+    _fields_ = [
+        ("rms", c_double),
+        ("worst", c_double),
+        ("worst_direction", c_double * 3),
+        ("measured", c_int32),
+        ("texels", c_int32),
     ]
 
 
@@ -194,6 +205,21 @@ class Level(Structure):
         ("energy_scale", c_double),
         ("glossy_error", c_double),
         ("seconds", c_double),
+        ("layout", c_int32),
+        ("texel_error", TexelError),
+    ]
+
+
+class WidthEstimate(Structure):
+    _fields_ = [
+        ("state", c_int32),
+        ("width", c_int32),
+        ("size", c_int32),
+        ("glossy_error", c_double),
+        ("seconds", c_double),
+        ("widths_tried", c_int32),
+        ("directions_read", c_int32),
+        ("seconds_spent", c_double),
     ]
 
 
@@ -205,6 +231,8 @@ class IrradianceMap(Structure):
         ("rgb", POINTER(c_float)),
         ("diffuse_error", c_double),
         ("seconds", c_double),
+        ("layout", c_int32),
+        ("texel_error", TexelError),
     ]
 
 
@@ -287,6 +315,9 @@ class GltfSummary(Structure):
         ("rgbd_error", c_double),
         ("bytes", c_int64),
         ("seconds", c_double),
+        ("texel_error", TexelError * 16),
+        ("prefiltered_width", c_int32),
+        ("prefiltered_height", c_int32),
     ]
 
 
@@ -369,7 +400,9 @@ STRUCTS = {
     "envl_sh_options": SHOptions,
     "envl_sh_summary": SHSummary,
     "envl_prefilter_options": PrefilterOptions,
+    "envl_texel_error": TexelError,
     "envl_level": Level,
+    "envl_width_estimate": WidthEstimate,
     "envl_irradiance_map": IrradianceMap,
     "envl_brdf_options": BrdfOptions,
     "envl_request": Request,
@@ -405,6 +438,11 @@ FUNCTIONS = {
     "envl_envmap_load": (_R, [c_char_p, POINTER(LoadOptions), POINTER(_map)]),
     "envl_envmap_from_pixels": (_R, [_pf, c_int32, c_int32, c_int32, POINTER(LoadOptions),
                                      POINTER(_map)]),
+    "envl_pixels_alloc": (_R, [c_int32, c_int32, c_int32, POINTER(LoadOptions),
+                               POINTER(c_void_p)]),
+    "envl_pixels_free": (None, [c_void_p]),
+    "envl_envmap_adopt_pixels": (_R, [c_void_p, c_int32, c_int32, c_int32, c_int32,
+                                      POINTER(LoadOptions), POINTER(_map)]),
     "envl_envmap_free": (None, [_map]),
     "envl_ground_plane_map": (_R, [_map, c_double, c_int32, POINTER(_map), _pd]),
     "envl_sky_hemisphere_map": (_R, [_map, c_int32, POINTER(_map)]),
@@ -464,6 +502,7 @@ FUNCTIONS = {
     "envl_products_level_count": (c_int32, [_prod]),
     "envl_products_level": (_R, [_prod, c_int32, POINTER(Level)]),
     "envl_products_find_level": (c_int32, [_prod, c_double]),
+    "envl_products_level_width": (_R, [_prod, c_int32, POINTER(WidthEstimate)]),
     "envl_products_irradiance": (_R, [_prod, POINTER(IrradianceMap)]),
     "envl_products_sh": (_sh, [_prod]),
     "envl_products_lights": (_lts, [_prod]),
@@ -513,7 +552,7 @@ ENVL_ERROR_NORMALS = 1024
 ENVL_PIXEL_FLOAT = 0
 ENVL_PIXEL_HALF = 1
 ENVL_POV_AMBIENT = {"sh": 1, "hemi": 2, "none": 3}      # ENVL_POV_AMBIENT_* (0: auto)
-ENVL_POV_SHADOWS = {"hard": 0, "soft": 1, "none": 2}    # ENVL_POV_SHADOWS_*
+ENVL_POV_SHADOWS = {"auto": 0, "soft": 1, "none": 2, "hard": 3}  # ENVL_POV_SHADOWS_*
 ENVL_POV_EXPOSURE_AUTO = -1.0
 ENVL_POV_MAX_ORDER = 8
 

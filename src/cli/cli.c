@@ -3,6 +3,7 @@
 #include "cli.h"
 #include "escape.h"
 #include "json.h"
+#include "repair.h"
 
 #include <errno.h>
 #include <math.h>
@@ -86,6 +87,39 @@ const char *cli_error_text(char *buf, size_t size, const char *what, double erro
     return buf;
 }
 
+/* A map too coarse for the GGX sums was prefiltered from a finer copy (docs/design.md,
+ * "prefiltered maps"): say so on stderr, with how the copy was made. */
+void cli_coarse_note(const envl_envmap *map, int32_t width, int32_t height, int quiet)
+{
+    int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
+    if (quiet || width <= 0 || height <= 0 || (width == w && height == h))
+        return;
+    envl_info info;
+    envl_envmap_info(map, &info);
+    char how[96];
+    if (width % w == 0 && height % h == 0)
+        snprintf(how, sizeof how, "each pixel split into %d x %d, the same map",
+                 (int)(width / w), (int)(height / h));
+    else
+        snprintf(how, sizeof how, "area-resampled");
+    cli_error("%s: %d x %d pixels are too coarse for the GGX levels, which sum each pixel at "
+              "its centre: prefiltered from a %d x %d copy (%s)", info.file, (int)w, (int)h,
+              (int)width, (int)height, how);
+}
+
+const char *cli_texel_text(char *buf, size_t size, const envl_texel_error *t)
+{
+    if (!(t->rms >= 0 && t->worst >= 0))
+        snprintf(buf, size, "per texel not measured");
+    else if (t->measured < t->texels)
+        snprintf(buf, size, "per texel RMS %.3f %% worst %.3f %% (%d of %d texels)",
+                 100 * t->rms, 100 * t->worst, (int)t->measured, (int)t->texels);
+    else
+        snprintf(buf, size, "per texel RMS %.3f %% worst %.3f %%", 100 * t->rms,
+                 100 * t->worst);
+    return buf;
+}
+
 /* The layout guess (layout.c: metadata, then the aspect ratio) is evident when the file has
  * the shape of the layout it was read as: OpenEXR's envmap attribute, 2:1 lat-long, 3:4 / 4:3
  * crosses, 6:1 / 1:6 strips. A square is a guess (an angular probe or a mirror ball?), and so
@@ -154,52 +188,14 @@ int cli_interrupted(void)
     return interrupted;
 }
 
-/* e as a percentage of base, in luminance (0 when base holds none). */
-static double luminance_percent(const double e[3], const double base[3])
-{
-    double b = envl_luminance(base[0], base[1], base[2]);
-    return b > 0 ? 100.0 * envl_luminance(e[0], e[1], e[2]) / b : 0.0;
-}
-
 /* What the loader did to the file's values (envl_info; docs/design.md, "Units"). */
 static void warn_repairs(const char *file, const envl_info *in)
 {
-    char infinity[80] = "";
-    if (in->infinity_value > 0)
-        snprintf(infinity, sizeof infinity, ", +Inf to %g (the largest finite value)",
-                 in->infinity_value);
-    if (in->nonfinite_pixels)
-        cli_error("warning: %s: %lld pixels with NaN or Inf: NaN and -Inf set to 0%s (--strict "
-                  "refuses them)", file, (long long)in->nonfinite_pixels, infinity);
-    if (!in->negative_pixels)
-        return;
-    char filled[160] = "", unfilled[160] = "";
-    if (in->fill_window)
-        snprintf(filled, sizeof filled, "filled from the light around them (windows up to %d px "
-                 "wide), moving %.3g %% of the power (luminance) and keeping the file's signed "
-                 "sum", in->fill_window, luminance_percent(in->filled_energy, in->signed_power));
-    if (in->unfilled_values)
-        snprintf(unfilled, sizeof unfilled, "%lld values with too little light around them set "
-                 "to 0, adding %.3g %% to the power", (long long)in->unfilled_values,
-                 luminance_percent(in->added_energy, in->signed_power));
-    cli_error("warning: %s: %lld pixels with negative values (down to %g): %s%s%s (--strict "
-              "refuses them)", file, (long long)in->negative_pixels, in->negative_min, filled,
-              *filled && *unfilled ? "; " : "", unfilled);
-}
-
-void cli_json_repair(json_writer *j, const envl_info *in)
-{
-    json_object(j, "repair");
-    json_int(j, "nonfinite_pixels", in->nonfinite_pixels);
-    json_number(j, "infinity_value", in->infinity_value);
-    json_int(j, "negative_pixels", in->negative_pixels);
-    json_number(j, "negative_min", in->negative_min);
-    json_numbers(j, "signed_power", in->signed_power, 3);
-    json_numbers(j, "filled_energy", in->filled_energy, 3);
-    json_int(j, "fill_window", in->fill_window);
-    json_int(j, "unfilled_values", in->unfilled_values);
-    json_numbers(j, "added_energy", in->added_energy, 3);
-    json_object_end(j);
+    char text[512];
+    if (repair_nonfinite_text(text, sizeof text, in))
+        cli_error("warning: %s: %s (--strict refuses them)", file, text);
+    if (repair_negative_text(text, sizeof text, in))
+        cli_error("warning: %s: %s (--strict refuses them)", file, text);
 }
 
 int cli_load(const char *file, const cli_common *c, envl_envmap **out)
@@ -258,15 +254,22 @@ int cli_outputs_ok(const char *const *inputs, int n_inputs, const char *const *o
     return rc ? cli_fail() : CLI_OK;
 }
 
-void cli_half_warning(const char *what, const float *v, size_t n, int quiet)
+size_t cli_half_over(const float *v, size_t n, double *largest)
 {
     size_t over = 0;
-    double largest = 0;
+    *largest = 0;
     for (size_t i = 0; v && i < n; i++)
         if (fabs(v[i]) > ENVL_HALF_MAX) {
             over++;
-            largest = fmax(largest, fabs(v[i]));
+            *largest = fmax(*largest, fabs(v[i]));
         }
+    return over;
+}
+
+void cli_half_warning(const char *what, const float *v, size_t n, int quiet)
+{
+    double largest;
+    size_t over = cli_half_over(v, n, &largest);
     if (over && !quiet)
         cli_error("warning: %s: %zu values above %g (the largest half float) written as %g: the "
                   "largest was %g (%.1f %% lower)", what, over, ENVL_HALF_MAX, ENVL_HALF_MAX,

@@ -92,11 +92,13 @@ const cli_option *cli_seen(const cli_option *t, int n, const char *names);
 const char *cli_frame_label(int frame);
 /* "<what> error 0.123 %", or "<what> error not measured" for a negative error. */
 const char *cli_error_text(char *buf, size_t size, const char *what, double error);
+/* "per texel RMS 0.190 % worst 1.020 %" (", 8192 of 98304 texels" when a part was measured),
+ * or "per texel not measured": docs/design.md's per-texel error. */
+/* The note on stderr when the prefiltered levels were computed from a finer copy of a map
+ * too coarse for them (width x height, as the products' or glTF's summary reports it). */
+void cli_coarse_note(const envl_envmap *map, int32_t width, int32_t height, int quiet);
+const char *cli_texel_text(char *buf, size_t size, const envl_texel_error *t);
 
-/* The JSON object "repair": what the loader did to the file's values (envl_info: NaN, Inf and
- * the negative values filled from the light around them), in every JSON about a map. */
-struct json_writer;
-void cli_json_repair(struct json_writer *j, const envl_info *in);
 
 /* Loads FILE, or the built-in sky for NULL or "-"; warns (unless quiet) about replaced pixels
  * and says which layout auto-detection picked when that was a real guess (not evident from
@@ -125,6 +127,8 @@ int cli_outputs_ok(const char *const *inputs, int n_inputs, const char *const *o
  * many of the n values (RGB floats) of `what` go above it, and the largest (how much lower it
  * is written). */
 void cli_half_warning(const char *what, const float *v, size_t n, int quiet);
+/* How many of the n values go above ENVL_HALF_MAX; *largest the largest of them (0: none). */
+size_t cli_half_over(const float *v, size_t n, double *largest);
 
 /* Output: a memory stream whose contents are written atomically to `path`, or stdout when
  * path is NULL or "-". */

@@ -1,6 +1,7 @@
 /* envlight gltf: the map as a glTF 2.0 file an engine loads (envl_gltf_export). */
 #include "cli.h"
 #include "json.h"
+#include "repair.h"
 
 #include <math.h>
 
@@ -33,6 +34,8 @@ static void write_json(const envl_envmap *map, const char *out, const envl_gltf_
     json_int(&j, "lights", s->lights);
     json_int(&j, "face_size", s->face_size);
     json_int(&j, "mips", s->mips);
+    json_int(&j, "prefiltered_width", s->prefiltered_width);
+    json_int(&j, "prefiltered_height", s->prefiltered_height);
     json_number(&j, "intensity", s->intensity);
     json_object(&j, "error");
     json_bool(&j, "measured", s->diffuse_error >= 0);
@@ -41,10 +44,21 @@ static void write_json(const envl_envmap *map, const char *out, const envl_gltf_
     for (int32_t k = 0; k < s->mips; k++)
         g[k] = s->glossy_error[k] >= 0 ? s->glossy_error[k] : NAN;
     json_numbers(&j, "glossy", g, s->mips);
+    json_array(&j, "texel"); /* per mip: docs/design.md's per-texel error */
+    for (int32_t k = 0; k < s->mips; k++) {
+        const envl_texel_error *t = &s->texel_error[k];
+        json_object(&j, NULL);
+        json_number(&j, "rms", t->rms >= 0 ? t->rms : NAN);
+        json_number(&j, "worst", t->worst >= 0 ? t->worst : NAN);
+        json_int(&j, "texels_measured", t->measured);
+        json_int(&j, "texels", t->texels);
+        json_object_end(&j);
+    }
+    json_array_end(&j);
     json_number(&j, "rgbd", s->rgbd_error);
     json_object_end(&j);
     json_number(&j, "seconds", s->seconds);
-    cli_json_repair(&j, &info);
+    repair_json(&j, &info);
     json_end(&j);
 }
 
@@ -104,13 +118,16 @@ int cli_gltf(int argc, char **argv)
     int rc = CLI_OK;
     if (envl_gltf_export(map, out, &go, &s)) {
         rc = cli_fail();
-    } else if (json) {
+        goto done;
+    }
+    cli_coarse_note(map, s.prefiltered_width, s.prefiltered_height, c.quiet);
+    if (json) {
         write_json(map, out, &s);
         rc = fflush(stdout) ? CLI_FAIL : CLI_OK;
     } else {
         envl_info info;
         envl_envmap_info(map, &info);
-        char e[64];
+        char e[64], tx[96];
         printf("%s: %d x %d -> %s (%lld bytes), %.3f s\n", info.file, (int)info.width,
                (int)info.height, out, (long long)s.bytes, s.seconds);
         printf("lights       %d directional (KHR_lights_punctual)%s\n", (int)s.lights,
@@ -121,13 +138,16 @@ int cli_gltf(int argc, char **argv)
         printf("diffuse      lights + SH: %s\n", cli_error_text(e, sizeof e, "diffuse",
                                                               s.diffuse_error));
         for (int32_t k = 0; k < s.mips; k++)
-            printf("mip %-2d       r %.3f  %s\n", (int)k, s.mips > 1 ? (double)k / (s.mips - 1) : 0,
-                   cli_error_text(e, sizeof e, "glossy", s.glossy_error[k]));
+            printf("mip %-2d       r %.3f  %s  %s\n", (int)k,
+                   s.mips > 1 ? (double)k / (s.mips - 1) : 0,
+                   cli_error_text(e, sizeof e, "glossy", s.glossy_error[k]),
+                   cli_texel_text(tx, sizeof tx, &s.texel_error[k]));
         printf("rgbd         error %.3f %% (decoded faces against their floats)\n",
                100 * s.rgbd_error);
         if (fflush(stdout))
             rc = CLI_FAIL;
     }
+done:
     envl_envmap_free(map);
     return rc;
 }

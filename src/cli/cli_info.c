@@ -1,6 +1,7 @@
 /* envlight info, envlight convert. */
 #include "cli.h"
 #include "json.h"
+#include "repair.h"
 
 #include <string.h>
 
@@ -44,7 +45,7 @@ static void info_json(FILE *f, const envl_info *in)
         json_numbers(&j, "primaries", p, 8);
     }
     json_number(&j, "rotate_degrees", in->rotate_degrees);
-    cli_json_repair(&j, in);
+    repair_json(&j, in);
     json_end(&j);
 }
 

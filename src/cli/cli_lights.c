@@ -1,6 +1,7 @@
 /* envlight lights: directional lights standing in for the environment. */
 #include "cli.h"
 #include "json.h"
+#include "repair.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -80,7 +81,7 @@ static void write_json(FILE *f, const envl_info *info, const envl_lights *ls, in
     json_number(&j, "seconds", s.seconds);
     json_int(&j, "envmap_width", info->width);
     json_int(&j, "envmap_height", info->height);
-    cli_json_repair(&j, info);
+    repair_json(&j, info);
     json_end(&j);
 }
 

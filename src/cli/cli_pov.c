@@ -11,7 +11,7 @@
 static const cli_command pov_command_help = {
     "pov",
     "Usage: envlight pov [FILE] -o OUT.inc [--scene SCENE.pov] [--recipe R] [--ground ALBEDO]\n"
-    "                    [--shadows hard|soft|none] [--sky] [--exposure auto|E]\n"
+    "                    [--shadows auto|soft|hard|none] [--sky] [--exposure auto|E]\n"
     "                    [-n N] [--method fit|median|variance] [--order L]\n"
     "                    [--ambient sh|hemi|none] [--sky-image PATH] [--sky-residual]\n"
     "                    [--scene-radius R] [--no-place] [input options]\n"
@@ -75,9 +75,11 @@ static int pov_parse(int argc, char **argv, cli_common *c, pov_args *a)
                            "the map's exact irradiance at the normal +Z); the ambient then holds\n"
                            "the plane's bounce and no light comes from below the horizon"),
         CLI_OPTION("--shadows", "S", CLI_CHOICE, .value = &o->shadows,
-                   .choices = "hard|soft|none",
-                   .help = "hard (default), soft (area lights sized by each light's angular\n"
-                           "diameter), none (shadowless lights)"),
+                   .choices = "auto|soft|none|hard",
+                   .help = "auto (default: the recipe's: a dome's soft, others hard), soft\n"
+                           "(area lights: a dome's shaped as its region of the sky, others\n"
+                           "a disc of the light's angular diameter), none (shadowless), hard\n"
+                           "(points: a dome's shadows then show as rings)"),
         CLI_OPTION("--sky", NULL, CLI_FLAG, .value = &o->sky,
                    .help = "declare the environment as a sky_sphere (EnvLight_Sky())"),
         CLI_OPTION("--sky-image", "PATH", CLI_TEXT, .value = &o->sky_image,

@@ -116,20 +116,7 @@ static void coarse_note(const envl_envmap *map, const envl_products *p, int quie
 {
     envl_products_summary s;
     envl_products_get_summary(p, &s);
-    int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
-    if (quiet || (s.prefiltered_width == w && s.prefiltered_height == h))
-        return;
-    envl_info info;
-    envl_envmap_info(map, &info);
-    char how[96];
-    if (s.prefiltered_width % w == 0 && s.prefiltered_height % h == 0)
-        snprintf(how, sizeof how, "each pixel split into %d x %d, the same map",
-                 (int)(s.prefiltered_width / w), (int)(s.prefiltered_height / h));
-    else
-        snprintf(how, sizeof how, "area-resampled");
-    cli_error("%s: %d x %d pixels are too coarse for the GGX levels, which sum each pixel at "
-              "its centre: prefiltered from a %d x %d copy (%s)", info.file, (int)w, (int)h,
-              (int)s.prefiltered_width, (int)s.prefiltered_height, how);
+    cli_coarse_note(map, s.prefiltered_width, s.prefiltered_height, quiet);
 }
 
 /* Half floats (ktx2): the values each map loses above ENVL_HALF_MAX, on stderr. */
@@ -152,6 +139,96 @@ static void half_warnings(const envl_envmap *map, const envl_products *p, int qu
     }
 }
 
+/* "512 x 256" (lat-long) or "6 x 128^2" (cube faces). */
+static const char *size_text(char *buf, size_t n, int32_t layout, int32_t w, int32_t h)
+{
+    if (layout == ENVL_LAYOUT_STRIP_H)
+        snprintf(buf, n, "6 x %d^2", (int)h);
+    else
+        snprintf(buf, n, "%d x %d", (int)w, (int)h);
+    return buf;
+}
+
+/* KTX2's mip k is face >> k and the atlas's slot k is W >> k: a level computed at another size
+ * (an explicit --min-size kept it wider, or a --roughness list skipped a size) is
+ * area-resampled there, and the errors stated are the computed level's, not the file's: says
+ * so on stderr. */
+static void note_resampled(const envl_products *p, const envl_export_options *eo, int ktx2)
+{
+    if (!ktx2 && eo->layout != ENVL_EXPORT_ATLAS)
+        return;
+    char list[256] = "";
+    size_t at = 0;
+    int32_t n = envl_products_level_count(p), count = 0;
+    envl_level l0;
+    if (n == 0 || envl_products_level(p, 0, &l0))
+        return;
+    for (int32_t i = 0; i < n; i++) {
+        envl_level l;
+        envl_products_level(p, i, &l);
+        /* the atlas's slots follow the roughness order (the CLI's chain and lists ascend) */
+        int wrong = ktx2 ? l.layout != ENVL_LAYOUT_STRIP_H || l.height != l0.height >> i
+                         : l.width != l0.width >> i;
+        if (wrong && at < sizeof list - 16)
+            at += (size_t)snprintf(list + at, sizeof list - at, "%s%d", count++ ? ", " : "", (int)i);
+    }
+    if (count)
+        fprintf(stderr, "envlight: note: level%s %s %s computed at another size than %s and "
+                "area-resampled to %s: the errors stated are the computed level%s, not the "
+                "file's (leave out --min-size)\n", count > 1 ? "s" : "", list,
+                count > 1 ? "were" : "was", ktx2 ? "their KTX2 mip" : "their atlas slot",
+                count > 1 ? "them" : "it", count > 1 ? "s'" : "'s");
+}
+
+/* The irradiance map and the levels of roughness > 0 are held to a per-texel RMS of 0.5 % and
+ * a worst texel of 2 % (docs/design.md, "Error measures"); one beyond that is said on stderr
+ * with what holds it: for a level a finer quadrature (the cut's density grows as --samples;
+ * the texels' size does not matter, each is computed at its centre), for the irradiance map
+ * the exact sum. A product the half floats clamped was warned about (half_warnings): its
+ * error is the clamp's, which no finer sum changes. */
+static void note_texel_bounds(const envl_products *p, int half)
+{
+    double largest;
+    envl_irradiance_map irr;
+    char t[96];
+    if (envl_products_irradiance(p, &irr) == ENVL_OK && irr.texel_error.rms >= 0 &&
+        (irr.texel_error.rms > 0.005 || irr.texel_error.worst > 0.02) &&
+        !(half && cli_half_over(irr.rgb, 3 * (size_t)irr.width * irr.height, &largest)))
+        fprintf(stderr, "envlight: note: the irradiance map's %s is beyond RMS 0.5 %% / worst "
+                "2 %%; --irradiance-method split (the default) or exact holds it\n",
+                cli_texel_text(t, sizeof t, &irr.texel_error));
+    for (int32_t i = 0; i < envl_products_level_count(p); i++) {
+        envl_level l;
+        envl_products_level(p, i, &l);
+        if (l.roughness > 0 && l.texel_error.rms >= 0 &&
+            (l.texel_error.rms > 0.005 || l.texel_error.worst > 0.02) &&
+            !(half && cli_half_over(l.rgb, 3 * (size_t)l.width * l.height, &largest)))
+            fprintf(stderr, "envlight: note: specular_%02d's %s is beyond RMS 0.5 %% / worst "
+                    "2 %%; a larger --samples makes its sums finer (4 x: cells summed whole "
+                    "from about twice as far)\n", (int)i,
+                    cli_texel_text(t, sizeof t, &l.texel_error));
+    }
+}
+
+/* Under a level over the glossy target: the width that would meet it (envl_width_estimate),
+ * as --size gives it (the face size for cube faces), and the time estimated. */
+static void print_target_width(const envl_level *l, const envl_products *p, int32_t i)
+{
+    envl_width_estimate w;
+    if (envl_products_level_width(p, i, &w) ||
+        (w.state != ENVL_WIDTH_FOUND && w.state != ENVL_WIDTH_BEYOND))
+        return;
+    int faces = l->layout == ENVL_LAYOUT_STRIP_H;
+    char size[32];
+    size_text(size, sizeof size, l->layout, faces ? 6 * w.width : w.width,
+              faces ? w.width : w.width / 2);
+    printf("             glossy %g %% %s %s (--size %d): %.3f %% there, about %.1f s (this "
+           "level's s per texel; %d widths read at %d directions in %.3f s)\n",
+           100 * ENVL_GLOSSY_TARGET, w.state == ENVL_WIDTH_FOUND ? "at" : "not met up to", size,
+           (int)(faces ? w.size / 4 : w.size), 100 * w.glossy_error, w.seconds,
+           (int)w.widths_tried, (int)w.directions_read, w.seconds_spent);
+}
+
 /* The table of what was written: the products, their errors and seconds. */
 static int print_summary(const envl_envmap *map, const envl_products *p, const char *dir,
                          const envl_export_options *eo)
@@ -166,22 +243,23 @@ static int print_summary(const envl_envmap *map, const envl_products *p, const c
         printf("; cell pyramid %.3f s", s.seconds_pyramid);
     printf("\n");
     envl_irradiance_map irr;
+    char e[64], t[96], size[32];
     if (envl_products_irradiance(p, &irr) == ENVL_OK) {
-        printf("irradiance   %-9s %5d x %-5d", envl_irradiance_method_name(irr.method),
-               (int)irr.width, (int)irr.height);
-        char e[64];
-        printf("  %s  %.3f s\n", cli_error_text(e, sizeof e, "diffuse", irr.diffuse_error),
-               irr.seconds);
+        printf("irradiance   %-9s %-13s", envl_irradiance_method_name(irr.method),
+               size_text(size, sizeof size, irr.layout, irr.width, irr.height));
+        printf("  %s  %s  %.3f s\n", cli_error_text(e, sizeof e, "diffuse", irr.diffuse_error),
+               cli_texel_text(t, sizeof t, &irr.texel_error), irr.seconds);
     }
     for (int32_t i = 0; i < envl_products_level_count(p); i++) {
         envl_level l;
         envl_products_level(p, i, &l);
-        printf("specular_%02d  r %.3f alpha %.4f %5d x %-5d samples %4d%s", (int)i, l.roughness,
-               l.alpha, (int)l.width, (int)l.height, (int)l.samples,
+        printf("specular_%02d  r %.3f alpha %.4f %-13s samples %4d%s", (int)i, l.roughness,
+               l.alpha, size_text(size, sizeof size, l.layout, l.width, l.height),
+               (int)l.samples,
                l.samples ? (l.filtered ? " filtered" : " plain") : " (resampled)");
-        char e[64];
-        printf("  %s  %.3f s\n", cli_error_text(e, sizeof e, "glossy", l.glossy_error),
-               l.seconds);
+        printf("  %s  %s  %.3f s\n", cli_error_text(e, sizeof e, "glossy", l.glossy_error),
+               cli_texel_text(t, sizeof t, &l.texel_error), l.seconds);
+        print_target_width(&l, p, i);
     }
     int32_t nsun;
     const envl_light *sun = envl_products_sun_lights(p, &nsun);
@@ -230,8 +308,8 @@ int cli_prefilter(int argc, char **argv)
         CLI_OPTION("--samples", "M", CLI_INT, .min = 1, .max = 1 << 20,
                    .value = &q.prefilter.samples,
                    .help = "the levels' density (default 64): a level w wide sums pyramid\n"
-                           "cells whole from sqrt(n) / 4 cell widths away, n = M (S / w)^2 at\n"
-                           "most 8 M; with --unfiltered, GGX samples per texel"),
+                           "cells whole from 1 + sqrt(n) / 8 cell widths away, n = M (S / w)^2\n"
+                           "within 4 M and 8 M; with --unfiltered, GGX samples per texel"),
         CLI_OPTION("--unfiltered", NULL, CLI_FLAG, .value = &q.prefilter.unfiltered,
                    .help = "plain GGX importance sampling of the full map (the baseline)"),
         CLI_OPTION("--sun-lights", NULL, CLI_FLAG, .value = &q.prefilter.sun_lights,
@@ -241,10 +319,11 @@ int cli_prefilter(int argc, char **argv)
         CLI_OPTION("--irradiance-method", "M", CLI_CHOICE,
                    .value = &q.prefilter.irradiance_method,
                    .choices = "split|sh|exact|resampled", .lookup = envl_irradiance_method_from_name,
-                   .help = "split (default: the bright pixels exactly + SH order 16 of the\n"
-                           "rest; one pass and the output), sh (SH of --irradiance-order with\n"
-                           "the auto window: never negative), exact (every pixel per texel,\n"
-                           "slow), resampled (exact over the map area-averaged to 256 x 128)"),
+                   .help = "split (default: the bright pixels exactly + the rest, 256 wide,\n"
+                           "through a tree of block sums, each texel within 0.5 %), sh (SH of\n"
+                           "--irradiance-order with the auto window: never negative), exact\n"
+                           "(every pixel per texel, slow), resampled (exact over the map\n"
+                           "area-averaged to 256 x 128)"),
         CLI_OPTION("--irradiance-order", "L", CLI_INT, .min = 0, .max = 32, .value = &order,
                    .help = "SH order for --irradiance-method sh (default 2)"),
         CLI_OPTION("--irradiance-size", "S", CLI_INT, .min = 2, .max = 16384, .value = &irr_size,
@@ -311,6 +390,15 @@ int cli_prefilter(int argc, char **argv)
         q.prefilter.min_width = (int32_t)min_size;
     q.prefilter.irradiance_width = (int32_t)(irr_size ? (cube ? 4 * irr_size : irr_size)
                                                       : (cube ? 128 : 64));
+    /* the maps are computed at the texels written: cube faces for cube, cross and KTX2 */
+    q.prefilter.layout = eo.layout;
+    /* the KTX2 mip chain and the atlas's slots halve at every level: no level kept wider
+     * (unless --min-size asks), so each is written as computed */
+    if ((ktx2 || eo.layout == ENVL_EXPORT_ATLAS) && !min_size) {
+        int32_t k = q.prefilter.levels ? q.prefilter.levels : ENVL_DEFAULT_LEVELS;
+        q.prefilter.min_width = q.prefilter.width >> (k - 1) > 2 ? q.prefilter.width >> (k - 1)
+                                                                 : 2;
+    }
     q.prefilter.threads = c.load.threads;
     q.irradiance_map = want_irr;
     if (want_spec) {
@@ -359,6 +447,10 @@ int cli_prefilter(int argc, char **argv)
         snprintf(path, sizeof path, "%s/prefilter.json", dir);
         rc = print_file(path);
         goto done;
+    }
+    if (!c.quiet) {
+        note_resampled(p, &eo, ktx2);
+        note_texel_bounds(p, q.prefilter.half);
     }
     rc = print_summary(map, p, dir, &eo);
 done:

@@ -1,6 +1,7 @@
 /* envlight sh: spherical-harmonic radiance and irradiance coefficients. */
 #include "cli.h"
 #include "json.h"
+#include "repair.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -171,7 +172,7 @@ int cli_sh(int argc, char **argv)
             json_number(&j, "diffuse", s.diffuse_error >= 0 ? s.diffuse_error : NAN);
             json_object_end(&j);
             json_number(&j, "seconds", s.seconds);
-            cli_json_repair(&j, &info);
+            repair_json(&j, &info);
             json_end(&j);
         } else {
             fprintf(o.f, "%s: SH order %d, window %s", info.file, s.order,

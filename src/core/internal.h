@@ -51,6 +51,8 @@ typedef struct envl_file_meta {
                                else 0 */
     int32_t block_x0, block_y0; /* where the lossy codec's 8 x 8 blocks start in the image
                                (DWAA / DWAB: the data window's origin, modulo 8), else 0, 0 */
+    int32_t finite_nonnegative; /* every value is finite and >= 0 by the format's construction
+                               (RGBE): the loader need not look for NaN, Inf or negatives */
 } envl_file_meta;
 
 /* A decoded image: RGB floats, row 0 = top of the image as displayed. */
@@ -78,6 +80,22 @@ void envl__image_free(envl_image *img);
  * then exr.c is not compiled and png.c keeps only its RGBM code); ENVL_OK otherwise. */
 envl_result envl__format_built(const char *what, const char *format);
 
+/* ---- input files read by offset (infile.c): what a streaming reader keeps of a file ---- */
+typedef struct envl_infile {
+    int fd;
+    uint64_t size;          /* bytes, at open */
+    int64_t mtime_ns;       /* modification time at open */
+    const char *path;       /* for messages */
+} envl_infile;
+/* Opens a regular, non-empty file of at most max_bytes (refuses directories, empty and larger
+ * files). */
+envl_result envl__infile_open(const char *path, uint64_t max_bytes, envl_infile *f);
+/* Exactly n bytes at `offset` into buf (any thread); a short file is ENVL_ERR_IO naming it. */
+envl_result envl__infile_read(const envl_infile *f, uint64_t offset, void *buf, size_t n);
+/* ENVL_ERR_IO when the file's size or modification time changed since it was opened. */
+envl_result envl__infile_unchanged(const envl_infile *f);
+void envl__infile_close(envl_infile *f);
+
 /* ---- readers: whole file in memory, `name` only for messages (hdr.c, exr.c, pfm.c) ---- */
 envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
                            const envl_limits *lim, envl_image *out);
@@ -85,6 +103,10 @@ envl_result envl__read_exr(const uint8_t *data, size_t size, const char *name,
                            const envl_limits *lim, envl_image *out);
 envl_result envl__read_pfm(const uint8_t *data, size_t size, const char *name,
                            const envl_limits *lim, envl_image *out);
+/* The same readers on an open file, read by offset: the file is never wholly in memory (hdr:
+ * windows of a few MiB; exr: the chunks being decoded). */
+envl_result envl__read_hdr_file(const envl_infile *f, const envl_limits *lim, envl_image *out);
+envl_result envl__read_exr_file(const envl_infile *f, const envl_limits *lim, envl_image *out);
 /* Detects the format from the first bytes; reads. */
 envl_result envl__read_image_memory(const uint8_t *data, size_t size, const char *name,
                                     const envl_limits *lim, envl_image *out);
@@ -107,7 +129,7 @@ char *envl__normalised_path(const char *name);
 char *envl__relative_path(const char *from, const char *to);
 
 /* ---- files (io.c) ---- */
-/* Reads a whole regular file (refuses directories, larger than max_bytes). Caller frees. */
+/* Reads a whole regular file (envl__infile_open's refusals). Caller frees. */
 envl_result envl__read_file(const char *path, size_t max_bytes, uint8_t **data, size_t *size);
 /* Every temporary file of the writers is DIR/.envl-PID-..., PID the writing process's. */
 #define ENVL__TEMP_PREFIX ".envl-"
@@ -164,6 +186,39 @@ double envl__layout_pixel_solid_angle(int32_t layout, int32_t w, int32_t h, int3
  * added_energy, unfilled_values and fill_window. */
 envl_result envl__fill_negatives(envl_image *img, int32_t layout, const char *file,
                                  envl_info *info);
+/* The texels of a product image (docs/design.md, "Canonical frame"): ENVL_LAYOUT_LATLONG (w x
+ * h) or ENVL_LAYOUT_STRIP_H (six faces of h texels side by side, w = 6 h): the centre direction
+ * of texel (col, row) and its exact solid angle. */
+void envl__texel_direction(int32_t layout, int32_t w, int32_t h, int32_t col, int32_t row,
+                           double d[3]);
+double envl__texel_solid_angle(int32_t layout, int32_t w, int32_t h, int32_t col, int32_t row);
+/* The direction through point (s, t) of the plane of face `face` (0..5, in ENVL_LAYOUT_STRIP_H's
+ * order; s, t in [-1, 1] on the face, beyond it on the plane's extension). */
+void envl__face_direction(int32_t face, double s, double t, double d[3]);
+/* The mean of a lat-long image, read as piecewise constant (each pixel its own value, as the
+ * brute force sums it), over the footprint of texel (col, row) of a product image, by n x n
+ * sub-texels of equal solid angle (lat-long) or weighted by their solid angle (faces). */
+void envl__texel_footprint_mean(const envl_image *latlong, int32_t layout, int32_t w, int32_t h,
+                                int32_t col, int32_t row, int32_t n, double out[3]);
+/* Sub-texels per side for a footprint mean of texels about `texel` radians across over a
+ * lat-long image h pixels tall: 4 per input pixel, 4..64. */
+int32_t envl__footprint_subdivision(double texel, int32_t h);
+/* A strip of six faces (ENVL_LAYOUT_STRIP_H, face texels square) read bilinearly in direction
+ * d, a tap beyond a face's edge read from the face it falls on (as layout.c's input cubes). */
+void envl__strip_sample(const float *strip, int32_t face, const double d[3], double out[3]);
+/* The four texels a product image (ENVL_LAYOUT_LATLONG w x h, or ENVL_LAYOUT_STRIP_H of h-texel
+ * faces) is read from bilinearly in direction d, and their weights (summing to 1): what
+ * envl_latlong_sample and envl__strip_sample read, but for a lat-long image between the first
+ * (last) row's centre and the pole the row itself, not its blend with the pole's mean, and for
+ * faces a tap beyond a face's edge clamped to the face, not read from the next face. The
+ * level-width estimate (level_width.c) reads levels it has not computed through it. */
+void envl__texel_taps(int32_t layout, int32_t w, int32_t h, const double d[3],
+                      int32_t col[4], int32_t row[4], double weight[4]);
+/* The texels of a strip of six faces put into `layout` (ENVL_LAYOUT_STRIP_H, ENVL_LAYOUT_CROSS_V
+ * or ENVL__LAYOUT_GL_STRIP) of the same face size: each output texel is the input texel with
+ * the same centre direction (the faces' texel grids coincide), nothing resampled. */
+envl_result envl__faces_to_layout(const float *strip, int32_t face, int32_t layout,
+                                  envl_image *out);
 
 /* ---- lat-long resampling (resample.c) ---- */
 /* Exact area-weighted resampling of a lat-long image to out_w x out_h, turned by
@@ -175,6 +230,49 @@ envl_result envl__envmap_resampled(const float *px, int32_t w, int32_t h, int32_
                                    int32_t threads, envl_envmap **out);
 envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32_t out_w,
                                    int32_t out_h, double rotate_degrees, float **out);
+/* A few pixels of an image replaced by other values, sorted by row (then column). */
+typedef struct envl_pixel_patch {
+    int32_t r, c;
+    float rgb[3];
+} envl_pixel_patch;
+/* The same, of src with the `npatch` pixels of `patch` replaced: what resampling a patched
+ * copy of src gives, bit for bit, without the copy (rows with a patch go through one row). */
+envl_result envl__latlong_resample_patched(const float *src, int32_t w, int32_t h,
+                                           const envl_pixel_patch *patch, int32_t npatch,
+                                           int32_t out_w, int32_t out_h, double rotate_degrees,
+                                           float **out);
+/* An envmap of a lat-long RGB image (w x h x 3 floats, malloc'd, row 0 on top) that takes the
+ * pixels over without a copy; they are freed on failure too (envmap.c). `name` names the map
+ * in messages and its info. */
+envl_result envl__envmap_adopt(float *px, int32_t w, int32_t h, const envl_load_options *o,
+                               const char *name, envl_envmap **out);
+envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h,
+                                           const envl_pixel_patch *patch, int32_t npatch,
+                                           int32_t out_w, int32_t threads, envl_envmap **out);
+
+/* ---- lights (lights.c, lights_sun.c) ---- */
+/* The residual of the lights `ls` of m as a map of `threads` threads that owns its pixels (one
+ * copy): for the sun method (computed with skip_residual or not) made now from the map and the
+ * suns' pixels at the split's threshold, for the others a copy of ls's residual (an error when
+ * skipped). gltf.c asks for it for the other methods, only when there is a light (the sun
+ * method's: envl__sun_residual_view). */
+envl_result envl__lights_residual_map(const envl_envmap *m, const envl_lights *ls,
+                                      int32_t threads, envl_envmap **out);
+/* The same into out (w x h x 3 floats). */
+void envl__sun_residual(const envl_envmap *m, const envl_lights *ls, float *out);
+/* The sun method's residual without a copy: m's own pixels with the suns' patches written in
+ * (the pixels they replace saved in *saved, malloc'd), as a map of `threads` threads that
+ * borrows them (*out, its own tables and statistics: envl__lights_residual_map's map). Until
+ * envl__sun_residual_view_end, m's pixels are the residual's: use *out, not m. */
+envl_result envl__sun_residual_view(envl_envmap *m, const envl_lights *ls, int32_t threads,
+                                    float **saved, envl_envmap **out);
+/* Frees the view and puts m's pixels back, bit for bit (NULL view and saved: nothing to do). */
+void envl__sun_residual_view_end(envl_envmap *m, const envl_lights *ls, float *saved,
+                                 envl_envmap *view);
+/* A lat-long map over pixels it does not own (they must be finite, non-negative and outlive
+ * it): its tables and statistics only. */
+envl_result envl__envmap_borrow(float *px, int32_t w, int32_t h, int32_t threads,
+                                envl_envmap **out);
 
 /* ---- prefiltering (prefilter.c, png.c) ---- */
 /* 8-bit RGB (channels 3) or RGBA (4) pixels as a PNG in memory (*out malloc'd); srgb: with the

@@ -15,9 +15,61 @@
  * mode; else NaN and -Inf become 0 and +Inf the largest finite value of the image (refused when
  * no value is positive and finite: nothing can stand for it), and negative values are filled
  * from the light around them (ringing.c). img is in `layout`. */
-static envl_result sanitise(envl_image *img, int32_t layout, int32_t strict, const char *file,
-                            envl_info *info)
+/* Rows [begin, end) of the image: flag[r] = 1 when row r holds a NaN, an infinity or a
+ * negative value. As unsigned integers the bits of a float are >= 0x7f800000 exactly for +Inf,
+ * NaN and every value with the sign set, of which only -0 (0x80000000) is not negative: a
+ * compare per value, which the compiler vectorises. */
+typedef struct bad_rows {
+    const float *px;
+    int32_t width;
+    uint8_t *flag;
+} bad_rows;
+
+static void find_bad_rows(void *ctx, int64_t begin, int64_t end)
 {
+    const bad_rows *b = ctx;
+    size_t n = (size_t)b->width * 3;
+    for (int64_t r = begin; r < end; r++) {
+        const float *p = b->px + (size_t)r * n;
+        uint32_t bad = 0;
+        for (size_t i = 0; i < n; i++) {
+            uint32_t u;
+            memcpy(&u, p + i, sizeof u);
+            bad |= (u >= 0x7f800000u) & (u != 0x80000000u);
+        }
+        b->flag[r] = (uint8_t)bad;
+    }
+}
+
+/* Whether some value is NaN, infinite or negative: one parallel pass, skipped when the file's
+ * format cannot hold such values (RGBE). -1: no memory for the row flags. */
+static int has_bad_values(const envl_image *img, int32_t threads)
+{
+    if (img->meta.finite_nonnegative)
+        return 0;
+    uint8_t *flag = malloc((size_t)img->height);
+    if (!flag)
+        return -1;
+    bad_rows b = {img->px, img->width, flag};
+    envl__parallel_for(img->height, threads, find_bad_rows, &b);
+    int any = 0;
+    for (int32_t r = 0; r < img->height; r++)
+        any |= flag[r];
+    free(flag);
+    return any;
+}
+
+static envl_result sanitise(envl_image *img, int32_t layout, int32_t strict, int32_t threads,
+                            const char *file, envl_info *info)
+{
+    int any = has_bad_values(img, threads);
+    if (any < 0)
+        return envl__fail(ENVL_ERR_MEMORY, "%s: out of memory", file);
+    if (!any) {
+        info->nonfinite_pixels = info->negative_pixels = 0;
+        info->negative_min = 0.0;
+        return ENVL_OK;
+    }
     size_t n = (size_t)img->width * img->height;
     int64_t nonfinite = 0, negative = 0, infinite = 0;
     float maxfinite = 0.0f, minimum = 0.0f;
@@ -89,30 +141,74 @@ static envl_result build_tables(envl_envmap *m)
     return ENVL_OK;
 }
 
-static void compute_stats(envl_envmap *m)
+/* One row's share of the statistics: its sum per channel (in column order), maxima, and its
+ * first pixel of greatest luminance. */
+typedef struct row_stats {
+    double sum[3], max[3], best;
+    int32_t best_c;
+} row_stats;
+
+typedef struct stats_job {
+    const envl_envmap *m;
+    row_stats *rows;
+} stats_job;
+
+static void stats_of_rows(void *ctx, int64_t begin, int64_t end)
 {
-    envl_info *info = &m->info;
-    double power[3] = {0, 0, 0}, mx[3] = {0, 0, 0}, best = -1.0;
-    int32_t best_c = 0, best_r = 0;
-    for (int32_t r = 0; r < m->height; r++) {
-        double row[3] = {0, 0, 0};
+    const stats_job *j = ctx;
+    const envl_envmap *m = j->m;
+    for (int64_t r = begin; r < end; r++) {
+        row_stats *o = &j->rows[r];
+        /* one local per channel (not arrays): the three sums and maxima stay in registers */
+        double s0 = 0, s1 = 0, s2 = 0, best = -1.0;
+        float m0 = 0, m1 = 0, m2 = 0;
+        int32_t best_c = 0;
         const float *p = m->px + (size_t)r * m->width * 3;
         for (int32_t c = 0; c < m->width; c++, p += 3) {
-            for (int k = 0; k < 3; k++) {
-                row[k] += p[k];
-                if (p[k] > mx[k])
-                    mx[k] = p[k];
-            }
+            s0 += p[0];
+            s1 += p[1];
+            s2 += p[2];
+            m0 = p[0] > m0 ? p[0] : m0;
+            m1 = p[1] > m1 ? p[1] : m1;
+            m2 = p[2] > m2 ? p[2] : m2;
             double y = envl__lum(p[0], p[1], p[2]);
             if (y > best) {
                 best = y;
                 best_c = c;
-                best_r = r;
             }
         }
-        for (int k = 0; k < 3; k++)
-            power[k] += row[k] * m->row_omega[r];
+        o->sum[0] = s0, o->sum[1] = s1, o->sum[2] = s2;
+        o->max[0] = m0, o->max[1] = m1, o->max[2] = m2;
+        o->best = best;
+        o->best_c = best_c;
     }
+}
+
+/* Power, mean, maxima and the brightest direction. Rows in parallel, each summed in column
+ * order, then the rows in row order: the same sums as one pass, at any thread count. */
+static envl_result compute_stats(envl_envmap *m)
+{
+    envl_info *info = &m->info;
+    stats_job j = {m, malloc(sizeof(row_stats) * (size_t)m->height)};
+    if (!j.rows)
+        return envl__fail(ENVL_ERR_MEMORY, "envmap: cannot allocate the row statistics");
+    envl__parallel_for(m->height, m->threads, stats_of_rows, &j);
+    double power[3] = {0, 0, 0}, mx[3] = {0, 0, 0}, best = -1.0;
+    int32_t best_c = 0, best_r = 0;
+    for (int32_t r = 0; r < m->height; r++) {
+        const row_stats *o = &j.rows[r];
+        for (int k = 0; k < 3; k++) {
+            power[k] += o->sum[k] * m->row_omega[r];
+            if (o->max[k] > mx[k])
+                mx[k] = o->max[k];
+        }
+        if (o->best > best) {
+            best = o->best;
+            best_c = o->best_c;
+            best_r = r;
+        }
+    }
+    free(j.rows);
     for (int k = 0; k < 3; k++) {
         info->power[k] = power[k];
         info->mean[k] = power[k] / (4.0 * ENVL_PI);
@@ -121,6 +217,7 @@ static void compute_stats(envl_envmap *m)
     envl_envmap_direction(m, best_c, best_r, info->brightest_direction);
     info->width = m->width;
     info->height = m->height;
+    return ENVL_OK;
 }
 
 envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *options,
@@ -162,9 +259,10 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
         size_t n = (size_t)img->width * img->height * 3;
         for (size_t i = 0; i < n; i++)
             img->px[i] = (float)(img->px[i] / info->exposure);
+        img->meta.finite_nonnegative = 0; /* a small EXPOSURE can overflow a value */
     }
     /* in the file's own layout: a codec's blocks and a pixel's solid angle are the file's */
-    rc = sanitise(img, layout, o->strict, file, info);
+    rc = sanitise(img, layout, o->strict, m->threads, file, info);
     if (rc)
         goto fail;
     if (o->width < 0) {
@@ -220,11 +318,12 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
     }
     envl__image_free(img);
     rc = build_tables(m);
+    if (!rc)
+        rc = compute_stats(m);
     if (rc) {
         envl_envmap_free(m);
         return rc;
     }
-    compute_stats(m);
     if (!info->nonfinite_pixels && !info->negative_pixels)
         memcpy(info->signed_power, info->power, sizeof info->power);
     *out = m;
@@ -280,16 +379,66 @@ envl_result envl_envmap_load(const char *path, const envl_load_options *options,
 envl_result envl__envmap_resampled(const float *px, int32_t w, int32_t h, int32_t out_w,
                                    int32_t threads, envl_envmap **out)
 {
+    return envl__envmap_resampled_patched(px, w, h, NULL, 0, out_w, threads, out);
+}
+
+envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h,
+                                           const envl_pixel_patch *patch, int32_t npatch,
+                                           int32_t out_w, int32_t threads, envl_envmap **out)
+{
     *out = NULL;
     int32_t out_h = (int32_t)fmax(1, llround((double)out_w * h / w));
     float *spx;
-    envl_result rc = envl__latlong_resample(px, w, h, out_w, out_h, 0.0, &spx);
+    envl_result rc = envl__latlong_resample_patched(px, w, h, patch, npatch, out_w, out_h, 0.0,
+                                                    &spx);
     if (rc)
         return rc;
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
     rc = envl_envmap_from_pixels(spx, out_w, out_h, 3, &lo, out);
     free(spx);
     return rc;
+}
+
+envl_result envl__envmap_adopt(float *px, int32_t w, int32_t h, const envl_load_options *o,
+                               const char *name, envl_envmap **out)
+{
+    envl_image img = {.width = w, .height = h, .px = px};
+    snprintf(img.meta.format, sizeof img.meta.format, "memory");
+    img.meta.channels = 3;
+    img.meta.exposure = 1.0;
+    return envl__envmap_from_image(&img, o, name, out);
+}
+
+envl_result envl__envmap_borrow(float *px, int32_t w, int32_t h, int32_t threads,
+                                envl_envmap **out)
+{
+    *out = NULL;
+    envl_envmap *m = calloc(1, sizeof *m);
+    if (!m)
+        return envl__fail(ENVL_ERR_MEMORY, "envmap: out of memory");
+    /* the info as envl__envmap_adopt gives a lat-long map of finite, non-negative pixels */
+    envl_info *info = &m->info;
+    snprintf(info->format, sizeof info->format, "memory");
+    info->source_width = w;
+    info->source_height = h;
+    info->channels = 3;
+    info->exposure = 1.0;
+    info->layout = ENVL_LAYOUT_LATLONG;
+    m->threads = envl__threads(threads);
+    m->px = px;
+    m->px_borrowed = 1;
+    m->width = w;
+    m->height = h;
+    envl_result rc = build_tables(m);
+    if (!rc)
+        rc = compute_stats(m);
+    if (rc) {
+        envl_envmap_free(m);
+        return rc;
+    }
+    memcpy(info->signed_power, info->power, sizeof info->power);
+    *out = m;
+    return ENVL_OK;
 }
 
 envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t height,
@@ -320,11 +469,125 @@ envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t 
     return envl__envmap_from_image(&img, options, "", out);
 }
 
+/* Room for width x height pixels of `channels` floats and their RGB (grey is spread to RGB in
+ * place: 3 floats a pixel at least). */
+envl_result envl_pixels_alloc(int32_t width, int32_t height, int32_t channels,
+                              const envl_load_options *options, float **out)
+{
+    if (!out)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_pixels_alloc: out is NULL");
+    *out = NULL;
+    if (channels != 1 && channels != 3 && channels != 4)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_pixels_alloc: %d channels (expected 1, 3 "
+                          "or 4)", (int)channels);
+    envl_limits lim = limits_of(options);
+    envl_image img = {0};
+    envl_result rc = envl__image_alloc(&img, width, height, &lim, "pixels");
+    if (rc || channels < 4) {
+        *out = img.px;
+        return rc;
+    }
+    if ((uint64_t)width * (uint64_t)height > SIZE_MAX / (4 * sizeof(float))) {
+        envl__image_free(&img);
+        return envl__fail(ENVL_ERR_LIMIT, "pixels: image size %d x %d too large for memory",
+                          (int)width, (int)height);
+    }
+    float *px = realloc(img.px, (size_t)width * height * 4 * sizeof(float));
+    if (!px) {
+        envl__image_free(&img);
+        return envl__fail(ENVL_ERR_MEMORY, "pixels: cannot allocate %d x %d pixels",
+                          (int)width, (int)height);
+    }
+    *out = px;
+    return ENVL_OK;
+}
+
+void envl_pixels_free(float *pixels)
+{
+    free(pixels);
+}
+
+typedef struct row_swap {
+    float *px;
+    size_t row;     /* floats a row */
+    int32_t height;
+} row_swap;
+
+/* Rows [begin, end) of the top half swapped with their mirror rows. */
+static void swap_rows(void *ctx, int64_t begin, int64_t end)
+{
+    const row_swap *s = ctx;
+    float tmp[1024];
+    for (int64_t r = begin; r < end; r++) {
+        float *a = s->px + (size_t)r * s->row, *b = s->px + (size_t)(s->height - 1 - r) * s->row;
+        for (size_t i = 0; i < s->row; i += 1024) {
+            size_t k = s->row - i < 1024 ? s->row - i : 1024;
+            memcpy(tmp, a + i, k * sizeof(float));
+            memcpy(a + i, b + i, k * sizeof(float));
+            memcpy(b + i, tmp, k * sizeof(float));
+        }
+    }
+}
+
+envl_result envl_envmap_adopt_pixels(float *pixels, int32_t width, int32_t height,
+                                     int32_t channels, int32_t bottom_up,
+                                     const envl_load_options *options, envl_envmap **out)
+{
+    envl_image img = {.width = width, .height = height, .px = pixels};
+    envl_result rc = ENVL_OK;
+    if (!out)
+        rc = envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_adopt_pixels: out is NULL");
+    else
+        *out = NULL;
+    if (!rc && !pixels)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_adopt_pixels: pixels is NULL");
+    if (!rc && channels != 1 && channels != 3 && channels != 4)
+        rc = envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_adopt_pixels: %d channels (expected 1, "
+                        "3 or 4)", (int)channels);
+    envl_limits lim = limits_of(options);
+    if (!rc && (width <= 0 || height <= 0 || (int64_t)width * height > lim.max_pixels))
+        rc = envl__fail(width <= 0 || height <= 0 ? ENVL_ERR_ARGUMENT : ENVL_ERR_LIMIT,
+                        "envl_envmap_adopt_pixels: %d x %d pixels: not what envl_pixels_alloc "
+                        "allows", (int)width, (int)height);
+    if (!rc)
+        rc = envl__progress(0.0, "to the canonical lat-long frame");
+    if (rc) {
+        free(pixels);
+        return rc;
+    }
+    size_t n = (size_t)width * height;
+    if (bottom_up) {
+        row_swap s = {pixels, (size_t)width * channels, height};
+        envl__parallel_for(height / 2, envl__threads(options ? options->threads : 0), swap_rows,
+                           &s);
+    }
+    if (channels == 4) { /* forward: pixel i's RGB (3i..3i+2) never lies past its RGBA (4i..) */
+        for (size_t i = 0; i < n; i++)
+            for (int k = 0; k < 3; k++)
+                pixels[3 * i + k] = pixels[4 * i + k];
+        float *px = realloc(pixels, n * 3 * sizeof(float)); /* the alpha's room given back */
+        img.px = px ? px : pixels;
+    } else if (channels == 1) { /* backward: pixel i's RGB (3i..) never lies before its grey */
+        for (size_t i = n; i-- > 0;)
+            pixels[3 * i] = pixels[3 * i + 1] = pixels[3 * i + 2] = pixels[i];
+    }
+    snprintf(img.meta.format, sizeof img.meta.format, "memory");
+    img.meta.channels = channels;
+    img.meta.exposure = 1.0;
+    rc = envl__envmap_from_image(&img, options, "", out);
+    if (!rc && (rc = envl__progress(1.0, "done"))) {
+        envl_envmap_free(*out);
+        *out = NULL;
+    }
+    return rc;
+}
+
 void envl_envmap_free(envl_envmap *m)
 {
     if (!m)
         return;
-    free(m->px);
+    if (!m->px_borrowed)
+        free(m->px);
     free(m->source_path);
     free(m->row_omega);
     free(m->row_cos);

@@ -7,6 +7,7 @@
 struct envl_envmap {
     int32_t width, height;
     float *px;            /* RGB, row 0 = top (canonical lat-long) */
+    int32_t px_borrowed;  /* px belongs to another map (envl__sun_residual_view): not freed */
     double *row_omega;    /* solid angle of a pixel of each row (exact) */
     double *row_cos;      /* cos(theta) at each row's centre */
     double *row_sin;      /* sin(theta) = z at each row's centre */

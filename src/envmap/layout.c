@@ -884,6 +884,169 @@ envl_result envl__latlong_to_faces(const envl_image *latlong, int32_t strip, int
     return ENVL_OK;
 }
 
+/* ---- the texels of a product: a lat-long image or a strip of cube faces ---- */
+
+void envl__texel_direction(int32_t layout, int32_t w, int32_t h, int32_t col, int32_t row,
+                           double d[3])
+{
+    if (layout != ENVL_LAYOUT_STRIP_H) {
+        envl_latlong_direction(w, h, col, row, d);
+        return;
+    }
+    envl__face_direction(col / h, 2 * (col % h + 0.5) / h - 1, 1 - 2 * (row + 0.5) / h, d);
+}
+
+void envl__face_direction(int32_t face, double s, double t, double d[3])
+{
+    const double(*fr)[3] = face_frame[strip_order[face]];
+    for (int k = 0; k < 3; k++)
+        d[k] = fr[0][k] + s * fr[1][k] + t * fr[2][k];
+    normalize3(d);
+}
+
+/* The solid angle of the part of a cube face (the plane at distance 1) below and left of
+ * (s, t): atan2(s t, sqrt(1 + s^2 + t^2)); a rectangle's is the alternating sum over its
+ * corners (exact). */
+static double face_corner(double s, double t)
+{
+    return atan2(s * t, sqrt(1 + s * s + t * t));
+}
+
+double envl__texel_solid_angle(int32_t layout, int32_t w, int32_t h, int32_t col, int32_t row)
+{
+    if (layout != ENVL_LAYOUT_STRIP_H)
+        return envl_latlong_solid_angle(w, h, row);
+    int32_t i = col % h;
+    double s0 = 2.0 * i / h - 1, s1 = 2.0 * (i + 1) / h - 1;
+    double t0 = 1 - 2.0 * (row + 1) / h, t1 = 1 - 2.0 * row / h;
+    return face_corner(s1, t1) - face_corner(s0, t1) - face_corner(s1, t0) +
+           face_corner(s0, t0);
+}
+
+int32_t envl__footprint_subdivision(double texel, int32_t h)
+{
+    double n = ceil(4 * texel / (ENVL_PI / h));
+    return n < 4 ? 4 : n > 64 ? 64 : (int32_t)n;
+}
+
+/* The pixel of a lat-long image that holds direction d (the brute force's lookup). */
+static const float *nearest_pixel(const envl_image *ll, const double d[3])
+{
+    double x, y;
+    envl_latlong_pixel(ll->width, ll->height, d, &x, &y);
+    int64_t c = (int64_t)floor(x + 0.5) % ll->width, r = (int64_t)floor(y + 0.5);
+    c += c < 0 ? ll->width : 0;
+    r = r < 0 ? 0 : r >= ll->height ? ll->height - 1 : r;
+    return pixel_at(ll, (int32_t)c, (int32_t)r);
+}
+
+void envl__texel_footprint_mean(const envl_image *latlong, int32_t layout, int32_t w, int32_t h,
+                                int32_t col, int32_t row, int32_t n, double out[3])
+{
+    double acc[3] = {0, 0, 0}, wsum = 0;
+    double z_top = sin(ENVL_PI * (0.5 - (double)row / h));
+    double z_bot = sin(ENVL_PI * (0.5 - (double)(row + 1) / h));
+    for (int32_t b = 0; b < n; b++)
+        for (int32_t a = 0; a < n; a++) {
+            double d[3], wgt = 1;
+            if (layout == ENVL_LAYOUT_STRIP_H) {
+                const double(*fr)[3] = face_frame[strip_order[col / h]];
+                double s = 2 * (col % h + (a + 0.5) / n) / h - 1;
+                double t = 1 - 2 * (row + (b + 0.5) / n) / h;
+                for (int k = 0; k < 3; k++)
+                    d[k] = fr[0][k] + s * fr[1][k] + t * fr[2][k];
+                wgt = pow(1 + s * s + t * t, -1.5); /* dw/dA on the face */
+            } else { /* equal steps of azimuth and of z: equal solid angles */
+                double z = z_top + (z_bot - z_top) * (b + 0.5) / n, cz = sqrt(fmax(0, 1 - z * z));
+                double phi = ENVL_PI * (1 - 2 * (col + (a + 0.5) / n) / w);
+                d[0] = cz * cos(phi), d[1] = cz * sin(phi), d[2] = z;
+            }
+            const float *p = nearest_pixel(latlong, d);
+            for (int k = 0; k < 3; k++)
+                acc[k] += wgt * p[k];
+            wsum += wgt;
+        }
+    for (int k = 0; k < 3; k++)
+        out[k] = acc[k] / wsum;
+}
+
+void envl__strip_sample(const float *strip, int32_t face, const double d[3], double out[3])
+{
+    geom g;
+    spos p;
+    envl_image img = {.width = 6 * face, .height = face, .px = (float *)strip};
+    out[0] = out[1] = out[2] = 0;
+    if (geom_init(&g, ENVL_LAYOUT_STRIP_H, 6 * face, face) || !dir_to_pos(&g, d, &p))
+        return;
+    sample_layout(&img, &g, &p, out);
+}
+
+void envl__texel_taps(int32_t layout, int32_t w, int32_t h, const double d[3],
+                      int32_t col[4], int32_t row[4], double weight[4])
+{
+    double x, y;
+    int32_t x0 = 0, x1 = w, wrap = layout != ENVL_LAYOUT_STRIP_H;
+    if (wrap) {
+        envl_latlong_pixel(w, h, d, &x, &y); /* centres on integers */
+        y = clampd(y, 0, h - 1);
+    } else {
+        geom g;
+        spos p;
+        if (geom_init(&g, ENVL_LAYOUT_STRIP_H, w, h) || !dir_to_pos(&g, d, &p)) {
+            for (int k = 0; k < 4; k++)
+                col[k] = row[k] = 0, weight[k] = k == 0;
+            return;
+        }
+        x0 = p.x0, x1 = p.x1;
+        x = clampd(p.x, p.x0 + 0.5, p.x1 - 0.5) - 0.5;
+        y = clampd(p.y, p.y0 + 0.5, p.y1 - 0.5) - 0.5;
+    }
+    double fx = floor(x), fy = floor(y), tx = x - fx, ty = y - fy;
+    for (int k = 0; k < 4; k++) {
+        int32_t c = (int32_t)fx + (k & 1), r = (int32_t)fy + (k >> 1);
+        if (wrap)
+            c = ((c % w) + w) % w;
+        else
+            c = c < x0 ? x0 : c >= x1 ? x1 - 1 : c;
+        col[k] = c;
+        row[k] = r < 0 ? 0 : r >= h ? h - 1 : r;
+        weight[k] = ((k & 1) ? tx : 1 - tx) * ((k >> 1) ? ty : 1 - ty);
+    }
+}
+
+envl_result envl__faces_to_layout(const float *strip, int32_t face, int32_t layout,
+                                  envl_image *out)
+{
+    memset(out, 0, sizeof *out);
+    if (layout != ENVL_LAYOUT_STRIP_H && layout != ENVL_LAYOUT_CROSS_V &&
+        layout != ENVL__LAYOUT_GL_STRIP)
+        return envl__fail(ENVL_ERR_ARGUMENT, "cube faces: cannot lay them out as layout %d",
+                          (int)layout);
+    int32_t w = layout == ENVL_LAYOUT_CROSS_V ? 3 * face : 6 * face;
+    int32_t h = layout == ENVL_LAYOUT_CROSS_V ? 4 * face : face;
+    geom in, g;
+    envl_result rc = geom_init(&in, ENVL_LAYOUT_STRIP_H, 6 * face, face);
+    if (!rc)
+        rc = geom_init(&g, layout, w, h);
+    if (!rc)
+        rc = envl__image_alloc(out, w, h, NULL, "cube faces");
+    if (rc)
+        return rc;
+    for (int32_t j = 0; j < h; j++)
+        for (int32_t i = 0; i < w; i++) {
+            double d[3], jac, a, b;
+            spos p;
+            if (!pix_to_dir(&g, i, j, 0.5, 0.5, d, &jac, &a, &b) || !dir_to_pos(&in, d, &p))
+                continue; /* an empty cell of the cross: 0 */
+            /* the centre lands on a texel's centre (up to rounding): that texel */
+            int32_t x = (int32_t)clampd(floor(p.x), p.x0, p.x1 - 1);
+            int32_t y = (int32_t)clampd(floor(p.y), p.y0, p.y1 - 1);
+            memcpy(out->px + 3 * ((size_t)j * w + i), strip + 3 * ((size_t)y * 6 * face + x),
+                   sizeof(float) * 3);
+        }
+    return ENVL_OK;
+}
+
 const char *envl_layout_name(int32_t layout)
 {
     static const char *names[ENVL_LAYOUT_COUNT] = {

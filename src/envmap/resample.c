@@ -40,8 +40,49 @@ static void resample_row(const float *in, int32_t w, float *out, int32_t out_w, 
     }
 }
 
+/* The input rows, with the patched pixels replaced: a row that holds a patch is copied into
+ * `line` and patched (the last such row is kept there). */
+typedef struct row_source {
+    const float *src;
+    int32_t w;
+    const envl_pixel_patch *patch;
+    int32_t npatch;
+    float *line;
+    int32_t line_row;
+} row_source;
+
+static const float *source_row(row_source *s, int32_t k)
+{
+    const float *row = s->src + (size_t)k * s->w * 3;
+    int32_t lo = 0, hi = s->npatch; /* the first patch of row >= k */
+    while (lo < hi) {
+        int32_t mid = lo + (hi - lo) / 2;
+        if (s->patch[mid].r < k)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    if (lo == s->npatch || s->patch[lo].r != k)
+        return row;
+    if (s->line_row != k) {
+        memcpy(s->line, row, sizeof(float) * 3 * (size_t)s->w);
+        for (int32_t i = lo; i < s->npatch && s->patch[i].r == k; i++)
+            memcpy(s->line + 3 * (size_t)s->patch[i].c, s->patch[i].rgb, sizeof(float) * 3);
+        s->line_row = k;
+    }
+    return s->line;
+}
+
 envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32_t out_w,
                                    int32_t out_h, double rotate_degrees, float **out)
+{
+    return envl__latlong_resample_patched(src, w, h, NULL, 0, out_w, out_h, rotate_degrees, out);
+}
+
+envl_result envl__latlong_resample_patched(const float *src, int32_t w, int32_t h,
+                                           const envl_pixel_patch *patch, int32_t npatch,
+                                           int32_t out_w, int32_t out_h, double rotate_degrees,
+                                           float **out)
 {
     *out = NULL;
     if (w <= 0 || h <= 0 || out_w <= 0 || out_h <= 0)
@@ -60,19 +101,25 @@ envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32
      * prefilter's pyramid). Same arithmetic as a full column pass, so the same floats. */
     float *row = out_h == h ? NULL : malloc(2 * n_row * sizeof(float));
     double *acc = out_h == h ? NULL : malloc(n_row * sizeof(double));
-    if (!dst || (out_h != h && (!row || !acc))) {
+    row_source rs = {src, w, patch, npatch, npatch ? malloc(sizeof(float) * 3 * (size_t)w) : NULL,
+                     -1};
+    if (!dst || (out_h != h && (!row || !acc)) || (npatch && !rs.line)) {
         free(dst);
         free(row);
         free(acc);
+        free(rs.line);
         return envl__fail(ENVL_ERR_MEMORY, "resample: cannot allocate %d x %d", (int)out_w,
                           (int)out_h);
     }
     if (out_h == h) {
-        if (plain)
+        if (plain && !npatch)
             memcpy(dst, src, n_out * sizeof(float));
+        else if (plain)
+            for (int32_t r = 0; r < h; r++)
+                memcpy(dst + (size_t)r * n_row, source_row(&rs, r), n_row * sizeof(float));
         else
             for (int32_t r = 0; r < h; r++)
-                resample_row(src + (size_t)r * w * 3, w, dst + (size_t)r * n_row, out_w, shift);
+                resample_row(source_row(&rs, r), w, dst + (size_t)r * n_row, out_w, shift);
     } else {
         /* Rows: weights are overlaps in z. Both row lists run from z = 1 down to z = -1. */
         int32_t r = 0, slot_row[2] = {-1, -1};
@@ -89,7 +136,7 @@ envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32
                 double wgt = fmin(top, itop) - fmax(bot, ibot);
                 if (wgt <= 0)
                     continue;
-                const float *p = src + (size_t)k * w * 3;
+                const float *p = source_row(&rs, k);
                 if (!plain) {
                     int j = slot_row[0] == k ? 0 : slot_row[1] == k ? 1 : -1;
                     if (j < 0) { /* replace the slot of the older (smaller) row */
@@ -109,6 +156,7 @@ envl_result envl__latlong_resample(const float *src, int32_t w, int32_t h, int32
     }
     free(row);
     free(acc);
+    free(rs.line);
     *out = dst;
     return ENVL_OK;
 }

@@ -5,6 +5,7 @@
 #include "clock.h"
 #include "error_measure.h"
 #include "json.h"
+#include "repair.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -61,9 +62,11 @@ static double levels_max(const envl_products *p)
 static envl_result encode_mip(const envl_level *l, int32_t face, double scale, face_images *out,
                               double *error)
 {
-    envl_image src = {.width = l->width, .height = l->height, .px = (float *)l->rgb};
-    float *gl; /* OpenGL's six faces of the glTF frame */
-    envl_result rc = envl__latlong_to_faces(&src, ENVL__LAYOUT_GL_STRIP, face, &gl);
+    if (l->layout != ENVL_LAYOUT_STRIP_H || l->height != face)
+        return envl__fail(ENVL_ERR_ARGUMENT, "gltf: mip of %d-texel faces computed as %d",
+                          (int)face, (int)l->height);
+    envl_image glf; /* OpenGL's six faces of the glTF frame: the level's texels rearranged */
+    envl_result rc = envl__faces_to_layout(l->rgb, face, ENVL__LAYOUT_GL_STRIP, &glf);
     if (rc)
         return rc;
     size_t n = (size_t)face * face;
@@ -75,8 +78,8 @@ static envl_result encode_mip(const envl_level *l, int32_t face, double scale, f
         int32_t g = f == 2 ? 3 : f == 3 ? 2 : f; /* +Y and -Y swapped */
         for (int32_t r = 0; r < face; r++)
             for (int32_t i = 0; i < face; i++) {
-                const float *c = gl + 3 * (g * n + (size_t)(face - 1 - r) * face +
-                                           (size_t)(face - 1 - i));
+                const float *c = glf.px + 3 * ((size_t)(face - 1 - r) * 6 * face +
+                                               (size_t)g * face + (size_t)(face - 1 - i));
                 float v[3], back[3];
                 size_t t = (size_t)r * face + i, k = f * n + t;
                 for (int ch = 0; ch < 3; ch++)
@@ -97,7 +100,7 @@ static envl_result encode_mip(const envl_level *l, int32_t face, double scale, f
     free(px);
     free(want);
     free(got);
-    free(gl);
+    envl__image_free(&glf);
     return rc;
 }
 
@@ -167,6 +170,7 @@ static void write_asset(json_writer *j, const envl_envmap *map, const ibl *b,
     json_string(j, "generator", gen);
     json_object(j, "extras");
     json_string(j, "source", info.file);
+    repair_json(j, &info);
     json_string(j, "frame", "gltf-y-up: right-handed, +Y up (the source's +Z up turned: (x, y, "
                 "z) -> (x, z, -y))");
     json_string(j, "units", "the source's radiance, taken as cd/m^2: light intensity in lux, "
@@ -189,6 +193,16 @@ static void write_asset(json_writer *j, const envl_envmap *map, const ibl *b,
                 "left-handed world, as its loader puts glTF in it); c = A_l L_lm (irradiance)");
     json_number(j, "diffuse_error", s->diffuse_error >= 0 ? s->diffuse_error : NAN);
     json_numbers(j, "glossy_error", s->glossy_error, b->mips);
+    json_array(j, "texel_error"); /* per mip: docs/design.md's per-texel error, RMS and worst */
+    for (int32_t k = 0; k < b->mips; k++) {
+        json_object(j, NULL);
+        json_number(j, "rms", s->texel_error[k].rms >= 0 ? s->texel_error[k].rms : NAN);
+        json_number(j, "worst", s->texel_error[k].worst >= 0 ? s->texel_error[k].worst : NAN);
+        json_int(j, "texels_measured", s->texel_error[k].measured);
+        json_int(j, "texels", s->texel_error[k].texels);
+        json_object_end(j);
+    }
+    json_array_end(j);
     json_number(j, "rgbd_error", s->rgbd_error);
     json_number(j, "seconds", s->seconds);
     json_object_end(j);
@@ -505,10 +519,13 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         return rc;
     double t0 = envl__seconds();
     envl_gltf_summary s = {.face_size = face, .mips = mips, .diffuse_error = -1};
-    for (int k = 0; k < 16; k++)
+    for (int k = 0; k < 16; k++) {
         s.glossy_error[k] = -1;
+        s.texel_error[k] = envl__texel_error_none;
+    }
     envl_lights *ls = NULL;
-    envl_envmap *residual = NULL;
+    envl_envmap *residual = NULL; /* a copy (not the sun method) or a view of map's pixels */
+    float *saved = NULL;          /* the view's: the map's pixels under the suns' patches */
     envl_products *p = NULL;
     face_images img = {0};
     double measuring = 0;
@@ -518,15 +535,15 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
     if (!o->no_lights) {
         envl_lights_options lo = o->lights ? *o->lights
                                            : (envl_lights_options){.method = ENVL_METHOD_SUN};
-        lo.skip_residual = 0;
+        lo.skip_residual = lo.method == ENVL_METHOD_SUN; /* made below, only with a sun */
         lo.measure = 0;
         rc = envl_lights_compute(map, &lo, &ls);
+        /* the sun method's residual: the map's own pixels with the suns patched in until the
+         * products are made (no copy); another method's: a copy of what it left */
         if (!rc && envl_lights_count(ls))
-            rc = envl_envmap_from_pixels(envl_lights_residual(ls), envl_envmap_width(map),
-                                         envl_envmap_height(map), 3,
-                                         &(envl_load_options){.layout = ENVL_LAYOUT_LATLONG,
-                                                              .threads = o->threads},
-                                         &residual);
+            rc = lo.method == ENVL_METHOD_SUN
+                     ? envl__sun_residual_view(map, ls, o->threads, &saved, &residual)
+                     : envl__lights_residual_map(map, ls, o->threads, &residual);
     }
     envl_envmap *env = residual ? residual : map;
     /* the IBL: SH order 2 and the chain, mip k face >> k wide as cube faces (lat-long 4x) */
@@ -538,13 +555,22 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         q.prefilter.levels = mips;
         q.prefilter.width = 4 * face;
         q.prefilter.min_width = 4 * (face >> (mips - 1));
+        q.prefilter.layout = ENVL_EXPORT_CUBE; /* each face texel computed at its centre */
         q.prefilter.samples = o->samples;
         q.prefilter.threads = o->threads;
         double t1 = envl__seconds();
         rc = envl_compute(env, &q, &p);
         envl_products_summary ps = {0};
-        if (!rc && !envl_products_get_summary(p, &ps))
+        if (!rc && !envl_products_get_summary(p, &ps)) {
             measuring = envl__seconds() - t1 - ps.seconds; /* the products' error measures */
+            s.prefiltered_width = ps.prefiltered_width;
+            s.prefiltered_height = ps.prefiltered_height;
+        }
+    }
+    if (saved) { /* the map's pixels back before anything reads the map again */
+        envl__sun_residual_view_end(map, ls, saved, residual);
+        saved = NULL;
+        residual = NULL;
     }
     ibl b = {.face = face, .mips = mips, .roughness = roughness};
     if (!rc) {
@@ -560,7 +586,8 @@ envl_result envl_gltf_export(envl_envmap *map, const char *path, const envl_gltf
         envl_products_level(p, k, &l);
         roughness[k] = l.roughness;
         s.glossy_error[k] = l.glossy_error;
-        double e;
+        s.texel_error[k] = l.texel_error;
+        double e = 0;
         rc = envl__progress((double)k / mips, "encoding the RGBD faces");
         if (!rc)
             rc = encode_mip(&l, face >> k, b.intensity, &img, &e);

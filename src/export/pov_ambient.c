@@ -191,20 +191,19 @@ double pov_ridge_least(const pov_ridge *r, int *negative)
     return least;
 }
 
-double pov_emitted_error(const envl_lights *ls, const pov_ridge *r, const double *ref,
-                         double *emit)
+double pov_emitted_error(const pov_light *lights, int32_t count, const pov_ridge *r,
+                         const double *ref, double *emit)
 {
-    int32_t count = envl_lights_count(ls);
     for (int i = 0; i < ENVL_ERROR_NORMALS; i++) {
         double n[3], e[3] = {0, 0, 0};
         envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, n);
-        /* a light delivers rgb max(0, n . l) (docs/design.md, "Units") */
-        for (int j = 0; j < count; j++) {
-            envl_light l;
-            envl_lights_get(ls, j, &l);
-            double d = n[0] * l.direction[0] + n[1] * l.direction[1] + n[2] * l.direction[2];
+        /* a light delivers its colour max(0, n . l) (docs/design.md, "Units"), an area light
+         * the mean over its grid (pov_area.c) */
+        for (int32_t j = 0; j < count; j++) {
+            double a[3];
+            pov_light_irradiance(lights + j, n, a);
             for (int ch = 0; ch < 3; ch++)
-                e[ch] += d > 0 ? l.rgb[ch] * d : 0;
+                e[ch] += a[ch];
         }
         if (r) {
             double a[3];

@@ -5,6 +5,7 @@
 #define ENVL_POV_AMBIENT_H
 
 #include "envlight.h"
+#include "pov_light.h"
 
 #define POV_MAX_TERMS (2 * ENVL_POV_MAX_ORDER + 5)
 
@@ -31,10 +32,10 @@ void pov_ridge_eval(const pov_ridge *r, const double n[3], double out[3]);
  * negative in some channel. */
 double pov_ridge_least(const pov_ridge *r, int *negative);
 
-/* Diffuse error of what is emitted: the lights (+ the ambient r, may be NULL) against the
- * exact irradiance ref at docs/design.md's 1024 normals; emit (1024 x RGB) receives the
- * emitted irradiance. */
-double pov_emitted_error(const envl_lights *ls, const pov_ridge *r, const double *ref,
-                         double *emit);
+/* Diffuse error of what is emitted: the lights as placed (their colour max(0, n . l)), + the
+ * ambient r (may be NULL), against the exact irradiance ref at docs/design.md's 1024 normals;
+ * emit (1024 x RGB) receives the emitted irradiance. */
+double pov_emitted_error(const pov_light *lights, int32_t count, const pov_ridge *r,
+                         const double *ref, double *emit);
 
 #endif

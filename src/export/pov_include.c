@@ -64,7 +64,7 @@ static envl_result plan_options(const envl_pov_options *o, const envl_info *info
     if (o->ground_plane && !(o->ground_albedo >= 0 && o->ground_albedo <= 1))
         return envl__fail(ENVL_ERR_ARGUMENT, "pov: ground albedo %g: within [0, 1]",
                           o->ground_albedo);
-    if (o->shadows < 0 || o->shadows > ENVL_POV_SHADOWS_NONE)
+    if (o->shadows < 0 || o->shadows > ENVL_POV_SHADOWS_HARD)
         return envl__fail(ENVL_ERR_ARGUMENT, "pov: shadows %d out of range", (int)o->shadows);
     if (o->scene_radius != 0 && !(o->scene_radius > 0 && o->scene_radius <= 1e12))
         return envl__fail(ENVL_ERR_ARGUMENT, "pov: scene radius %g: a positive number",
@@ -87,9 +87,11 @@ static envl_result plan_options(const envl_pov_options *o, const envl_info *info
     p->order = order;
     p->ambient_set = o->ambient != ENVL_POV_AMBIENT_AUTO;
     p->ambient = p->ambient_set ? o->ambient : ENVL_POV_AMBIENT_SH;
+    /* auto (-1 until the recipe is known): a dome's lights soft, others hard */
     p->shadows = o->shadows == ENVL_POV_SHADOWS_SOFT   ? SHADOW_SOFT
                  : o->shadows == ENVL_POV_SHADOWS_NONE ? SHADOW_NONE
-                                                       : SHADOW_HARD;
+                 : o->shadows == ENVL_POV_SHADOWS_HARD ? SHADOW_HARD
+                                                       : -1;
     p->sky = o->sky || o->sky_residual;
     p->sky_residual = o->sky_residual != 0;
     p->place = !o->no_place;
@@ -116,9 +118,16 @@ static void plan_scene(const char *path, pov_plan *p)
     }
     if (p->ground < 0 && p->scene && p->scene->ground) {
         double a = p->scene->ground_albedo;
-        p->ground = a >= 0 ? fmax(0, fmin(a, 1)) : 0.5;
-        p->ground_from = a >= 0 ? "the scene's plane"
-                                : "the scene's plane, whose colour is not a literal: 0.5 assumed";
+        if (a > 1)
+            warn(p, "pov: warning: scene %s: the ground's colour has luminance %g, more light "
+                 "than it receives: albedo 1 used (moved by %g)", path, a, a - 1);
+        p->ground = a >= 0 ? fmin(a, 1) : 0.5;
+        p->ground_box = p->scene->ground_box;
+        static const char *const from[2][2] = {
+            {"the scene's plane", "the scene's plane, whose colour is not a literal: 0.5 assumed"},
+            {"the scene's floor box",
+             "the scene's floor box, whose colour is not a literal: 0.5 assumed"}};
+        p->ground_from = from[p->ground_box != 0][a < 0];
     }
 }
 
@@ -142,6 +151,8 @@ static envl_result plan_recipe(const envl_pov_options *o, pov_plan *p)
         if (!count_set)
             p->lo.count = 4;
     }
+    if (p->shadows < 0) /* the sky is no set of points: a dome's shadows are as wide as it */
+        p->shadows = p->recipe == POV_RECIPE_DOME ? SHADOW_SOFT : SHADOW_HARD;
     if (p->recipe == POV_RECIPE_DOME) {
         if (!method_set)
             p->lo.method = ENVL_METHOD_VARIANCE;
@@ -149,6 +160,15 @@ static envl_result plan_recipe(const envl_pov_options *o, pov_plan *p)
         if (!p->ambient_set) /* the lights take the whole sky, radiosity the bounces */
             p->ambient = ENVL_POV_AMBIENT_NONE;
         p->bounce = pov_recipe_bounces(p->scene);
+        /* A box floor is finite: beyond its edges the map's own lower half lights the scene
+         * (a room on a 6 m floor box was 39 % dark with that half replaced by a ground). With
+         * a bounce pass the lower half stays lights (cut apart: pov_dome.c): the box hides
+         * what it covers and radiosity bounces what reaches it. An endless plane, or --ground,
+         * hides the whole lower half. */
+        if (p->bounce && p->ground_box) {
+            p->ground = -1;
+            p->ground_from = NULL;
+        }
     }
     if (p->recipe == POV_RECIPE_DOME_AMBIENT) {
         if (!method_set)
@@ -168,6 +188,21 @@ static envl_result plan_recipe(const envl_pov_options *o, pov_plan *p)
         p->ground = -1;
         p->ground_from = NULL;
     }
+    /* A scene with light sources of its own is lit by them: envlight's are declared, not
+     * placed (nor the bounce pass), or the scene would be lit twice. A scene that shows its own
+     * sky under the dome's bounce pass would have it taken for light: radiosity sees black
+     * instead (the dome's lights are the sky). */
+    p->place_lights = !(p->scene && p->scene->lights > 0);
+    if (!p->place_lights)
+        warn(p, "pov: warning: the scene places %d light_source%s of its own: envlight's "
+             "lights are declared, not placed (EnvLight_Place_Lights() places them)",
+             p->scene->lights, p->scene->lights == 1 ? "" : "s");
+    p->shell = p->bounce && p->place_lights && p->scene && p->scene->sky;
+    if (p->scene && p->scene->double_highlights && (p->sky || p->scene->sky))
+        warn(p, "pov: warning: line %d: a finish reflects and has specular or phong (%d such "
+             "finish%s): the reflected sky holds the lights' highlights, which POV-Ray adds "
+             "again: set specular 0 and phong 0 in reflective finishes", p->scene->double_line,
+             p->scene->double_highlights, p->scene->double_highlights == 1 ? "" : "es");
     /* the library's limit (envlight.h), refused here before any map is computed */
     if (p->lo.method == ENVL_METHOD_FIT && p->lo.count > ENVL_FIT_MAX_LIGHTS)
         return envl__fail(ENVL_ERR_ARGUMENT, "pov: fit takes 1..%d lights, not %d (median and "
@@ -198,14 +233,16 @@ static envl_result compute_maps(const pov_plan *p, int32_t threads, pov_work *w)
         w->lit = w->grounded;
     }
     /* A dome over a ground takes its lights from the sky half: the plane would shadow any
-     * light below the horizon. */
+     * light below the horizon. The dome (pov_dome.c) always cuts the sky half apart, and
+     * without a ground the lower half too. */
     w->cut_map = w->lit;
     int dome = p->recipe == POV_RECIPE_DOME || p->recipe == POV_RECIPE_DOME_AMBIENT;
-    if (dome && w->grounded) {
+    if ((dome && w->grounded) || p->recipe == POV_RECIPE_DOME) {
         envl_result r = envl_sky_hemisphere_map(w->map, threads, &w->sky_half);
         if (r)
             return r;
-        w->cut_map = w->sky_half;
+        if (w->grounded)
+            w->cut_map = w->sky_half;
     }
     w->emit = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
     if (!w->emit)
@@ -235,6 +272,12 @@ static envl_result ambient_sh(const pov_plan *p, int32_t threads, pov_work *w)
     if (w->rem) {
         w->amb_order = w->rem_order;
         w->amb_sh = w->rem;
+        return ENVL_OK;
+    }
+    if (!w->ls) { /* the dome's lights take the whole sky: nothing is left */
+        memset(w->ground_sh, 0, sizeof w->ground_sh);
+        w->amb_order = 1;
+        w->amb_sh = w->ground_sh;
         return ENVL_OK;
     }
     envl_load_options rl = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
@@ -268,6 +311,49 @@ static envl_result ambient_form(const pov_plan *p, pov_work *w)
     return ENVL_OK;
 }
 
+/* The lights of one cut as placed: their colour their rgb, points. */
+static envl_result lights_as_placed(pov_work *w)
+{
+    int32_t n = envl_lights_count(w->ls);
+    w->lights = calloc(n > 0 ? (size_t)n : 1, sizeof *w->lights);
+    if (!w->lights)
+        return out_of_memory();
+    for (int32_t j = 0; j < n; j++) {
+        pov_light *q = w->lights + j;
+        envl_lights_get(w->ls, j, &q->l);
+        memcpy(q->colour, q->l.rgb, sizeof q->colour);
+        q->samples = 1;
+    }
+    w->nlights = n;
+    return ENVL_OK;
+}
+
+/* The dome's lights (pov_dome.c) and a summary of them as one set. */
+static envl_result dome_lights(const pov_plan *p, int32_t count, int32_t threads, pov_work *w)
+{
+    envl_result r = pov_dome_lights(w->sky_half, w->grounded ? NULL : w->map, count, threads,
+                                    &w->lights, &w->nlights, &w->suns, &w->below);
+    if (r)
+        return r;
+    if (p->shadows != SHADOW_SOFT) /* points: the lights as the cut gave them */
+        for (int32_t j = 0; j < w->nlights; j++) {
+            pov_light *q = w->lights + j;
+            q->samples = 1;
+            memset(q->axis, 0, sizeof q->axis);
+            memcpy(q->colour, q->l.rgb, sizeof q->colour);
+        }
+    memset(&w->s, 0, sizeof w->s);
+    w->s.method = p->lo.method;
+    w->s.count = w->nlights;
+    w->s.remainder_order = -1;
+    memcpy(w->s.power, w->info.power, sizeof w->s.power);
+    for (int32_t j = 0; j < w->nlights; j++)
+        for (int ch = 0; ch < 3; ch++)
+            w->s.lights_power[ch] += w->lights[j].l.rgb[ch];
+    w->s.no_light = !(envl_luminance(w->info.power[0], w->info.power[1], w->info.power[2]) > 0);
+    return ENVL_OK;
+}
+
 /* One light set of `count` and its ambient; w->error the diffuse error of what is emitted. */
 static envl_result compute_try(const pov_plan *p, int32_t count, int32_t threads, pov_work *w)
 {
@@ -276,22 +362,32 @@ static envl_result compute_try(const pov_plan *p, int32_t count, int32_t threads
     envl_lights_free(w->ls);
     envl_sh_free(w->sh);
     envl_envmap_free(w->residual);
+    free(w->lights);
     w->ls = NULL;
     w->sh = NULL;
     w->residual = NULL;
-    envl_result r = envl_lights_compute(w->cut_map, &lo, &w->ls);
-    if (r)
-        return r;
-    envl_lights_get_summary(w->ls, &w->s);
-    w->rem = envl_lights_remainder(w->ls, &w->rem_order);
+    w->lights = NULL;
+    w->nlights = w->suns = w->below = 0;
+    w->rem = NULL;
+    envl_result r;
+    if (p->recipe == POV_RECIPE_DOME && p->lo.method == ENVL_METHOD_VARIANCE) {
+        if ((r = dome_lights(p, count, threads, w)))
+            return r;
+    } else {
+        if ((r = envl_lights_compute(w->cut_map, &lo, &w->ls)) || (r = lights_as_placed(w)))
+            return r;
+        envl_lights_get_summary(w->ls, &w->s);
+        w->rem = envl_lights_remainder(w->ls, &w->rem_order);
+    }
     w->amb_order = -1;
     w->amb_sh = NULL;
     if (p->ambient != ENVL_POV_AMBIENT_NONE) {
         if ((r = ambient_sh(p, threads, w)) || (r = ambient_form(p, w)))
             return r;
     }
-    w->error = pov_emitted_error(w->ls, p->ambient != ENVL_POV_AMBIENT_NONE ? &w->rd : NULL,
-                                 w->ref, w->emit);
+    w->error = pov_emitted_error(w->lights, w->nlights,
+                                 p->ambient != ENVL_POV_AMBIENT_NONE ? &w->rd : NULL, w->ref,
+                                 w->emit);
     return ENVL_OK;
 }
 
@@ -433,10 +529,18 @@ static envl_result sky_write(const pov_plan *p, pov_work *w)
         return ENVL_OK;
     if (!w->sky_use_input) {
         envl_save_options so = {.format = "hdr"};
+        /* the dome's lights take the whole sky: its residual is black */
+        float *black = p->sky_residual && !w->ls
+                           ? calloc((size_t)3 * w->info.width * w->info.height, sizeof(float))
+                           : NULL;
+        if (p->sky_residual && !w->ls && !black)
+            return out_of_memory();
         envl_result r = p->sky_residual
-                            ? envl_image_save(w->sky_path, envl_lights_residual(w->ls),
+                            ? envl_image_save(w->sky_path, w->ls ? envl_lights_residual(w->ls)
+                                                                 : black,
                                               w->info.width, w->info.height, &so)
                             : envl_envmap_save(w->map, w->sky_path, &so);
+        free(black);
         if (r)
             return r;
     }
@@ -504,6 +608,7 @@ static envl_result pov_run(envl_envmap *map, const envl_pov_options *o, const ch
     w->map = map;
     if ((r = envl_envmap_info(map, &w->info)) || (r = plan_options(o, &w->info, p)))
         return r;
+    p->out = path;
     plan_scene(o->scene_path, p);
     r = plan_recipe(o, p);
     if (res)
@@ -563,6 +668,7 @@ envl_result envl_pov_include_write(envl_envmap *map, const envl_pov_options *opt
     envl_envmap_free(w.grounded);
     envl_envmap_free(w.sky_half);
     envl_lights_free(w.ls);
+    free(w.lights);
     return r;
 }
 

@@ -5,6 +5,7 @@
 
 #include "internal.h"
 #include "pov_ambient.h"
+#include "pov_light.h"
 #include "pov_recipe.h"
 
 #include <stdio.h>
@@ -21,7 +22,8 @@
 /* ENVL_POV_EXPOSURE_AUTO: the value a white surface facing up shows (sRGB ~0.8 in an 8-bit
  * image). */
 #define POV_AUTO_WHITE 0.6
-/* The include's EnvLight_Shadows: 0 none, 1 hard, 2 soft. */
+/* The include's EnvLight_Shadows: 0 none, 1 hard, 2 soft (a dome's lights shaped as their
+ * region, pov_area.c; others a disc of their angular diameter). */
 enum { SHADOW_NONE, SHADOW_HARD, SHADOW_SOFT };
 
 /* The plan: the options resolved (the scene read, the recipe, the lights, the ambient). */
@@ -33,10 +35,16 @@ typedef struct pov_plan {
     envl_lights_options lo;
     int order, order_set, ambient, ambient_set, shadows;
     int sky, sky_residual, place, dome_auto_count, bounce;
+    int place_lights;         /* 0: the scene has light sources of its own: declared only */
+    int shell;                /* 1: EnvLight_Radiosity_Shell() hides the scene's own sky from
+                                 the bounce pass */
     double ground;            /* < 0: no ground plane */
     const char *ground_from;  /* where the ground came from, for the header; NULL: none */
+    int ground_box;           /* the scene's ground is a box (finite): a dome with a bounce
+                                 pass keeps the map's lower half as lights (plan_recipe) */
     double radius, exposure;
     const char *source, *command, *sky_image;
+    const char *out;          /* the include's path (NULL: handed back) */
     FILE *warn;               /* the warnings, a line each */
 } pov_plan;
 
@@ -47,8 +55,10 @@ typedef struct pov_work {
     envl_envmap *cut_map;     /* where the lights come from (a dome over a ground: the sky half) */
     envl_envmap *grounded, *sky_half, *residual; /* owned */
     envl_info info;
-    envl_lights *ls;
-    envl_lights_summary s;
+    envl_lights *ls;          /* the lights computed by one cut (NULL for the dome: lights) */
+    envl_lights_summary s;    /* their summary (the dome's: method variance, its count) */
+    pov_light *lights;        /* the lights as placed: colour, area light */
+    int32_t nlights, suns, below; /* the dome's suns and lights below the horizon */
     envl_sh *sh;              /* the residual's SH, when that is the ambient */
     const double *ref;        /* exact irradiance at the 1024 normals of what is measured */
     double *emit;             /* 1024 x RGB */

@@ -5,8 +5,11 @@
  * maps whose light does not sit in one sun it leaves lower halves and corners too bright and
  * draws no contact shadow; a dome of median-cut lights with hard shadows carries the sky's
  * occlusion, and a cheap radiosity pass with no sky in it (the lights' light only) carries the
- * bounces, occluded too. Where nothing is occluded the SH ambient is exact and cheaper. */
+ * bounces, occluded too. Where nothing is occluded the SH ambient is exact and cheaper. A scene
+ * the reader sees no object in (they are in #include files or macros) gets the dome: it holds
+ * for any scene. */
 #include "pov_recipe.h"
+#include "pov_figures.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -40,6 +43,11 @@ int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size)
                  "the SH ambient, exact for unoccluded normals");
         return POV_RECIPE_SH;
     }
+    if (scene && scene->objects == 0) {
+        snprintf(why, size, "no object statement found in the scene (objects in #include "
+                 "files or macros are not read): the dome, which holds for any scene");
+        return POV_RECIPE_DOME;
+    }
     int occluded = !scene || (scene->casters > 0 && scene->objects > 1);
     if (!occluded && !scene->glossy) {
         snprintf(why, size, "no object of the scene can shadow another and no finish is "
@@ -48,12 +56,12 @@ int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size)
     }
     if (!occluded) {
         snprintf(why, size, "glossy finishes: POV-Ray draws highlights from light sources "
-                 "only, so the sky becomes a dome of variance-cut lights");
+                 "only, so the sky becomes a dome of lights (its suns, the rest by variance)");
         return POV_RECIPE_DOME;
     }
     snprintf(why, size, "%s: an ambient term cannot be shadowed, so the sky becomes a dome of "
-             "variance-cut lights with shadows, and radiosity carries the bounces between "
-             "surfaces%s",
+             "lights with soft shadows (its suns, the rest by variance), and radiosity carries "
+             "the bounces between surfaces%s",
              scene ? "objects of the scene shadow others" : "no --scene given, shadows assumed",
              scene && scene->radiosity ? " (the scene's radiosity block, if later, wins)" : "");
     return POV_RECIPE_DOME;
@@ -61,29 +69,23 @@ int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size)
 
 int pov_recipe_bounces(const pov_scene *scene)
 {
-    return !scene || scene->objects > 1;
+    return !scene || scene->objects != 1;
 }
 
-/* From docs/scene_bench_pov.md (scripts/scene_bench.py --host pov --docs docs: 13 maps, a
- * matte + a glossy sphere on a plane, and an object in a corner under an overhang; relative
- * RMS of luminance against a validated radiosity reference). Re-run the bench when a recipe
- * changes and copy its figures here. */
+/* The scene benchmark's figures (pov_figures.h, written by scripts/figures.py from
+ * docs/scene_bench_pov.json: the objects and plane of scenes (a) and (b), the banding scene, the
+ * user scenes, on every map; relative RMS of luminance against a validated reference). */
 const char *pov_recipe_expected_error(int recipe)
 {
     switch (recipe) {
     case POV_RECIPE_DOME:
-        return "matte sphere on a plane 1.4 % median, 2.4 % worst of 13 maps (glossy sphere "
-               "2.6 % worst); object in a corner under an overhang 3.8 % median, 7.3 % worst; "
-               "8.7-17x less POV-Ray CPU than the reference";
+        return POV_FIGURE_DOME;
     case POV_RECIPE_DOME_AMBIENT:
-        return "matte sphere on a plane 6.9 % median, 30 % worst of 13 maps; object in a "
-               "corner 11 % median, 85 % worst (the ground's bounce is not occluded)";
+        return POV_FIGURE_DOME_AMBIENT;
     case POV_RECIPE_SH:
-        return "matte sphere on a plane 18 % median, 49 % worst of 13 maps; object in a corner "
-               "27 % median, 76 % worst (the ambient is not occluded; exact where nothing is)";
+        return POV_FIGURE_SH;
     case POV_RECIPE_IMAGE_RADIOSITY:
-        return "matte sphere on a plane 2.8 % median, 13 % worst of 13 maps; object in a "
-               "corner 7.8 % median, 19 % worst";
+        return POV_FIGURE_IMAGE_RADIOSITY;
     default:
         return NULL;
     }

@@ -35,7 +35,7 @@ const char *pov_recipe_name(int recipe);
 int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size);
 
 /* Whether a dome's lights need radiosity for the bounces: the scene has more than one object
- * (or is unknown). */
+ * (or is unknown: none read). */
 int pov_recipe_bounces(const pov_scene *scene);
 
 /* The in-scene error to expect, measured by scripts/scene_bench.py --host pov (a sentence

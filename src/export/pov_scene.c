@@ -161,6 +161,7 @@ static token lex_next(lexer *lx)
     } else if (c == '"') {
         /* A string with backslash escapes; may span lines; ends at EOF when unterminated. */
         t.kind = T_STRING;
+        t.s = p + 1;
         for (p++; p < end && *p != '"'; p++) {
             if (*p == '\n')
                 lx->line++;
@@ -170,6 +171,7 @@ static token lex_next(lexer *lx)
                     lx->line++;
             }
         }
+        t.n = (size_t)(p - t.s);
         if (p >= end)
             note(lx->out, "line %d: unterminated string", t.line);
         else
@@ -351,11 +353,44 @@ static int plane_faces_up(lexer lx, double *h)
     return 1;
 }
 
-/* Rec. 709 / sRGB luminance; -1 when it overflows. */
-static double luminance(const double c[3])
+/* After `box`: `{ CORNER, CORNER`, each a literal vector or number (a number is <k, k, k>).
+ * 1 and the two corners when literal. */
+static int box_corners(lexer lx, double a[3], double b[3])
+{
+    if (!is_punct(lex_next(&lx), '{'))
+        return 0;
+    for (int k = 0; k < 2; k++) {
+        double *c = k ? b : a, v;
+        token t = lex_next(&lx);
+        if (is_punct(t, '<')) {
+            if (!vector_literal(&lx, c))
+                return 0;
+        } else if (signed_number(&lx, t, &v)) {
+            c[0] = c[1] = c[2] = v;
+        } else {
+            return 0;
+        }
+        if (is_operator(lex_peek(&lx)))
+            return 0;
+        if (k == 0 && !is_punct(lex_next(&lx), ','))
+            return 0;
+    }
+    return 1;
+}
+
+/* Rec. 709 / sRGB luminance; -1 when it overflows. A negative colour (POV-Ray allows it: a
+ * pigment that takes light away) is no albedo: read as 0, with a note. */
+static double luminance(const lexer *lx, const double c[3])
 {
     double y = 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
-    return isfinite(y) ? y : -1;
+    if (!isfinite(y))
+        return -1;
+    if (y < 0) {
+        note(lx->out, "line %d: the ground's colour has luminance %g: read as albedo 0",
+             lx->line, y);
+        return 0;
+    }
+    return y;
 }
 
 /* After `pigment`: `{ COLOUR` -> its luminance, or -1. */
@@ -364,7 +399,7 @@ static double pigment_albedo(lexer lx)
     double c[3];
     if (!is_punct(lex_next(&lx), '{') || !colour_literal(&lx, lex_next(&lx), c))
         return -1;
-    return luminance(c);
+    return luminance(&lx, c);
 }
 
 /* After EnvLight_Diffuse_Texture (skip_args 0) or EnvLight_Add_Ambient (skip_args 1):
@@ -392,10 +427,31 @@ static double macro_albedo(lexer lx, int skip_args)
     double c[3];
     if (!colour_literal(&lx, t, c) || !is_punct(lex_next(&lx), ')'))
         return -1;
-    return luminance(c);
+    return luminance(&lx, c);
 }
 
 /* ---- the scan ---- */
+
+/* POV-Ray 3.7's standard includes (Debian's povray-includes) and envlight's own: following them
+ * would add nothing a scene places. */
+static const char *const STANDARD_INCLUDES[] = {
+    "arrays.inc", "chars.inc", "colors.inc", "consts.inc", "debug.inc", "finish.inc",
+    "functions.inc", "glass.inc", "glass_old.inc", "golds.inc", "ior.inc", "logo.inc",
+    "makegrass.inc", "math.inc", "meshmaker.inc", "metals.inc", "rad_def.inc", "rand.inc",
+    "screen.inc", "shapes.inc", "shapes2.inc", "shapes3.inc", "shapes_old.inc", "shapesq.inc",
+    "skies.inc", "stage1.inc", "stars.inc", "stdcam.inc", "stdinc.inc", "stoneold.inc",
+    "stones.inc", "stones1.inc", "stones2.inc", "strings.inc", "sunpos.inc", "textures.inc",
+    "transforms.inc", "woodmaps.inc", "woods.inc", "envlight.inc",
+};
+
+static int standard_include(token t)
+{
+    for (size_t i = 0; i < sizeof STANDARD_INCLUDES / sizeof STANDARD_INCLUDES[0]; i++)
+        if (t.kind == T_STRING && t.n == strlen(STANDARD_INCLUDES[i]) &&
+            !memcmp(t.s, STANDARD_INCLUDES[i], t.n))
+            return 1;
+    return 0;
+}
 
 static const char *const OBJECT_WORDS[] = {
     "sphere", "box", "plane", "cylinder", "cone", "torus", "disc", "triangle", "smooth_triangle",
@@ -440,7 +496,12 @@ typedef struct scan {
     int decl_level;      /* >= 0: the value is a conditional; it ends when the nesting drops below */
     int stmt;            /* inside a placed top-level object statement */
     int stmt_no_shadow;
-    int ground_search;   /* looking for the ground plane's colour in its block */
+    int stmt_transformed; /* the statement has a transform of its own (rotate, scale, ...) */
+    int ground_search;   /* looking for the ground plane's (or box's) colour in its block */
+    int box_pending;     /* the statement is a box that may be the ground (decided at its end) */
+    double box_height, box_area, box_albedo, best_box_area;
+    int finish_depth;    /* interior depth of the finish { } being read, -1 outside */
+    int finish_reflect, finish_highlight, finish_line;
     int gs_depth;        /* interior depth of global_settings { }, -1 outside */
     int photons_depth;   /* interior depth of photons { } (its `reflection on` is no finish), -1 outside */
 } scan;
@@ -496,8 +557,28 @@ static void end_statement(scan *s)
 {
     if (!s->stmt_no_shadow)
         s->out->casters++;
+    /* a box is the ground when it has no transform of its own and the largest area so far */
+    if (s->box_pending && !s->stmt_transformed && (!s->out->ground || s->out->ground_box) &&
+        s->box_area > s->best_box_area) {
+        s->best_box_area = s->box_area;
+        s->out->ground = s->out->ground_box = 1;
+        s->out->ground_height = s->box_height;
+        s->out->ground_albedo = s->box_albedo;
+    }
     s->stmt = 0;
     s->ground_search = 0;
+    s->box_pending = 0;
+}
+
+/* A finish block ends: one that reflects and also has highlights is counted. */
+static void end_finish(scan *s)
+{
+    if (s->finish_reflect) {
+        s->out->reflective = 1;
+        if (s->finish_highlight && !s->out->double_highlights++)
+            s->out->double_line = s->finish_line;
+    }
+    s->finish_depth = -1;
 }
 
 /* After `#declare` / `#local`: NAME [ [i] ...] [.field] `=`. Consumes them and opens the
@@ -529,6 +610,11 @@ static void directive(scan *s, token t)
     if (is_word(t, "declare") || is_word(t, "local")) {
         if (!s->decl)
             start_declaration(s);
+    } else if (is_word(t, "include")) {
+        token name = lex_peek(&s->lx);
+        if (!standard_include(name) && !s->out->includes++ && name.kind == T_STRING)
+            snprintf(s->out->include_name, sizeof s->out->include_name, "%.*s",
+                     (int)(name.n < 127 ? name.n : 127), name.s);
     } else if (is_word(t, "macro")) {
         push(s, F_MACRO, t.line);
         if (lex_peek(&s->lx).kind == T_IDENT) /* its name is no call */
@@ -563,14 +649,39 @@ static void identifier(scan *s, token t)
         if (s->depth == 0 && !s->decl && !s->macros && !s->lost && !s->stmt && is_punct(next, '{')) {
             out->objects++;
             s->stmt = 1;
-            s->stmt_no_shadow = 0;
-            double h;
-            if (!out->ground && is_word(t, "plane") && plane_faces_up(s->lx, &h)) {
+            s->stmt_no_shadow = s->stmt_transformed = 0;
+            double h, a[3], b[3];
+            if ((!out->ground || out->ground_box) && is_word(t, "plane") &&
+                plane_faces_up(s->lx, &h)) { /* a plane wins over a box */
                 out->ground = 1;
+                out->ground_box = 0;
                 out->ground_height = h;
+                out->ground_albedo = -1;
+                s->best_box_area = INFINITY;
                 s->ground_search = 1;
+            } else if (is_word(t, "box") && box_corners(s->lx, a, b)) {
+                double dx = fabs(b[0] - a[0]), dy = fabs(b[1] - a[1]), dz = fabs(b[2] - a[2]);
+                if (dx >= 4 * dy && dz >= 4 * dy && dx * dz > 0 && isfinite(dx * dz)) {
+                    s->box_pending = s->ground_search = 1;
+                    s->box_height = fmax(a[1], b[1]);
+                    s->box_area = dx * dz;
+                    s->box_albedo = -1;
+                }
             }
         }
+        return;
+    }
+    if (is_word(t, "light_source") && is_punct(next, '{') && !s->macros && !s->lost) {
+        if (s->decl)
+            out->lights_declared++;
+        else
+            out->lights++;
+        return;
+    }
+    if (s->stmt && s->depth == 1 &&
+        (is_word(t, "rotate") || is_word(t, "scale") || is_word(t, "translate") ||
+         is_word(t, "matrix") || is_word(t, "transform"))) {
+        s->stmt_transformed = 1;
         return;
     }
     if (is_word(t, "no_shadow")) {
@@ -579,8 +690,19 @@ static void identifier(scan *s, token t)
     } else if (is_word(t, "specular") || is_word(t, "phong") || is_word(t, "metallic") ||
                is_word(t, "reflection")) {
         int in_photons = s->photons_depth >= 0 && s->depth >= s->photons_depth;
-        if (!out->glossy && !in_photons && amount_positive(s->lx))
+        if (!in_photons && amount_positive(s->lx)) {
             out->glossy = 1;
+            if (s->finish_depth >= 0 && is_word(t, "reflection"))
+                s->finish_reflect = 1;
+            else if (s->finish_depth >= 0 && !is_word(t, "metallic"))
+                s->finish_highlight = 1;
+        }
+    } else if (is_word(t, "finish")) {
+        if (is_punct(next, '{') && s->finish_depth < 0) {
+            s->finish_depth = s->depth + 1;
+            s->finish_reflect = s->finish_highlight = 0;
+            s->finish_line = t.line;
+        }
     } else if (is_word(t, "global_settings")) {
         if (is_punct(next, '{') && s->gs_depth < 0)
             s->gs_depth = s->depth + 1;
@@ -601,16 +723,18 @@ static void identifier(scan *s, token t)
             out->sky = 1;
     } else if (s->ground_search && !s->decl) {
         /* the first colour source met in the ground plane's block decides */
+        double *albedo = s->box_pending ? &s->box_albedo : &out->ground_albedo;
         if (is_word(t, "pigment") && is_punct(next, '{')) {
-            out->ground_albedo = pigment_albedo(s->lx);
+            *albedo = pigment_albedo(s->lx);
             s->ground_search = 0;
         } else if (is_word(t, "EnvLight_Diffuse_Texture") && is_punct(next, '(')) {
-            out->ground_albedo = macro_albedo(s->lx, 0);
+            *albedo = macro_albedo(s->lx, 0);
             s->ground_search = 0;
         } else if (is_word(t, "EnvLight_Add_Ambient") && is_punct(next, '(')) {
-            out->ground_albedo = macro_albedo(s->lx, 1);
+            *albedo = macro_albedo(s->lx, 1);
             s->ground_search = 0;
         }
+
     }
 }
 
@@ -639,7 +763,8 @@ void pov_scene_scan(const char *text, size_t n, pov_scene *out)
         n = 0;
     }
     scan s = {.lx = {.p = text, .end = text + n, .line = 1, .out = out},
-              .out = out, .decl_level = -1, .gs_depth = -1, .photons_depth = -1};
+              .out = out, .decl_level = -1, .gs_depth = -1, .photons_depth = -1,
+              .finish_depth = -1};
     for (;;) {
         token t = lex_next(&s.lx);
         if (t.kind == T_EOF)
@@ -668,10 +793,14 @@ void pov_scene_scan(const char *text, size_t n, pov_scene *out)
                 end_statement(&s);
             if (s.gs_depth > s.depth)
                 s.gs_depth = -1;
+            if (s.finish_depth > s.depth)
+                end_finish(&s);
             if (s.photons_depth > s.depth)
                 s.photons_depth = -1;
         }
     }
+    if (s.finish_depth >= 0)
+        end_finish(&s);
     if (s.stmt)
         end_statement(&s);
     if (s.depth > 0)
@@ -688,6 +817,27 @@ void pov_scene_scan(const char *text, size_t n, pov_scene *out)
 /* ---- the file ---- */
 
 /* Reads the whole file (a regular file at its size, anything else in chunks) up to the cap. */
+/* Whether `name`, an #include of the scene at `path` (relative to its folder, as POV-Ray looks
+ * first), is a file envlight wrote: its first line starts "// envlight ". */
+static int generated_include(const char *path, const char *name)
+{
+    char full[4096];
+    const char *slash = strrchr(path, '/');
+    if (!name[0])
+        return 0;
+    if (name[0] == '/' || !slash)
+        snprintf(full, sizeof full, "%s", name);
+    else
+        snprintf(full, sizeof full, "%.*s/%s", (int)(slash - path), path, name);
+    FILE *f = fopen(full, "rb");
+    if (!f)
+        return 0;
+    char head[12] = {0};
+    size_t got = fread(head, 1, sizeof head, f);
+    fclose(f);
+    return got == sizeof head && !memcmp(head, "// envlight ", sizeof head);
+}
+
 int pov_scene_read(const char *path, pov_scene *out)
 {
     memset(out, 0, sizeof *out);
@@ -756,5 +906,9 @@ int pov_scene_read(const char *path, pov_scene *out)
     }
     pov_scene_scan(buf, n, out);
     free(buf);
+    if (out->includes && generated_include(path, out->include_name)) {
+        out->includes--; /* an include envlight wrote (the one being written, or an earlier) */
+        out->include_name[0] = 0;
+    }
     return 0;
 }

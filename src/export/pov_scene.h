@@ -20,9 +20,17 @@ typedef struct pov_scene {
     int glossy;           /* some finish has specular, phong, reflection or metallic > 0 (a non-literal value counts as > 0) */
     int ground;           /* a placed plane whose normal is +y: `plane { y, H`, `+y`, `<0, k, 0>` with k > 0 */
     double ground_height; /* its H (0 when not a literal) */
-    double ground_albedo; /* its pigment's luminance (0.2126 R + 0.7152 G + 0.0722 B) when written as a literal colour inside the plane's block: `pigment { rgb 0.5 }`, `pigment { color rgb <a, b, c> }`, `pigment { rgb <a,b,c> }`, `EnvLight_Diffuse_Texture(<a, b, c>)` or `(0.5)`; -1 when not a literal (an identifier, a pattern) or no ground */
+    double ground_albedo; /* its pigment's luminance (0.2126 R + 0.7152 G + 0.0722 B) when written as a literal colour inside the plane's block: `pigment { rgb 0.5 }`, `pigment { color rgb <a, b, c> }`, `pigment { rgb <a,b,c> }`, `EnvLight_Diffuse_Texture(<a, b, c>)` or `(0.5)`; 0 (with a note) when that literal is negative; -1 when not a literal (an identifier, a pattern) or no ground */
+    int ground_box;       /* 1: the ground is a box (no plane faces +y): the placed box of literal corners and no transform, at least 4 x wider and deeper than high, of the largest such area; its top is ground_height */
     int radiosity;        /* global_settings contains `radiosity`, or the scene calls EnvLight_Radiosity_Settings / EnvLight_Radiosity_Residual_Settings */
     int sky;              /* the scene shows a sky: `background`, `sky_sphere`, or calls EnvLight_Sky */
+    int lights;           /* light_source statements placed (outside #declare / #local and #macro bodies; in conditionals as objects are) */
+    int lights_declared;  /* light_source statements inside a #declare / #local (placed only where the scene uses the name) */
+    int reflective;       /* some finish has reflection > 0 */
+    int double_highlights; /* finishes with reflection > 0 and specular or phong > 0: under a sky their reflection holds the lights' highlights, which POV-Ray adds again */
+    int double_line;      /* the line of the first of them (0: none) */
+    int includes;         /* #include directives of files other than POV-Ray's standard includes and envlight.inc: their objects, lights and finishes are not read (pov_scene_read: less the first when it is a file envlight wrote) */
+    char include_name[128]; /* the first of those files, as written (truncated) */
     char note[256];       /* the first problem met (unbalanced braces, unterminated comment or string, a file it cannot open...), "" when none */
 } pov_scene;
 

@@ -3,6 +3,7 @@
  * the ambient and the sky; envlight.inc and the calls that place them. POV-Ray's frame is
  * left-handed, +Y up: a canonical vector (x, y, z) is written <x, z, y>. */
 #include "pov_include_impl.h"
+#include "repair.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -50,6 +51,11 @@ static void text_header(FILE *f, const pov_plan *p, const pov_work *w)
     pov_comment_text(f, p->source);
     fprintf(f, " (%s, %d x %d canonical lat-long, rotated %.9g degrees about +Z)\n", in->format,
             (int)in->width, (int)in->height, in->rotate_degrees);
+    char repaired[512];
+    if (repair_nonfinite_text(repaired, sizeof repaired, in))
+        fprintf(f, "// loaded: %s\n", repaired);
+    if (repair_negative_text(repaired, sizeof repaired, in))
+        fprintf(f, "// loaded: %s\n", repaired);
     fputs("// command: ", f);
     pov_comment_text(f, p->command);
     static const char *shadow_names[] = {"none", "hard", "soft"};
@@ -63,6 +69,26 @@ static void text_header(FILE *f, const pov_plan *p, const pov_work *w)
                                           : "residual SH",
                 w->amb_order, w->rd.terms);
     fprintf(f, "; shadows %s\n", shadow_names[p->shadows]);
+    if (w->ls == NULL && w->nlights > 0) { /* the dome (pov_dome.c) */
+        int rays = 0, most = 1;
+        for (int32_t j = 0; j < w->nlights; j++) {
+            rays += w->lights[j].samples * w->lights[j].samples;
+            most = w->lights[j].samples > most ? w->lights[j].samples : most;
+        }
+        fprintf(f, "// dome: %d sun%s (each a light of its own size), %d cells of the sky by "
+                "variance", (int)w->suns, w->suns == 1 ? "" : "s",
+                (int)(w->nlights - w->suns - w->below));
+        if (w->below)
+            fprintf(f, ", %d of the ground half\n//   (cut apart: %s)", (int)w->below,
+                    p->ground_box ? "a floor box hides only what it covers"
+                                  : "no ground known to hide it");
+        fputc('\n', f);
+        if (p->shadows == SHADOW_SOFT)
+            fprintf(f, "//   soft shadows: each light a grid of up to %d x %d parallel lights "
+                    "spread as its region of the sky,\n//   by its share of the light "
+                    "(envlight.inc's EnvLight_Area_Light): %d light sources in all\n", most,
+                    most, rays);
+    }
     if (p->ambient != ENVL_POV_AMBIENT_NONE) {
         fprintf(f, "// ambient %s: least irradiance %.6g in a channel at 4096 normals",
                 p->ambient == ENVL_POV_AMBIENT_HEMI ? "(sky/ground: the best fit with both >= 0)"
@@ -118,21 +144,57 @@ static void text_recipe(FILE *f, const pov_plan *p, const pov_work *w)
     const pov_scene *scene = p->scene;
     fprintf(f, "// recipe: %s: %s\n", pov_recipe_name(p->recipe), p->why);
     if (p->bounce)
-        fputs("//   bounces: radiosity with no sky in it (EnvLight_Bounce_Settings(): recursion "
-              "2, count 50),\n//   the lights' light gathered from the surfaces it reached "
-              "(occluded like the lights)\n", f);
+        fputs("//   bounces: radiosity with no sky in it (envlight.inc's "
+              "EnvLight_Bounce_Settings()),\n//   the lights' light gathered from the surfaces "
+              "it reached (occluded like the lights)\n", f);
     if (p->dome_auto_count && w->s.count)
         fprintf(f, "//   dome of %d lights: the smallest of %s whose diffuse error is within "
                 "%.1f %%\n", (int)w->s.count, p->bounce ? "32, 64" : "64, 128, 256",
                 100 * (p->bounce ? POV_DOME_BOUNCE_ERROR : POV_DOME_ERROR));
-    if (scene)
-        fprintf(f, "// scene: %d object%s (%d casting shadows)%s%s%s\n", scene->objects,
+    if (scene) {
+        fprintf(f, "// scene: %d object%s (%d casting shadows)%s%s%s%s", scene->objects,
                 scene->objects == 1 ? "" : "s", scene->casters,
                 scene->glossy ? ", glossy finishes" : ", matte finishes only",
-                scene->ground ? ", a ground plane" : ", no ground plane",
-                scene->radiosity ? ", radiosity" : "");
+                !scene->ground ? ", no ground"
+                : scene->ground_box ? ", a ground box" : ", a ground plane",
+                scene->radiosity ? ", radiosity" : "", scene->sky ? ", a sky of its own" : "");
+        if (scene->lights)
+            fprintf(f, ", %d light source%s", scene->lights, scene->lights == 1 ? "" : "s");
+        /* the include being written is one of them: not counted */
+        const char *base = p->out ? strrchr(p->out, '/') : NULL;
+        base = base ? base + 1 : p->out;
+        int others = scene->includes - (base && !strcmp(scene->include_name, base));
+        if (others > 0)
+            fprintf(f, "; %d #include file%s not read (what they place is not counted)",
+                    others, others == 1 ? "" : "s");
+        fputc('\n', f);
+    }
+    if (!p->place_lights)
+        fprintf(f, "// lights: the scene places %d light source%s of its own: envlight's are "
+                "declared, not placed,\n//   nor their bounce pass (EnvLight_Place_Lights() "
+                "places them: the scene would be lit twice)\n", scene->lights,
+                scene->lights == 1 ? "" : "s");
+    if (p->shell)
+        fputs("// sky: the scene's own sky_sphere or background stays its backdrop; the bounce "
+              "pass sees black\n//   in its place (EnvLight_Radiosity_Shell()): the lights "
+              "are the sky\n", f);
+    if (scene && scene->double_highlights && (p->sky || scene->sky))
+        fprintf(f, "// warning: line %d: %d finish%s reflect%s and ha%s specular or phong: the "
+                "reflected sky holds the\n//   lights' highlights, which POV-Ray adds again: "
+                "set specular 0 and phong 0 in reflective finishes\n", scene->double_line,
+                scene->double_highlights, scene->double_highlights == 1 ? "" : "es",
+                scene->double_highlights == 1 ? "s" : "", scene->double_highlights == 1 ? "s"
+                                                                                        : "ve");
+    else if (scene && scene->reflective && !p->sky && !scene->sky)
+        fputs("// note: reflective finishes reflect black: --sky puts the map in their "
+              "reflections (then give them\n//   specular 0 and phong 0: the reflected sky "
+              "holds the lights' highlights)\n", f);
     if (p->ground_from)
         fprintf(f, "// ground: albedo from %s\n", p->ground_from);
+    else if (p->ground_box && p->recipe == POV_RECIPE_DOME && p->bounce) /* plan_recipe */
+        fputs("// ground: the scene's floor is a box, finite: the map's lower half stays lights "
+              "(cut apart), the box\n//   hides what it covers and radiosity bounces it "
+              "(--ground A: an endless plane instead)\n", f);
     text_skipped(f, p);
     /* the dome's figures are those of the dome with its bounce pass */
     const char *expected = p->recipe == POV_RECIPE_DOME && !p->bounce
@@ -206,41 +268,53 @@ static void text_scene(FILE *f, const pov_plan *p, const pov_work *w)
                "// 0 none, 1 hard, 2 soft\n", p->shadows);
 }
 
-/* The lights: five arrays, one value per light. */
+/* One array of the lights' values, a line each: `put` writes light j's. */
+static void text_array(FILE *f, const char *name, const char *note, const pov_work *w,
+                       void (*put)(FILE *, const pov_light *))
+{
+    fprintf(f, "#declare %s = array[%d] { // %s\n", name, (int)w->nlights, note);
+    for (int32_t j = 0; j < w->nlights; j++) {
+        fputs("  ", f);
+        put(f, w->lights + j);
+        fputs(j + 1 < w->nlights ? ",\n" : "\n", f);
+    }
+    fputs("};\n", f);
+}
+
+static void put_direction(FILE *f, const pov_light *q) { pov_vector(f, q->l.direction); }
+static void put_colour(FILE *f, const pov_light *q) { pov_rgb(f, q->colour, 1 / ENVL_PI); }
+static void put_rgb(FILE *f, const pov_light *q) { pov_rgb(f, q->l.rgb, 1); }
+static void put_solid_angle(FILE *f, const pov_light *q) { fprintf(f, "%.9g", q->l.solid_angle); }
+static void put_angle(FILE *f, const pov_light *q) { fprintf(f, "%.9g", q->l.angle * 180 / ENVL_PI); }
+static void put_axis1(FILE *f, const pov_light *q) { pov_vector(f, q->axis[0]); }
+static void put_axis2(FILE *f, const pov_light *q) { pov_vector(f, q->axis[1]); }
+static void put_samples(FILE *f, const pov_light *q) { fprintf(f, "%d", q->samples); }
+
+/* The lights: one array per value; the dome's area lights three more. */
 static void text_lights(FILE *f, const pov_work *w)
 {
-    int count = (int)w->s.count;
-    fprintf(f, "#declare EnvLight_Count = %d;\n", count);
-    if (count <= 0)
+    fprintf(f, "#declare EnvLight_Count = %d;\n", (int)w->nlights);
+    if (w->nlights <= 0)
         return;
-    static const char *names[] = {"EnvLight_Direction", "EnvLight_Colour",
-                                  "EnvLight_Irradiance", "EnvLight_Solid_Angle",
-                                  "EnvLight_Angle"};
-    static const char *notes[] = {"unit, towards the light, POV-Ray frame",
-                                  "light_source colour = rgb / pi",
-                                  "rgb: irradiance at normal incidence",
-                                  "sr, of the region the light took",
-                                  "angular diameter, degrees"};
-    for (int a = 0; a < 5; a++) {
-        fprintf(f, "#declare %s = array[%d] { // %s\n", names[a], count, notes[a]);
-        for (int j = 0; j < count; j++) {
-            envl_light l;
-            envl_lights_get(w->ls, j, &l);
-            fputs("  ", f);
-            if (a == 0)
-                pov_vector(f, l.direction);
-            else if (a == 1)
-                pov_rgb(f, l.rgb, 1 / ENVL_PI);
-            else if (a == 2)
-                pov_rgb(f, l.rgb, 1);
-            else if (a == 3)
-                fprintf(f, "%.9g", l.solid_angle);
-            else
-                fprintf(f, "%.9g", l.angle * 180 / ENVL_PI);
-            fputs(j + 1 < count ? ",\n" : "\n", f);
-        }
-        fputs("};\n", f);
-    }
+    text_array(f, "EnvLight_Direction", "unit, towards the light, POV-Ray frame", w,
+               put_direction);
+    text_array(f, "EnvLight_Colour", "light_source colour = what it delivers at normal "
+               "incidence / pi", w, put_colour);
+    text_array(f, "EnvLight_Irradiance", "rgb: the power of the light's region (sum of L dw)",
+               w, put_rgb);
+    text_array(f, "EnvLight_Solid_Angle", "sr, of the region the light took", w,
+               put_solid_angle);
+    text_array(f, "EnvLight_Angle", "angular diameter, degrees", w, put_angle);
+    int area = 0;
+    for (int32_t j = 0; j < w->nlights; j++)
+        area |= w->lights[j].samples > 1;
+    if (!area)
+        return;
+    text_array(f, "EnvLight_Area_Axis1", "area light axes, POV-Ray frame, at unit distance", w,
+               put_axis1);
+    text_array(f, "EnvLight_Area_Axis2", "(the grid spans -axis/2 .. axis/2 about the "
+               "direction)", w, put_axis2);
+    text_array(f, "EnvLight_Area_Size", "grid of N x N samples; 1: a point", w, put_samples);
 }
 
 /* The ambient: its SH (or hemispheric form), then its ridge functions. */
@@ -328,13 +402,16 @@ static void text_tail(FILE *f, const pov_plan *p, const pov_work *w)
                 p->exposure < 0 ? "auto" : "X");
     text_include_envlight(f);
     if (p->place) {
-        fputs("EnvLight_Place_Lights()\n", f);
+        if (p->place_lights)
+            fputs("EnvLight_Place_Lights()\n", f);
         if (p->sky) /* under the bounce's radiosity the sky is for the camera only */
             fputs(p->bounce ? "EnvLight_Sky_Backdrop()\n" : "EnvLight_Sky()\n", f);
-        if (p->recipe == POV_RECIPE_IMAGE_RADIOSITY)
+        if (p->recipe == POV_RECIPE_IMAGE_RADIOSITY && p->place_lights)
             fputs("global_settings { EnvLight_Radiosity_Residual_Settings() }\n", f);
-        if (p->bounce)
+        if (p->bounce && p->place_lights)
             fputs("global_settings { EnvLight_Bounce_Settings() }\n", f);
+        if (p->shell)
+            fputs("EnvLight_Radiosity_Shell()\n", f);
     }
     fputs("#end\n", f);
 }

@@ -3,6 +3,7 @@
  * prefilter.json sidecar that describes them. */
 #include "prefilter_impl.h"
 #include "json.h"
+#include "repair.h"
 #include "ktx2.h"
 
 #include <errno.h>
@@ -162,27 +163,102 @@ static envl_result put_image(exporter *x, const char *stem, const float *rgb, in
     return rc;
 }
 
-/* A lat-long map in the export layout (not atlas); lists its files in the JSON. */
+/* A product's texels: a lat-long image or a strip of six faces (envl_level.layout). */
+typedef struct product_image {
+    const float *rgb;
+    int32_t layout, w, h;
+} product_image;
+
+/* The product as `face`-texel cube faces of `strip` (ENVL_LAYOUT_STRIP_H, or
+ * ENVL__LAYOUT_GL_STRIP: OpenGL's of the glTF frame), one face after another. Faces of that size
+ * are the product's own texels rearranged; anything else is area-resampled (*resampled set):
+ * a lat-long product, or faces of another size (through a lat-long image 4 face wide). */
+static envl_result product_faces(const product_image *im, int32_t strip, int32_t face,
+                                 int *resampled, float **out)
+{
+    *out = NULL;
+    *resampled = !(im->layout == ENVL_LAYOUT_STRIP_H && im->h == face);
+    envl_image src = {.width = im->w, .height = im->h, .px = (float *)im->rgb}, ll = {0};
+    envl_result rc = ENVL_OK;
+    if (!*resampled) {
+        envl_image f;
+        if ((rc = envl__faces_to_layout(im->rgb, face, strip, &f)))
+            return rc;
+        size_t n = (size_t)face * face;
+        *out = malloc(sizeof(float) * 3 * 6 * n);
+        if (*out)
+            for (int k = 0; k < 6; k++)
+                for (int32_t r = 0; r < face; r++)
+                    memcpy(*out + 3 * (k * n + (size_t)r * face),
+                           f.px + 3 * ((size_t)r * f.width + (size_t)k * face),
+                           sizeof(float) * 3 * face);
+        envl__image_free(&f);
+        return *out ? ENVL_OK : envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    }
+    if (im->layout == ENVL_LAYOUT_STRIP_H || im->w != 4 * face) {
+        /* to a lat-long image 4 face wide first: the faces' own width */
+        if (im->layout == ENVL_LAYOUT_STRIP_H)
+            rc = envl__layout_to_latlong(&src, ENVL_LAYOUT_STRIP_H, 4 * face, &ll);
+        else
+            rc = envl__latlong_resample(im->rgb, im->w, im->h, 4 * face, 2 * face, 0.0, &ll.px);
+        ll.width = 4 * face, ll.height = 2 * face;
+        src = ll;
+    }
+    if (!rc)
+        rc = envl__latlong_to_faces(&src, strip, face, out);
+    envl__image_free(&ll);
+    return rc;
+}
+
+/* The product as a lat-long image w wide (*px: the product's own or a malloc'd resampling,
+ * *resampled set then). */
+static envl_result product_latlong(const product_image *im, int32_t w, float **px, int *resampled)
+{
+    *resampled = !(im->layout == ENVL_LAYOUT_LATLONG && im->w == w);
+    *px = (float *)im->rgb;
+    if (!*resampled)
+        return ENVL_OK;
+    if (im->layout == ENVL_LAYOUT_LATLONG)
+        return envl__latlong_resample(im->rgb, im->w, im->h, w, w / 2, 0.0, px);
+    envl_image src = {.width = im->w, .height = im->h, .px = (float *)im->rgb}, ll = {0};
+    envl_result rc = envl__layout_to_latlong(&src, ENVL_LAYOUT_STRIP_H, w, &ll);
+    *px = ll.px;
+    return rc;
+}
+
+/* A product in the export layout (not atlas); lists its files in the JSON, and whether they
+ * hold its texels or a resampling of them ("resampled": the product was computed for another
+ * layout, so its texel_error is not the files'). */
 static envl_result put_map(exporter *x, int32_t layout, int32_t frame, const char *stem,
-                           const float *rgb,
-                           int32_t w, int32_t h)
+                           const product_image *im)
 {
     char name[512];
     json_writer *j = &x->jw;
+    int resampled = 0;
+    envl_result rc;
     if (layout == ENVL_EXPORT_LATLONG || layout == ENVL_EXPORT_ATLAS) {
+        float *px;
+        int32_t w = im->layout == ENVL_LAYOUT_STRIP_H ? 4 * im->h : im->w;
+        if ((rc = product_latlong(im, w, &px, &resampled)))
+            return rc;
         snprintf(name, sizeof name, "%s.%s", stem, x->format);
         json_array(j, "files");
         json_string(j, NULL, name);
         json_array_end(j);
         json_string(j, "layout", "latlong");
-        return put_image(x, stem, rgb, w, h);
+        json_bool(j, "resampled", resampled);
+        rc = put_image(x, stem, px, w, w / 2 > 0 ? w / 2 : 1);
+        if (resampled)
+            free(px);
+        return rc;
     }
-    envl_image src = {.width = w, .height = h, .px = (float *)rgb};
-    int32_t face = w / 4 > 0 ? w / 4 : 1;
-    envl_result rc;
+    int32_t face = im->layout == ENVL_LAYOUT_STRIP_H ? im->h : im->w / 4 > 0 ? im->w / 4 : 1;
     if (layout == ENVL_EXPORT_CROSS) {
-        envl_image img = {0};
-        if ((rc = envl__latlong_to_layout(&src, ENVL_LAYOUT_CROSS_V, face, &img)))
+        envl_image img = {0}, src = {.width = im->w, .height = im->h, .px = (float *)im->rgb};
+        resampled = im->layout != ENVL_LAYOUT_STRIP_H;
+        rc = resampled ? envl__latlong_to_layout(&src, ENVL_LAYOUT_CROSS_V, face, &img)
+                       : envl__faces_to_layout(im->rgb, face, ENVL_LAYOUT_CROSS_V, &img);
+        if (rc)
             return rc;
         snprintf(name, sizeof name, "%s.%s", stem, x->format);
         json_array(j, "files");
@@ -190,6 +266,7 @@ static envl_result put_map(exporter *x, int32_t layout, int32_t frame, const cha
         json_array_end(j);
         json_string(j, "layout", "cross");
         json_int(j, "face_size", face);
+        json_bool(j, "resampled", resampled);
         rc = put_image(x, stem, img.px, img.width, img.height);
         envl__image_free(&img);
         return rc;
@@ -198,9 +275,8 @@ static envl_result put_map(exporter *x, int32_t layout, int32_t frame, const cha
      * GL strip: +X -X +Y -Y +Z -Z of the glTF frame. */
     static const char *suffix[6] = {"px", "nx", "py", "ny", "pz", "nz"};
     float *f;
-    rc = envl__latlong_to_faces(&src, frame == ENVL_FRAME_GLTF ? ENVL__LAYOUT_GL_STRIP
-                                                               : ENVL_LAYOUT_STRIP_H,
-                                face, &f);
+    rc = product_faces(im, frame == ENVL_FRAME_GLTF ? ENVL__LAYOUT_GL_STRIP : ENVL_LAYOUT_STRIP_H,
+                       face, &resampled, &f);
     if (rc)
         return rc;
     json_array(j, "files");
@@ -214,8 +290,49 @@ static envl_result put_map(exporter *x, int32_t layout, int32_t frame, const cha
     json_array_end(j);
     json_string(j, "layout", "cube");
     json_int(j, "face_size", face);
+    json_bool(j, "resampled", resampled);
     free(f);
     return rc;
+}
+
+/* A product's per-texel error (null figures when not measured), its worst direction in the
+ * output frame. */
+/* "target_width": the width at which the level's glossy error would meet ENVL_GLOSSY_TARGET
+ * (level_width.c), its width and height as the level's own (six faces side by side, or
+ * lat-long), envl_prefilter_options.width for it, the error read there and the time
+ * estimated; null figures where there is none. */
+static void put_target_width(json_writer *j, const envl_level *l, const envl_width_estimate *e)
+{
+    static const char *const states[] = {"not estimated", "met", "found", "beyond"};
+    int has = e->state == ENVL_WIDTH_FOUND || e->state == ENVL_WIDTH_BEYOND;
+    int faces = l->layout == ENVL_LAYOUT_STRIP_H;
+    json_object(j, "target_width");
+    json_number(j, "target", ENVL_GLOSSY_TARGET);
+    json_string(j, "state", states[e->state >= 0 && e->state < 4 ? e->state : 0]);
+    json_number(j, "width", has ? (faces ? 6.0 : 1.0) * e->width : NAN);
+    json_number(j, "height", has ? (faces ? e->width : e->width / 2) : NAN);
+    json_number(j, "prefilter_width", has ? e->size : NAN);
+    json_number(j, "glossy_error", has ? e->glossy_error : NAN);
+    json_number(j, "seconds_estimated", has ? e->seconds : NAN);
+    json_int(j, "widths_tried", e->widths_tried);
+    json_int(j, "directions_read", e->directions_read);
+    json_number(j, "seconds_spent", e->seconds_spent);
+    json_object_end(j);
+}
+
+static void put_texel_error(json_writer *j, const envl_texel_error *t, int32_t frame)
+{
+    json_object(j, "texel_error");
+    json_number(j, "rms", t->rms >= 0 ? t->rms : NAN);
+    json_number(j, "worst", t->worst >= 0 ? t->worst : NAN);
+    if (t->worst >= 0) {
+        double d[3];
+        envl_frame_vector(frame, t->worst_direction, d);
+        json_numbers(j, "worst_direction", d, 3);
+    }
+    json_int(j, "texels_measured", t->measured);
+    json_int(j, "texels", t->texels);
+    json_object_end(j);
 }
 
 /* ---- KTX2 ---- */
@@ -227,28 +344,6 @@ static int32_t ktx2_max_levels(int32_t face)
     while (face >> n)
         n++;
     return n;
-}
-
-/* A lat-long map (w x h) as the six faces of OpenGL's cube (+X -X +Y -Y +Z -Z of the glTF
- * frame, layout.c's GL strip), `face` texels square, one face after another (KTX2's order).
- * A map that is not 4 face wide is first area-resampled to 4 face x 2 face (the chain's
- * levels clamped by min_width are wider than their mip level). *resampled: that happened. */
-static envl_result gl_faces(const float *rgb, int32_t w, int32_t h, int32_t face,
-                            int *resampled, float **out)
-{
-    *out = NULL;
-    float *small = NULL;
-    envl_image src = {.width = w, .height = h, .px = (float *)rgb};
-    envl_result rc = ENVL_OK;
-    *resampled = w != 4 * face;
-    if (*resampled) {
-        rc = envl__latlong_resample(rgb, w, h, 4 * face, 2 * face, 0.0, &small);
-        src = (envl_image){.width = 4 * face, .height = 2 * face, .px = small};
-    }
-    if (!rc)
-        rc = envl__latlong_to_faces(&src, ENVL__LAYOUT_GL_STRIP, face, out);
-    free(small);
-    return rc;
 }
 
 /* Writes NAME.ktx2 (pending) from n images of rgb[k] (faces one after another, or one 2D
@@ -276,38 +371,49 @@ static envl_result put_ktx2(exporter *x, const char *stem, int32_t faces, int32_
     return rc;
 }
 
+/* Face size of a product: its own (cube faces), or a quarter of its lat-long width. */
+static int32_t face_of(int32_t layout, int32_t w, int32_t h)
+{
+    return layout == ENVL_LAYOUT_STRIP_H ? h : w / 4 > 0 ? w / 4 : 1;
+}
+
 /* The irradiance map as a one-level KTX2 cube (the "irradiance" object's fields). */
 static envl_result put_ktx2_irradiance(exporter *x, const envl_products *p)
 {
-    int32_t face = p->irr.width / 4 > 0 ? p->irr.width / 4 : 1;
+    product_image im = {p->irr.rgb, p->irr.layout, p->irr.width, p->irr.height};
+    int32_t face = face_of(im.layout, im.w, im.h);
     float *f;
     int resampled;
-    envl_result rc = gl_faces(p->irr.rgb, p->irr.width, p->irr.height, face, &resampled, &f);
+    envl_result rc = product_faces(&im, ENVL__LAYOUT_GL_STRIP, face, &resampled, &f);
     if (rc)
         return rc;
     json_string(&x->jw, "layout", "cube");
+    json_bool(&x->jw, "resampled", resampled);
     rc = put_ktx2(x, "irradiance", 6, face, 1, (const float *const *)&f);
     free(f);
     return rc;
 }
 
 /* The specular levels as one KTX2 cube, level k of the products = mip level k (faces of
- * F >> k texels, F = level 0's width / 4): the "specular_ktx2" object. */
+ * F >> k texels, F = level 0's face): the "specular_ktx2" object. */
 static envl_result put_ktx2_specular(exporter *x, const envl_products *p)
 {
-    int32_t n = p->n_levels, face = p->levels[0].width / 4 > 0 ? p->levels[0].width / 4 : 1;
+    const envl_level *l0 = &p->levels[0];
+    int32_t n = p->n_levels, face = face_of(l0->layout, l0->width, l0->height);
     float **f = calloc((size_t)n, sizeof *f);
     int *resampled = calloc((size_t)n, sizeof *resampled);
     envl_result rc = f && resampled ? ENVL_OK
                                     : envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
     for (int32_t k = 0; k < n && !rc; k++) {
         const envl_level *l = &p->levels[k];
-        rc = gl_faces(l->rgb, l->width, l->height, face >> k, &resampled[k], &f[k]);
+        product_image im = {l->rgb, l->layout, l->width, l->height};
+        rc = product_faces(&im, ENVL__LAYOUT_GL_STRIP, face >> k, &resampled[k], &f[k]);
     }
     json_writer *j = &x->jw;
     json_object(j, "specular_ktx2");
     json_string(j, "mip_levels", "mip level k = specular[k]: faces of face_size >> k texels, "
-                "from its lat-long map (area-resampled to 4 x 2 faces first where wider)");
+                "the level's own texels (listed in resampled_levels where the level was "
+                "computed at another size or as a lat-long map and area-resampled)");
     json_array(j, "roughness");
     for (int32_t k = 0; k < n; k++)
         json_number(j, NULL, p->levels[k].roughness);
@@ -344,7 +450,7 @@ static envl_result put_atlas(exporter *x, const envl_products *p)
     for (int32_t i = 0; i < p->n_levels; i++)
         lv[i] = &p->levels[i];
     qsort(lv, (size_t)p->n_levels, sizeof *lv, cmp_level);
-    int32_t W = lv[0]->width;
+    int32_t W = lv[0]->layout == ENVL_LAYOUT_STRIP_H ? 4 * lv[0]->height : lv[0]->width;
     float *atlas = calloc((size_t)W * W * 3, sizeof(float));
     envl_result rc = atlas ? ENVL_OK : envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
     json_writer *j = &x->jw;
@@ -363,19 +469,23 @@ static envl_result put_atlas(exporter *x, const envl_products *p)
     for (int32_t k = 0; !rc && k < p->n_levels && (W >> (k + 1)) >= 1; k++) {
         int32_t sw = W >> k, shh = W >> (k + 1);
         float *px;
-        rc = envl__latlong_resample(lv[k]->rgb, lv[k]->width, lv[k]->height, sw, shh, 0.0, &px);
+        int resampled;
+        product_image im = {lv[k]->rgb, lv[k]->layout, lv[k]->width, lv[k]->height};
+        rc = product_latlong(&im, sw, &px, &resampled);
         if (rc)
             break;
         for (int32_t r = 0; r < shh; r++)
             memcpy(atlas + 3 * (size_t)(shh + r) * W, px + 3 * (size_t)r * sw,
                    sizeof(float) * 3 * sw);
-        free(px);
+        if (resampled)
+            free(px);
         json_object(j, NULL);
         json_number(j, "roughness", lv[k]->roughness);
         json_int(j, "x", 0);
         json_int(j, "y", shh);
         json_int(j, "width", sw);
         json_int(j, "height", shh);
+        json_bool(j, "resampled", resampled);
         json_object_end(j);
         slots++;
     }
@@ -467,7 +577,7 @@ static envl_result check_export(const envl_products *p, const char *dir,
         return envl__fail(ENVL_ERR_ARGUMENT, "export: %s writes cube maps in OpenGL's face order "
                           "of the glTF frame: it needs the cube layout and the glTF frame", fmt);
     if (vk && p->n_levels) {
-        int32_t face = p->levels[0].width / 4 > 0 ? p->levels[0].width / 4 : 1;
+        int32_t face = face_of(p->levels[0].layout, p->levels[0].width, p->levels[0].height);
         if (p->n_levels > ktx2_max_levels(face))
             return envl__fail(ENVL_ERR_ARGUMENT, "export: %d specular levels do not fit the mip "
                               "chain of a KTX2 cube of %d-texel faces (at most %d levels: "
@@ -506,6 +616,7 @@ static void write_conventions(json_writer *j, const envl_products *p,
     const resolved *r = &p->opt;
     char text[512];
     json_string(j, "source", p->file);
+    repair_json(j, &p->source_info);
     int gltf = o->frame == ENVL_FRAME_GLTF;
     json_string(j, "frame", gltf ? "gltf-y-up" : "blender-z-up");
     json_string(j, "latlong", gltf ? "column c, row r (0 = top) of W x H: u = (c+0.5)/W, v = "
@@ -633,12 +744,14 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
         json_int(j, "width", p->irr.width);
         json_int(j, "height", p->irr.height);
         json_number(j, "diffuse_error", p->irr.diffuse_error >= 0 ? p->irr.diffuse_error : NAN);
+        put_texel_error(j, &p->irr.texel_error, o->frame);
         json_number(j, "seconds", p->irr.seconds);
+        product_image im = {p->irr.rgb, p->irr.layout, p->irr.width, p->irr.height};
         if (vk)
             rc = put_ktx2_irradiance(&x, p);
         else
             rc = put_map(&x, o->layout == ENVL_EXPORT_ATLAS ? ENVL_EXPORT_LATLONG : o->layout,
-                         o->frame, "irradiance", p->irr.rgb, p->irr.width, p->irr.height);
+                         o->frame, "irradiance", &im);
         json_object_end(j);
     }
     if (!rc && p->n_levels) {
@@ -654,17 +767,20 @@ envl_result envl_products_export(const envl_products *p, const char *dir,
             json_bool(j, "filtered", l->filtered);
             json_number(j, "energy_scale", l->energy_scale);
             json_number(j, "glossy_error", l->glossy_error >= 0 ? l->glossy_error : NAN);
+            put_texel_error(j, &l->texel_error, o->frame);
             json_number(j, "seconds", l->seconds);
+            put_target_width(j, l, &p->widths[i]);
             if (vk) {
+                const envl_level *l0 = &p->levels[0];
                 json_int(j, "mip_level", i);
-                json_int(j, "face_size", (p->levels[0].width / 4 > 0 ? p->levels[0].width / 4
-                                                                     : 1) >> i);
+                json_int(j, "face_size", face_of(l0->layout, l0->width, l0->height) >> i);
             } else if (o->layout != ENVL_EXPORT_ATLAS) {
                 char stem[32];
+                product_image im = {l->rgb, l->layout, l->width, l->height};
                 snprintf(stem, sizeof stem, "specular_%02d", (int)i);
                 rc = envl__progress(((p->has_irradiance != 0) + i) * step, "writing the levels");
                 if (!rc)
-                    rc = put_map(&x, o->layout, o->frame, stem, l->rgb, l->width, l->height);
+                    rc = put_map(&x, o->layout, o->frame, stem, &im);
             }
             json_object_end(j);
         }

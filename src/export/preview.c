@@ -337,21 +337,43 @@ static void brute_force(const envl_envmap *m, const double *dirs, const double v
  * residual, and the excess E_j = L_j (1 - T / Y_j) dw_j is an exact point at the pixel's
  * centre l_j. The residual is area-resampled to reference_width (the integral of L dw kept). */
 typedef struct split {
-    envl_sun_split s;   /* s.n points (s.lobes); s.res NULL when none was split */
-    const float *full;  /* the residual at full size (the map's pixels when none was split) */
-    envl_envmap *rest;  /* the residual resampled */
+    envl_sun_split s;   /* s.n points (s.lobes, row-major) */
+    const envl_envmap *map; /* the residual at full size is the map but at the points' pixels */
+    envl_envmap *rest;  /* the residual resampled (no full-size copy: the points are patches) */
 } split;
 
 static envl_result make_split(const envl_envmap *m, int32_t width, split *sp)
 {
     memset(sp, 0, sizeof *sp);
-    envl_result rc = envl__sun_split_make(m, &sp->s);
+    sp->map = m;
+    envl_result rc = envl__sun_split_lobes(m, &sp->s);
     if (rc)
         return rc;
     int32_t w = envl_envmap_width(m), h = envl_envmap_height(m);
-    sp->full = sp->s.res ? sp->s.res : envl_envmap_pixels(m);
-    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .width = w > width ? width : w};
-    return envl_envmap_from_pixels(sp->full, w, h, 3, &lo, &sp->rest);
+    envl_pixel_patch *patch = envl__sun_split_patches(&sp->s);
+    if (!patch)
+        return envl__fail(ENVL_ERR_MEMORY, "preview: out of memory");
+    rc = envl__envmap_resampled_patched(envl_envmap_pixels(m), w, h, patch, sp->s.n,
+                                        w > width ? width : w, 0, &sp->rest);
+    free(patch);
+    return rc;
+}
+
+/* The residual's pixel (r, c) at full size: a point's kept value, else the map's. */
+static const float *residual_pixel(const split *sp, int32_t r, int32_t c)
+{
+    int32_t lo = 0, hi = sp->s.n; /* the lobes are in row-major order */
+    while (lo < hi) {
+        int32_t mid = lo + (hi - lo) / 2;
+        const envl_sun_lobe *l = sp->s.lobes + mid;
+        if (l->r < r || (l->r == r && l->c < c))
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    if (lo < sp->s.n && sp->s.lobes[lo].r == r && sp->s.lobes[lo].c == c)
+        return sp->s.lobes[lo].keep;
+    return envl_envmap_pixels(sp->map) + 3 * ((size_t)r * envl_envmap_width(sp->map) + c);
 }
 
 static void free_split(split *sp)
@@ -565,8 +587,9 @@ static void mirror_reference(work *w)
         int32_t ci = (int32_t)floor(c + 0.5) % W, ri = (int32_t)floor(r + 0.5);
         ci = ci < 0 ? ci + W : ci;
         ri = ri < 0 ? 0 : ri >= H ? H - 1 : ri;
+        const float *px = residual_pixel(&w->sp, ri, ci);
         for (int k = 0; k < 3; k++)
-            w->buf16[3 * i + k] = w->sp.full[3 * ((size_t)ri * W + ci) + k];
+            w->buf16[3 * i + k] = px[k];
     }
     average16(p->count, w->buf16, w->refv);
     for (int32_t i = 0; i < w->sp.s.n; i++)
@@ -644,7 +667,7 @@ static envl_result lights_columns(work *w)
     for (int col = 1; col <= 2; col++) {
         envl_lights_options lo = {.method = col == 1 ? ENVL_METHOD_MEDIAN : ENVL_METHOD_FIT,
                                   .count = col == 1 ? w->o.median_count : w->o.fit_count,
-                                  .measure = 1};
+                                  .measure = 1, .skip_residual = 1}; /* not drawn */
         envl_lights **l = col == 1 ? &d->median : &d->fit;
         envl_result rc = envl_lights_compute(w->map, &lo, l);
         if (rc)
@@ -1000,9 +1023,8 @@ envl_result preview_compose(const envl_envmap *map, const envl_preview_options *
 
     /* The map, area-resampled to the view's width, tone-mapped. */
     envl_envmap *small = NULL;
-    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .width = L.map_w};
-    envl_result rc = envl_envmap_from_pixels(envl_envmap_pixels(map), envl_envmap_width(map),
-                                             envl_envmap_height(map), 3, &lo, &small);
+    envl_result rc = envl__envmap_resampled(envl_envmap_pixels(map), envl_envmap_width(map),
+                                            envl_envmap_height(map), L.map_w, 0, &small);
     if (rc) {
         free(cv.px);
         return rc;

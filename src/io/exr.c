@@ -1,7 +1,8 @@
 /* OpenEXR reader and writer through the OpenEXR C API (OpenEXRCore, <openexr.h>).
  *
- * Reading: the whole file is in memory and reaches the library through a read_fn / size_fn
- * stream (no file system, so a fuzzer can drive it). One part is chosen (by name, or the first
+ * Reading: the file reaches the library through a read_fn / size_fn stream, from memory (so a
+ * fuzzer can drive it) or from the open file by offset (no copy of the whole file; its chunks
+ * are decoded in parallel, see "the chunks" below). One part is chosen (by name, or the first
  * with colour channels), its level-0 chunks are decoded by the library's own decoder, straight
  * into the output (row 0 = top of the display window) when a chunk lies inside the display
  * window, through a per-chunk scratch buffer otherwise. DWAA / DWAB parts, which OpenEXRCore 3.1
@@ -26,6 +27,7 @@
 #include <fcntl.h>
 #include <limits.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -34,8 +36,9 @@
 /* ---- the library's messages and our streams ---------------------------------------------- */
 
 typedef struct exr_stream {
-    const uint8_t *data;    /* reading: the whole file */
+    const uint8_t *data;    /* reading: the whole file, or NULL: read from `file` by offset */
     size_t size;
+    const envl_infile *file;
     int fd;                 /* writing */
     char msg[640];          /* first detailed message the library reported ("" if none) */
 } exr_stream;
@@ -72,17 +75,23 @@ static envl_result exr_fail(exr_stream *s, envl_result code, const char *name, e
                       exr_get_error_code_as_string(rc));
 }
 
+/* The library's reads, from any decoding thread: from memory, or from the file by offset. */
 static int64_t exr_mem_read(exr_const_context_t ctxt, void *userdata, void *buffer, uint64_t sz,
                             uint64_t offset, exr_stream_error_func_ptr_t error_cb)
 {
-    (void)ctxt;
-    (void)error_cb;
     const exr_stream *s = userdata;
     if (offset >= s->size)
         return 0; /* like pread at end of file: the library reports the short read */
     uint64_t n = s->size - offset;
     if (n > sz)
         n = sz;
+    if (!s->data) {
+        if (!envl__infile_read(s->file, offset, buffer, (size_t)n))
+            return (int64_t)n;
+        if (error_cb)
+            error_cb(ctxt, EXR_ERR_READ_IO, "%s", envl_last_error());
+        return -1;
+    }
     memcpy(buffer, s->data + offset, (size_t)n);
     return (int64_t)n;
 }
@@ -524,61 +533,153 @@ static float plane_at(const sample_plane *pl, int64_t x, int64_t y)
     return (float)acc;
 }
 
-static envl_result read_chunks(exr_reader *r, exr_storage_t storage)
+/* ---- the chunks, decoded in parallel --------------------------------------------------------
+ * The chunks' tables are read on the calling thread, in file order, CHUNK_BLOCK at a time; each
+ * block's chunks are then decoded in parallel, each by one thread with its own decoding
+ * pipeline and scratch buffer, into its own pixels (or sample-plane rows): the image does not
+ * depend on the thread count, and the error named is the first in file order. */
+enum { CHUNK_BLOCK = 1024 };
+
+typedef struct exr_chunk {
+    exr_chunk_info_t ci;
+    int64_t x, y, w, h;       /* its pixels: columns [x, x + w), rows [y, y + h) */
+} exr_chunk;
+
+typedef struct chunk_job {
+    const exr_reader *r;
+    const exr_chunk *chunks;
+    pthread_mutex_t lock;     /* guards the failure below */
+    int64_t failed;           /* the first chunk of the block that failed, or -1 */
+    envl_result rc;
+    char msg[2048];           /* its message (a worker's own messages are thread-local) */
+} chunk_job;
+
+static void decode_chunks(void *ctx, int64_t begin, int64_t end)
 {
+    chunk_job *j = ctx;
+    exr_stream ws = *j->r->stream; /* this thread's copy, for the library's messages */
+    ws.msg[0] = '\0';
+    exr_stream *outer = current_stream;
+    current_stream = &ws;
+    exr_reader wr = *j->r;
+    wr.stream = &ws;
+    wr.scratch = NULL;
+    wr.scratch_cap = 0;
+    wr.dec_ready = false;
+    memset(&wr.dec, 0, sizeof wr.dec);
+    for (int64_t k = begin; k < end; k++) {
+        const exr_chunk *c = &j->chunks[k];
+        envl_result e = decode_chunk(&wr, &c->ci, c->x, c->y, c->w, c->h);
+        if (e) {
+            pthread_mutex_lock(&j->lock);
+            if (j->failed < 0 || k < j->failed) {
+                j->failed = k;
+                j->rc = e;
+                snprintf(j->msg, sizeof j->msg, "%s", envl_last_error());
+            }
+            pthread_mutex_unlock(&j->lock);
+            break;
+        }
+    }
+    if (wr.dec_ready)
+        exr_decoding_destroy(wr.ctxt, &wr.dec);
+    free(wr.scratch);
+    current_stream = outer;
+}
+
+static envl_result decode_block(const exr_reader *r, const exr_chunk *chunks, int64_t n,
+                                int32_t threads)
+{
+    chunk_job j = {.r = r, .chunks = chunks, .failed = -1};
+    pthread_mutex_init(&j.lock, NULL);
+    envl__parallel_for(n, threads, decode_chunks, &j);
+    pthread_mutex_destroy(&j.lock);
+    if (j.failed < 0)
+        return ENVL_OK;
+    return envl__fail(j.rc, "%s", j.msg);
+}
+
+static envl_result read_chunks(exr_reader *r, exr_storage_t storage, int32_t threads)
+{
+    exr_chunk *block = malloc(sizeof(exr_chunk) * CHUNK_BLOCK);
+    if (!block)
+        return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate the chunk table", r->name);
+    int64_t n = 0;
+    envl_result e = ENVL_OK;
     exr_result_t rc;
     if (storage == EXR_STORAGE_SCANLINE) {
         int32_t lines = 0;
         rc = exr_get_scanlines_per_chunk(r->ctxt, r->part, &lines);
-        if (rc != EXR_ERR_SUCCESS || lines <= 0)
+        if (rc != EXR_ERR_SUCCESS || lines <= 0) {
+            free(block);
             return exr_fail(r->stream, ENVL_ERR_FORMAT, r->name, rc, "cannot read the chunk layout");
+        }
         int64_t w = (int64_t)r->dw.max.x - r->dw.min.x + 1;
-        for (int64_t y = r->dw.min.y; y <= r->dw.max.y; y += lines) {
+        for (int64_t y = r->dw.min.y; y <= r->dw.max.y && !e; y += lines) {
             int64_t h = r->dw.max.y - y + 1 < lines ? r->dw.max.y - y + 1 : lines;
             if (y + h - 1 < r->ny0 || y > r->ny1)
                 continue;
-            exr_chunk_info_t ci;
-            rc = exr_read_scanline_chunk_info(r->ctxt, r->part, (int)y, &ci);
+            exr_chunk *c = &block[n];
+            rc = exr_read_scanline_chunk_info(r->ctxt, r->part, (int)y, &c->ci);
             if (rc != EXR_ERR_SUCCESS) {
                 char what[80];
                 snprintf(what, sizeof what, "cannot read the chunk of scanline %lld", (long long)y);
-                return exr_fail(r->stream, ENVL_ERR_FORMAT, r->name, rc, what);
+                e = exr_fail(r->stream, ENVL_ERR_FORMAT, r->name, rc, what);
+                break;
             }
-            envl_result e = decode_chunk(r, &ci, r->dw.min.x, y, w, h);
-            if (e)
-                return e;
+            c->x = r->dw.min.x, c->y = y, c->w = w, c->h = h;
+            if (++n == CHUNK_BLOCK) {
+                e = decode_block(r, block, n, threads);
+                n = 0;
+            }
         }
-        return ENVL_OK;
-    }
-    /* tiled: level 0 only (mip / rip levels are smaller copies) */
-    int32_t tw = 0, th = 0, lw = 0, lh = 0;
-    rc = exr_get_tile_sizes(r->ctxt, r->part, 0, 0, &tw, &th);
-    if (rc == EXR_ERR_SUCCESS)
-        rc = exr_get_level_sizes(r->ctxt, r->part, 0, 0, &lw, &lh);
-    if (rc != EXR_ERR_SUCCESS || tw <= 0 || th <= 0 || lw <= 0 || lh <= 0)
-        return exr_fail(r->stream, ENVL_ERR_FORMAT, r->name, rc, "cannot read the tile layout");
-    for (int64_t ty = 0; ty * th < lh; ty++) {
-        int64_t y = r->dw.min.y + ty * th, h = lh - ty * th < th ? lh - ty * th : th;
-        if (y + h - 1 < r->ny0 || y > r->ny1)
-            continue;
-        for (int64_t tx = 0; tx * tw < lw; tx++) {
-            int64_t x = r->dw.min.x + tx * tw, w = lw - tx * tw < tw ? lw - tx * tw : tw;
-            if (x + w - 1 < r->nx0 || x > r->nx1)
+    } else {
+        /* tiled: level 0 only (mip / rip levels are smaller copies) */
+        int32_t tw = 0, th = 0, lw = 0, lh = 0;
+        rc = exr_get_tile_sizes(r->ctxt, r->part, 0, 0, &tw, &th);
+        if (rc == EXR_ERR_SUCCESS)
+            rc = exr_get_level_sizes(r->ctxt, r->part, 0, 0, &lw, &lh);
+        if (rc != EXR_ERR_SUCCESS || tw <= 0 || th <= 0 || lw <= 0 || lh <= 0) {
+            free(block);
+            return exr_fail(r->stream, ENVL_ERR_FORMAT, r->name, rc, "cannot read the tile layout");
+        }
+        for (int64_t ty = 0; ty * th < lh && !e; ty++) {
+            int64_t y = r->dw.min.y + ty * th, h = lh - ty * th < th ? lh - ty * th : th;
+            if (y + h - 1 < r->ny0 || y > r->ny1)
                 continue;
-            exr_chunk_info_t ci;
-            rc = exr_read_tile_chunk_info(r->ctxt, r->part, (int)tx, (int)ty, 0, 0, &ci);
-            if (rc != EXR_ERR_SUCCESS) {
-                char what[80];
-                snprintf(what, sizeof what, "cannot read tile (%lld, %lld)", (long long)tx,
-                         (long long)ty);
-                return exr_fail(r->stream, ENVL_ERR_FORMAT, r->name, rc, what);
+            for (int64_t tx = 0; tx * tw < lw && !e; tx++) {
+                int64_t x = r->dw.min.x + tx * tw, w = lw - tx * tw < tw ? lw - tx * tw : tw;
+                if (x + w - 1 < r->nx0 || x > r->nx1)
+                    continue;
+                exr_chunk *c = &block[n];
+                rc = exr_read_tile_chunk_info(r->ctxt, r->part, (int)tx, (int)ty, 0, 0, &c->ci);
+                if (rc != EXR_ERR_SUCCESS) {
+                    char what[80];
+                    snprintf(what, sizeof what, "cannot read tile (%lld, %lld)", (long long)tx,
+                             (long long)ty);
+                    e = exr_fail(r->stream, ENVL_ERR_FORMAT, r->name, rc, what);
+                    break;
+                }
+                c->x = x, c->y = y, c->w = w, c->h = h;
+                if (++n == CHUNK_BLOCK) {
+                    e = decode_block(r, block, n, threads);
+                    n = 0;
+                }
             }
-            envl_result e = decode_chunk(r, &ci, x, y, w, h);
-            if (e)
-                return e;
         }
     }
-    return ENVL_OK;
+    /* the chunks before a damaged table entry are decoded first: their errors come first */
+    if (n) {
+        char msg[2048];
+        snprintf(msg, sizeof msg, "%s", envl_last_error());
+        envl_result d = decode_block(r, block, n, threads);
+        if (d)
+            e = d;
+        else if (e)
+            envl__fail(e, "%s", msg);
+    }
+    free(block);
+    return e;
 }
 
 /* DWAA / DWAB parts: bands of rows (the part's scanlines per chunk, or one row of tiles) decoded
@@ -629,11 +730,25 @@ static envl_result read_dwa(exr_reader *r, exr_storage_t storage)
     }
     char msg[512] = "";
     envl_exr_dwa *d = NULL;
-    int dr = envl__exr_dwa_open(r->stream->data, r->stream->size, r->name, r->part, &d, msg,
-                                sizeof msg);
-    if (dr != ENVL_DWA_OK)
+    /* the C++ library reads from memory: a file is read whole for it */
+    const uint8_t *data = r->stream->data;
+    uint8_t *whole = NULL;
+    if (!data) {
+        if (!(whole = malloc(r->stream->size ? r->stream->size : 1)))
+            return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate %zu bytes", r->name,
+                              r->stream->size);
+        if ((grown = envl__infile_read(r->stream->file, 0, whole, r->stream->size))) {
+            free(whole);
+            return grown;
+        }
+        data = whole;
+    }
+    int dr = envl__exr_dwa_open(data, r->stream->size, r->name, r->part, &d, msg, sizeof msg);
+    if (dr != ENVL_DWA_OK) {
+        free(whole);
         return envl__fail(dr == ENVL_DWA_MEMORY ? ENVL_ERR_MEMORY : ENVL_ERR_FORMAT,
                           "%s: the OpenEXR C++ library cannot open the DWA part: %s", r->name, msg);
+    }
     envl_result e = ENVL_OK;
     for (int64_t y = r->dw.min.y; y <= r->dw.max.y && !e; y += band) {
         int64_t bh = r->dw.max.y - y + 1 < band ? r->dw.max.y - y + 1 : band;
@@ -652,6 +767,7 @@ static envl_result read_dwa(exr_reader *r, exr_storage_t storage)
                           floor_div(y - 1, ys[k]), r->dw.min.x, y, w, bh);
     }
     envl__exr_dwa_close(d);
+    free(whole);
     return e;
 }
 
@@ -862,7 +978,8 @@ static envl_result read_part(exr_context_t ctxt, exr_stream *s, const char *name
         out->meta.block_y0 = (int32_t)(((r.dw.min.y - r.dy0) % 8 + 8) % 8);
         e = read_dwa(&r, storage);
     } else
-        e = read_chunks(&r, storage);
+        e = read_chunks(&r, storage,
+                        (int64_t)w * h >= 65536 ? envl__threads(lim ? lim->threads : 0) : 1);
     if (e)
         goto done;
 
@@ -927,19 +1044,14 @@ done:
     return e;
 }
 
-envl_result envl__read_exr(const uint8_t *data, size_t size, const char *name,
-                           const envl_limits *lim, envl_image *out)
+static envl_result read_exr(exr_stream *s, const char *name, const envl_limits *lim,
+                            envl_image *out)
 {
-    if (!name)
-        name = "(memory)";
-    if (!out || (!data && size))
-        return envl__fail(ENVL_ERR_ARGUMENT, "%s: read_exr: no data or no output", name);
     memset(out, 0, sizeof *out);
     int64_t max_pixels = lim && lim->max_pixels > 0 ? lim->max_pixels : ENVL_DEFAULT_MAX_PIXELS;
-    exr_stream s = {.data = data, .size = size, .fd = -1};
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = exr_on_error;
-    init.user_data = &s;
+    init.user_data = s;
     init.read_fn = exr_mem_read;
     init.size_fn = exr_mem_size;
     /* The library's own header checks: no side may exceed twice the pixel limit (our checks
@@ -951,19 +1063,39 @@ envl_result envl__read_exr(const uint8_t *data, size_t size, const char *name,
 
     exr_context_t ctxt = NULL;
     exr_stream *outer = current_stream;
-    current_stream = &s;
+    current_stream = s;
     exr_result_t rc = exr_start_read(&ctxt, name, &init);
     envl_result e;
     if (rc != EXR_ERR_SUCCESS)
-        e = exr_fail(&s, ENVL_ERR_FORMAT, name, rc, "not a readable OpenEXR file");
+        e = exr_fail(s, ENVL_ERR_FORMAT, name, rc, "not a readable OpenEXR file");
     else
-        e = read_part(ctxt, &s, name, lim, max_pixels, out);
+        e = read_part(ctxt, s, name, lim, max_pixels, out);
     if (ctxt)
         exr_finish(&ctxt);
     current_stream = outer;
+    /* From a file: a file rewritten in place while it was read is an error, not a mixture */
+    if (s->file && (e == ENVL_OK || e == ENVL_ERR_FORMAT) && envl__infile_unchanged(s->file))
+        e = ENVL_ERR_IO;
     if (e)
         envl__image_free(out);
     return e;
+}
+
+envl_result envl__read_exr(const uint8_t *data, size_t size, const char *name,
+                           const envl_limits *lim, envl_image *out)
+{
+    if (!name)
+        name = "(memory)";
+    if (!out || (!data && size))
+        return envl__fail(ENVL_ERR_ARGUMENT, "%s: read_exr: no data or no output", name);
+    exr_stream s = {.data = data, .size = size, .fd = -1};
+    return read_exr(&s, name, lim, out);
+}
+
+envl_result envl__read_exr_file(const envl_infile *f, const envl_limits *lim, envl_image *out)
+{
+    exr_stream s = {.size = (size_t)f->size, .file = f, .fd = -1};
+    return read_exr(&s, f->path, lim, out);
 }
 
 /* ---- writing ------------------------------------------------------------------------------ */

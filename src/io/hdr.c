@@ -26,8 +26,8 @@
 #include "envmap_impl.h" /* envl__threads */
 
 #include <errno.h>
-#include <stdatomic.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -137,9 +137,12 @@ static void xyz_image_to_rgb(float *px, size_t n, const double mat[3][3])
 
 /* ---- reader -------------------------------------------------------------------------------- */
 
+/* A window on the file: its bytes [base, base + size) at data (all of it when the file is in
+ * memory; a few MiB of it when it is read from disk). Messages give file offsets. */
 typedef struct hdr_reader {
     const uint8_t *data;
     size_t size;
+    uint64_t base;
     const char *name;
 } hdr_reader;
 
@@ -214,6 +217,7 @@ static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len,
 {
     const uint8_t *d = rd->data;
     size_t p = *pos, size = rd->size;
+    size_t at = (size_t)rd->base; /* file offset of d[0], for messages */
     if (len >= HDR_MINELEN && len <= HDR_MAXELEN && size - p >= 4 && d[p] == 2 &&
         d[p + 1] == 2 && !(d[p + 2] & 0x80)) {
         /* adaptive RLE */
@@ -222,7 +226,7 @@ static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len,
             return envl__fail(ENVL_ERR_FORMAT,
                               "%s: scanline %d at byte %zu: run-length header claims %d "
                               "pixels, the scanline has %d",
-                              rd->name, (int)scan, p, (int)claimed, (int)len);
+                              rd->name, (int)scan, at + p, (int)claimed, (int)len);
         p += 4;
         for (int c = 0; c < 4; c++) {
             uint8_t *q = planes ? planes[c] : NULL;
@@ -232,7 +236,7 @@ static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len,
                     return envl__fail(ENVL_ERR_FORMAT,
                                       "%s: truncated in scanline %d at byte %zu: expected a "
                                       "run-length code for pixel %d of component %d",
-                                      rd->name, (int)scan, p, (int)j, c);
+                                      rd->name, (int)scan, at + p, (int)j, c);
                 unsigned code = d[p];
                 if (code > 128) {
                     int32_t n = (int32_t)code - 128;
@@ -240,13 +244,13 @@ static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len,
                         return envl__fail(ENVL_ERR_FORMAT,
                                           "%s: RLE run of %d at byte %zu overruns the %d-pixel "
                                           "scanline %d (component %d, %d pixels left)",
-                                          rd->name, (int)n, p, (int)len, (int)scan, c,
+                                          rd->name, (int)n, at + p, (int)len, (int)scan, c,
                                           (int)(len - j));
                     if (size - p < 2)
                         return envl__fail(ENVL_ERR_FORMAT,
                                           "%s: truncated in scanline %d at byte %zu: expected "
                                           "the value of a run",
-                                          rd->name, (int)scan, p + 1);
+                                          rd->name, (int)scan, at + p + 1);
                     if (q)
                         memset(q + j, d[p + 1], (size_t)n);
                     j += n;
@@ -257,19 +261,19 @@ static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len,
                         return envl__fail(ENVL_ERR_FORMAT,
                                           "%s: zero-length RLE literal at byte %zu in scanline "
                                           "%d (component %d)",
-                                          rd->name, p, (int)scan, c);
+                                          rd->name, at + p, (int)scan, c);
                     if (n > len - j)
                         return envl__fail(ENVL_ERR_FORMAT,
                                           "%s: RLE literal of %d at byte %zu overruns the "
                                           "%d-pixel scanline %d (component %d, %d pixels left)",
-                                          rd->name, (int)n, p, (int)len, (int)scan, c,
+                                          rd->name, (int)n, at + p, (int)len, (int)scan, c,
                                           (int)(len - j));
                     p++;
                     if (size - p < (size_t)n)
                         return envl__fail(ENVL_ERR_FORMAT,
                                           "%s: truncated in scanline %d at byte %zu: expected "
                                           "%d more bytes, %zu left",
-                                          rd->name, (int)scan, p, (int)n, size - p);
+                                          rd->name, (int)scan, at + p, (int)n, size - p);
                     if (q)
                         memcpy(q + j, d + p, (size_t)n);
                     j += n;
@@ -290,21 +294,21 @@ static envl_result read_scanline(const hdr_reader *rd, size_t *pos, int32_t len,
             return envl__fail(ENVL_ERR_FORMAT,
                               "%s: truncated in scanline %d at byte %zu: expected 4 bytes for "
                               "pixel %d, %zu left",
-                              rd->name, (int)scan, p, (int)j, size - p);
+                              rd->name, (int)scan, at + p, (int)j, size - p);
         const uint8_t *s = d + p;
         if (s[0] == 1 && s[1] == 1 && s[2] == 1) {
             if (j == 0)
                 return envl__fail(ENVL_ERR_FORMAT,
                                   "%s: old-style repeat marker at byte %zu starts scanline %d: "
                                   "there is no previous pixel to repeat",
-                                  rd->name, p, (int)scan);
+                                  rd->name, at + p, (int)scan);
             /* shift is capped at 40: any non-zero count << 40 exceeds every scanline. */
             uint64_t n = (uint64_t)s[3] << shift;
             if (n > (uint64_t)(len - j))
                 return envl__fail(ENVL_ERR_FORMAT,
                                   "%s: old-style run of %llu at byte %zu overruns the %d-pixel "
                                   "scanline %d (%d pixels left)",
-                                  rd->name, (unsigned long long)n, p, (int)len, (int)scan,
+                                  rd->name, (unsigned long long)n, at + p, (int)len, (int)scan,
                                   (int)(len - j));
             if (n && r) {
                 memset(r + j, r[j - 1], (size_t)n);
@@ -485,64 +489,140 @@ static envl_result read_header(const hdr_reader *rd, size_t *pos, hdr_header *hd
     return ENVL_OK;
 }
 
+/* Where the reader takes the file's bytes from: the whole file in memory (tests, fuzzers), or
+ * an open file read by offset in windows (envl__read_hdr_file: no copy of the whole file). */
+typedef struct hdr_source {
+    const uint8_t *mem;       /* the whole file, or NULL: read from `file` */
+    const envl_infile *file;
+    uint64_t size;
+    const char *name;
+} hdr_source;
+
+#define HDR_WINDOW ((size_t)4 << 20) /* pass 1 reads the file in windows of 4 MiB .. */
+#define HDR_BATCH ((size_t)1 << 20)  /* .. pass 2 in batches of scanlines of about 1 MiB */
+
+/* rd = the file's bytes [off, off + n) (fewer at its end; in memory always all of them up to
+ * the end, as a view). From a file they are read into *buf, grown to n bytes. */
+static envl_result source_window(const hdr_source *src, uint64_t off, size_t n, uint8_t **buf,
+                                 size_t *cap, hdr_reader *rd)
+{
+    if (off > src->size)
+        off = src->size;
+    if (src->mem || n > src->size - off)
+        n = (size_t)(src->size - off);
+    rd->base = off;
+    rd->size = n;
+    rd->name = src->name;
+    if (src->mem) {
+        rd->data = src->mem + off;
+        return ENVL_OK;
+    }
+    if (n > *cap) {
+        free(*buf);
+        *cap = 0;
+        if (!(*buf = malloc(n ? n : 1)))
+            return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate a read window of %zu bytes",
+                              src->name, n);
+        *cap = n;
+    }
+    rd->data = *buf;
+    return n ? envl__infile_read(src->file, off, *buf, n) : ENVL_OK;
+}
+
+/* The window ends before the file does: a parse that ran out of bytes may need a wider one. */
+static int window_short(const hdr_reader *rd, const hdr_source *src)
+{
+    return rd->base + rd->size < src->size;
+}
+
 typedef struct decode_job {
-    const hdr_reader *rd;
-    const size_t *starts;     /* first byte of each scanline (pass 1) */
+    const hdr_source *src;
+    const uint64_t *starts;   /* file offset of each scanline (pass 1), and of the end */
     int32_t len, w, h, ymajor, xdecr, ydecr;
     float *px;
-    float scale[256];         /* 2^(e-136) for e > 0, 0 for e = 0 (see envl__read_hdr) */
-    atomic_int failed;        /* a worker could not allocate its scanline planes */
+    float scale[256];         /* 2^(e-136) for e > 0, 0 for e = 0 (see read_hdr) */
+    pthread_mutex_t lock;     /* guards the failure below */
+    int64_t failed_scan;      /* the first scanline (file order) that failed, or -1 */
+    envl_result rc;
+    char msg[512];            /* its message (workers' messages are thread-local) */
 } decode_job;
 
+static void job_fail(decode_job *j, int64_t scan, envl_result rc)
+{
+    pthread_mutex_lock(&j->lock);
+    if (j->failed_scan < 0 || scan < j->failed_scan) {
+        j->failed_scan = scan;
+        j->rc = rc;
+        snprintf(j->msg, sizeof j->msg, "%s", envl_last_error());
+    }
+    pthread_mutex_unlock(&j->lock);
+}
+
 /* Pass 2 of the reader: scanlines [begin, end) decoded, converted and put in place (see the
- * orientation notes below). */
+ * orientation notes below), in batches read from the file. */
 static void decode_scanlines(void *ctx, int64_t begin, int64_t end)
 {
     decode_job *j = ctx;
     int32_t len = j->len, w = j->w, h = j->h;
-    uint8_t *mem = malloc((size_t)len * 4);
+    uint8_t *mem = malloc((size_t)len * 4), *buf = NULL;
+    size_t cap = 0;
     if (!mem) {
-        atomic_store(&j->failed, 1);
+        job_fail(j, begin, envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate a scanline of %d "
+                                      "pixels", j->src->name, (int)len));
         return;
     }
     uint8_t *planes[4] = {mem, mem + len, mem + 2 * (size_t)len, mem + 3 * (size_t)len};
     const uint8_t *pr = planes[0], *pg = planes[1], *pb = planes[2], *pe = planes[3];
     const float *scale = j->scale;
-    for (int64_t s = begin; s < end; s++) {
-        size_t pos = j->starts[s];
-        if (read_scanline(j->rd, &pos, len, (int32_t)s, planes)) { /* pass 1 checked it */
-            atomic_store(&j->failed, 1);
+    hdr_reader rd;
+    for (int64_t s = begin, t; s < end; s = t) {
+        for (t = s + 1; t < end && j->starts[t + 1] - j->starts[s] <= HDR_BATCH; t++)
+            ;
+        envl_result rc = source_window(j->src, j->starts[s], (size_t)(j->starts[t] - j->starts[s]),
+                                       &buf, &cap, &rd);
+        if (rc) {
+            job_fail(j, s, rc);
             break;
         }
-        /* where pixel i = 0 of this scanline goes, and the step between pixels */
-        ptrdiff_t base, step;
-        if (j->ymajor) {
-            int32_t row = j->ydecr ? (int32_t)s : h - 1 - (int32_t)s;
-            base = (ptrdiff_t)row * w + (j->xdecr ? w - 1 : 0);
-            step = j->xdecr ? -1 : 1;
-        } else {
-            int32_t col = j->xdecr ? w - 1 - (int32_t)s : (int32_t)s;
-            base = (ptrdiff_t)(j->ydecr ? 0 : h - 1) * w + col;
-            step = j->ydecr ? (ptrdiff_t)w : -(ptrdiff_t)w;
-        }
-        if (step == 1) {
-            float *q = j->px + 3 * base;
-            for (int32_t i = 0; i < len; i++, q += 3) {
-                float f = scale[pe[i]];
-                q[0] = ((float)pr[i] + 0.5f) * f;
-                q[1] = ((float)pg[i] + 0.5f) * f;
-                q[2] = ((float)pb[i] + 0.5f) * f;
+        for (int64_t k = s; k < t; k++) {
+            size_t pos = (size_t)(j->starts[k] - rd.base);
+            /* pass 1 checked it; a failure here means the file changed in between */
+            if ((rc = read_scanline(&rd, &pos, len, (int32_t)k, planes))) {
+                job_fail(j, k, rc);
+                t = end;
+                break;
             }
-        } else {
-            ptrdiff_t k = base;
-            for (int32_t i = 0; i < len; i++, k += step) {
-                float f = scale[pe[i]], *q = j->px + 3 * k;
-                q[0] = ((float)pr[i] + 0.5f) * f;
-                q[1] = ((float)pg[i] + 0.5f) * f;
-                q[2] = ((float)pb[i] + 0.5f) * f;
+            /* where pixel i = 0 of this scanline goes, and the step between pixels */
+            ptrdiff_t base, step;
+            if (j->ymajor) {
+                int32_t row = j->ydecr ? (int32_t)k : h - 1 - (int32_t)k;
+                base = (ptrdiff_t)row * w + (j->xdecr ? w - 1 : 0);
+                step = j->xdecr ? -1 : 1;
+            } else {
+                int32_t col = j->xdecr ? w - 1 - (int32_t)k : (int32_t)k;
+                base = (ptrdiff_t)(j->ydecr ? 0 : h - 1) * w + col;
+                step = j->ydecr ? (ptrdiff_t)w : -(ptrdiff_t)w;
+            }
+            if (step == 1) {
+                float *q = j->px + 3 * base;
+                for (int32_t i = 0; i < len; i++, q += 3) {
+                    float f = scale[pe[i]];
+                    q[0] = ((float)pr[i] + 0.5f) * f;
+                    q[1] = ((float)pg[i] + 0.5f) * f;
+                    q[2] = ((float)pb[i] + 0.5f) * f;
+                }
+            } else {
+                ptrdiff_t at = base;
+                for (int32_t i = 0; i < len; i++, at += step) {
+                    float f = scale[pe[i]], *q = j->px + 3 * at;
+                    q[0] = ((float)pr[i] + 0.5f) * f;
+                    q[1] = ((float)pg[i] + 0.5f) * f;
+                    q[2] = ((float)pb[i] + 0.5f) * f;
+                }
             }
         }
     }
+    free(buf);
     free(mem);
 }
 
@@ -558,62 +638,97 @@ static void decode_scanlines(void *ctx, int64_t begin, int64_t end)
  *   XMAJOR:  column = XDECR ? xr-1-s : s,  row = YDECR ? i : yr-1-i   (scanline = a column)
  * so "-Y H +X W" is rows top to bottom, left to right; "+X W -Y H" columns left to right,
  * each top to bottom. */
-envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
-                           const envl_limits *lim, envl_image *out)
+static envl_result read_hdr(const hdr_source *src, const envl_limits *lim, envl_image *out)
 {
     memset(out, 0, sizeof *out);
-    if (!name)
-        name = "<memory>";
-    if (!data)
-        size = 0;
-    hdr_reader rd = {data, size, name};
+    const char *name = src->name;
+    uint8_t *wbuf = NULL; /* pass 1's window, when reading from a file */
+    size_t wcap = 0;
+    hdr_reader rd;
     hdr_header hd;
     size_t pos = 0;
-    envl_result rc = read_header(&rd, &pos, &hd);
-    if (rc)
+    envl_result rc;
+    /* The header in a window of 64 KiB, doubled while a parse runs out of bytes. A parse that
+     * succeeds in a window read only bytes in it, so it is the parse of the whole file. */
+    for (size_t want = (size_t)64 << 10;; want *= 2) {
+        if ((rc = source_window(src, 0, want, &wbuf, &wcap, &rd)))
+            break;
+        rc = read_header(&rd, &pos, &hd);
+        if (!rc || !window_short(&rd, src))
+            break;
+    }
+    if (rc) {
+        free(wbuf);
         return rc;
+    }
 
     double xyz2rgb[3][3];
     int prims_nonzero = 0;
     if (hd.has_primaries_line)
         for (int i = 0; i < 8; i++)
             prims_nonzero |= hd.primaries[i] != 0.0;
-    if (hd.xyze && !xyz_to_rgb_matrix(prims_nonzero ? hd.primaries : hdr_std_prims, xyz2rgb))
+    if (hd.xyze && !xyz_to_rgb_matrix(prims_nonzero ? hd.primaries : hdr_std_prims, xyz2rgb)) {
+        free(wbuf);
         return envl__fail(ENVL_ERR_FORMAT,
                           "%s: the PRIMARIES line does not describe a colour space, so the "
                           "XYZE pixels cannot be converted to RGB",
                           name);
+    }
 
-    if (hd.xres > INT32_MAX || hd.yres > INT32_MAX)
+    if (hd.xres > INT32_MAX || hd.yres > INT32_MAX) {
+        free(wbuf);
         return envl__fail(ENVL_ERR_LIMIT, "%s: image size %lld x %lld exceeds the limit of %lld "
                           "pixels",
                           name, (long long)hd.xres, (long long)hd.yres,
                           (long long)(lim && lim->max_pixels > 0 ? lim->max_pixels
                                                                  : ENVL_DEFAULT_MAX_PIXELS));
+    }
     int32_t w = (int32_t)hd.xres, h = (int32_t)hd.yres;
     int32_t len = hd.ymajor ? w : h;      /* pixels per scanline */
     int32_t nscans = hd.ymajor ? h : w;
     /* Limit first, then the bytes present: every scanline takes at least 4 bytes. */
     int64_t max = lim && lim->max_pixels > 0 ? lim->max_pixels : ENVL_DEFAULT_MAX_PIXELS;
-    if ((int64_t)w * h > max)
+    if ((int64_t)w * h > max) {
+        free(wbuf);
         return envl__fail(ENVL_ERR_LIMIT,
                           "%s: image size %d x %d = %lld pixels exceeds the limit of %lld pixels",
                           name, (int)w, (int)h, (long long)w * h, (long long)max);
-    if ((uint64_t)(size - pos) < (uint64_t)nscans * 4u)
+    }
+    if (src->size - pos < (uint64_t)nscans * 4u) {
+        free(wbuf);
         return envl__fail(ENVL_ERR_FORMAT,
-                          "%s: truncated: %d scanlines need at least %llu bytes, %zu left after "
+                          "%s: truncated: %d scanlines need at least %llu bytes, %llu left after "
                           "the resolution line at byte %zu",
-                          name, (int)nscans, (unsigned long long)nscans * 4u, size - pos, pos);
+                          name, (int)nscans, (unsigned long long)nscans * 4u,
+                          (unsigned long long)(src->size - pos), pos);
+    }
     /* Pass 1: where each scanline starts. Every scanline is checked here exactly as pass 2
-     * reads it, so errors are found and named in file order, before the image is allocated. */
-    size_t *starts = malloc(sizeof(size_t) * (size_t)nscans);
-    if (!starts)
+     * reads it, so errors are found and named in file order, before the image is allocated.
+     * From a file: in windows, moved on (or doubled, for a scanline longer than the window)
+     * when a scanline runs past a window's end that is not the file's. */
+    uint64_t *starts = malloc(sizeof(uint64_t) * ((size_t)nscans + 1));
+    if (!starts) {
+        free(wbuf);
         return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate %d scanline offsets", name,
                           (int)nscans);
-    for (int32_t s = 0; s < nscans && !rc; s++) {
-        starts[s] = pos;
-        rc = read_scanline(&rd, &pos, len, s, NULL);
     }
+    uint64_t at = pos;
+    size_t want = HDR_WINDOW;
+    rc = source_window(src, at, want, &wbuf, &wcap, &rd);
+    for (int32_t s = 0; s < nscans && !rc;) {
+        size_t p = (size_t)(at - rd.base);
+        rc = read_scanline(&rd, &p, len, s, NULL);
+        if (rc && window_short(&rd, src)) {
+            if (at == rd.base)
+                want *= 2; /* the scanline alone is longer than the window */
+            rc = source_window(src, at, want, &wbuf, &wcap, &rd);
+            continue;
+        }
+        starts[s++] = at;
+        at = rd.base + p;
+    }
+    starts[nscans] = at;
+    free(wbuf);
     if (!rc)
         rc = envl__image_alloc(out, w, h, lim, name);
     if (rc) {
@@ -622,18 +737,29 @@ envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
     }
     /* Pass 2: scanlines decoded in parallel, each into its own place (the result does not
      * depend on the thread count). Small images stay on this thread. */
-    decode_job job = {&rd, starts, len, w, h, hd.ymajor, hd.xdecr, hd.ydecr, out->px, {0}, 0};
+    decode_job job = {.src = src, .starts = starts, .len = len, .w = w, .h = h,
+                      .ymajor = hd.ymajor, .xdecr = hd.xdecr, .ydecr = hd.ydecr, .px = out->px,
+                      .failed_scan = -1};
+    pthread_mutex_init(&job.lock, NULL);
     /* 2^(e-136) for e > 0, 0 for e = 0: exact in float for every e (the smallest, 2^-135,
      * is a subnormal, and (m + 0.5) * 2^-135 = (2m + 1) 2^-136 still fits). */
     for (int e = 1; e < 256; e++)
         job.scale[e] = ldexpf(1.0f, e - 136);
-    envl__parallel_for(nscans, (int64_t)w * h >= 65536 ? envl__threads(lim->threads) : 1,
+    envl__parallel_for(nscans,
+                       (int64_t)w * h >= 65536 ? envl__threads(lim ? lim->threads : 0) : 1,
                        decode_scanlines, &job);
+    pthread_mutex_destroy(&job.lock);
     free(starts);
-    if (atomic_load(&job.failed)) {
+    rc = job.failed_scan >= 0 ? job.rc : ENVL_OK;
+    /* From a file: bytes that differ between the passes, or a file rewritten in place while
+     * it was read, are an error, not a mixture of two files. */
+    if (src->file && (rc == ENVL_OK || rc == ENVL_ERR_FORMAT) && envl__infile_unchanged(src->file))
+        rc = ENVL_ERR_IO;
+    else if (rc)
+        envl__fail(rc, "%s", job.msg);
+    if (rc) {
         envl__image_free(out);
-        return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate a scanline of %d pixels", name,
-                          (int)len);
+        return rc;
     }
     if (hd.xyze)
         xyz_image_to_rgb(out->px, (size_t)w * (size_t)h, xyz2rgb);
@@ -643,7 +769,24 @@ envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
     out->meta.has_primaries = prims_nonzero;
     for (int i = 0; i < 8; i++)
         out->meta.primaries[i] = (float)hd.primaries[i];
+    /* (m + 0.5) 2^(e - 136) <= 255.5 x 2^119 < FLT_MAX: finite and positive. XYZE's matrix can
+     * push a value past FLT_MAX or below 0, so its pixels are checked on load as any file's. */
+    out->meta.finite_nonnegative = !hd.xyze;
     return ENVL_OK;
+}
+
+envl_result envl__read_hdr(const uint8_t *data, size_t size, const char *name,
+                           const envl_limits *lim, envl_image *out)
+{
+    hdr_source src = {data ? data : (const uint8_t *)"", NULL, data ? size : 0,
+                      name ? name : "<memory>"};
+    return read_hdr(&src, lim, out);
+}
+
+envl_result envl__read_hdr_file(const envl_infile *f, const envl_limits *lim, envl_image *out)
+{
+    hdr_source src = {NULL, f, f->size, f->path};
+    return read_hdr(&src, lim, out);
 }
 
 /* ---- writer -------------------------------------------------------------------------------- */

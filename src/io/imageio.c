@@ -26,42 +26,83 @@ envl_result envl__format_built(const char *what, const char *format)
     return ENVL_OK;
 }
 
+/* The format of a file from its first bytes (head: at least min(4, size) of them): "exr",
+ * "pfm" or "hdr"; NULL (with the error set) for a file named .exr or .pfm whose first bytes
+ * are not that format's signature, reported as such, not as a malformed Radiance file. */
+static const char *content_format(const uint8_t *head, size_t size, const char *name)
+{
+    if (size >= 4 && head[0] == 0x76 && head[1] == 0x2f && head[2] == 0x31 && head[3] == 0x01)
+        return "exr";
+    if (size >= 2 && head[0] == 'P' && (head[1] == 'F' || head[1] == 'f'))
+        return "pfm";
+    const char *ext = name ? extension_format(name) : NULL;
+    if (ext && !strcmp(ext, "exr")) {
+        envl__fail(ENVL_ERR_FORMAT, "%s: not an OpenEXR file (the first 4 bytes are not the "
+                   "magic number 76 2f 31 01)", name);
+        return NULL;
+    }
+    if (ext && !strcmp(ext, "pfm")) {
+        envl__fail(ENVL_ERR_FORMAT, "%s: not a PFM file (expected \"PF\" or \"Pf\")", name);
+        return NULL;
+    }
+    /* Radiance: "#?RADIANCE", "#?RGBE", or a legacy file without the signature line. The
+     * reader itself decides whether a header without signature is acceptable. */
+    return "hdr";
+}
+
 envl_result envl__read_image_memory(const uint8_t *data, size_t size, const char *name,
                                     const envl_limits *lim, envl_image *out)
 {
     memset(out, 0, sizeof *out);
-    if (size >= 4 && data[0] == 0x76 && data[1] == 0x2f && data[2] == 0x31 && data[3] == 0x01)
+    const char *fmt = content_format(data, data ? size : 0, name);
+    if (!fmt)
+        return ENVL_ERR_FORMAT;
+    if (!strcmp(fmt, "exr"))
 #ifdef ENVL_NO_OPENEXR
         return envl__format_built(name ? name : "(memory)", "exr");
 #else
         return envl__read_exr(data, size, name, lim, out);
 #endif
-    if (size >= 2 && data[0] == 'P' && (data[1] == 'F' || data[1] == 'f'))
+    if (!strcmp(fmt, "pfm"))
         return envl__read_pfm(data, size, name, lim, out);
-    /* Content decides; but a file named .exr or .pfm whose first bytes are not that format's
-     * signature is reported as such, not as a malformed Radiance file. */
-    const char *ext = name ? extension_format(name) : NULL;
-    if (ext && !strcmp(ext, "exr"))
-        return envl__fail(ENVL_ERR_FORMAT, "%s: not an OpenEXR file (the first 4 bytes are not "
-                          "the magic number 76 2f 31 01)", name);
-    if (ext && !strcmp(ext, "pfm"))
-        return envl__fail(ENVL_ERR_FORMAT, "%s: not a PFM file (expected \"PF\" or \"Pf\")",
-                          name);
-    /* Radiance: "#?RADIANCE", "#?RGBE", or a legacy file without the signature line. The
-     * reader itself decides whether a header without signature is acceptable. */
     return envl__read_hdr(data, size, name, lim, out);
 }
 
+/* Radiance and OpenEXR files are read from the open file by offset (never wholly in memory, but
+ * for DWA compression); PFM as a whole. */
 envl_result envl__read_image_file(const char *path, const envl_limits *lim, envl_image *out)
 {
-    uint8_t *data;
-    size_t size;
     memset(out, 0, sizeof *out);
-    envl_result rc = envl__read_file(path, ENVL_MAX_FILE_BYTES, &data, &size);
+    envl_infile f;
+    envl_result rc = envl__infile_open(path, ENVL_MAX_FILE_BYTES, &f);
     if (rc)
         return rc;
-    rc = envl__read_image_memory(data, size, path, lim, out);
-    free(data);
+    uint8_t head[4];
+    size_t nhead = f.size < sizeof head ? (size_t)f.size : sizeof head;
+    const char *fmt = NULL;
+    rc = envl__infile_read(&f, 0, head, nhead);
+    if (!rc && !(fmt = content_format(head, nhead, path)))
+        rc = ENVL_ERR_FORMAT;
+    if (!rc && !strcmp(fmt, "hdr")) {
+        rc = envl__read_hdr_file(&f, lim, out);
+    } else if (!rc && !strcmp(fmt, "exr")) {
+#ifdef ENVL_NO_OPENEXR
+        rc = envl__format_built(path, "exr");
+#else
+        rc = envl__read_exr_file(&f, lim, out);
+#endif
+    } else if (!rc) {
+        uint8_t *data = malloc((size_t)f.size);
+        if (!data)
+            rc = envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate %llu bytes", path,
+                            (unsigned long long)f.size);
+        if (!rc)
+            rc = envl__infile_read(&f, 0, data, (size_t)f.size);
+        if (!rc)
+            rc = envl__read_image_memory(data, (size_t)f.size, path, lim, out);
+        free(data);
+    }
+    envl__infile_close(&f);
     if (rc)
         envl__image_free(out);
     return rc;

@@ -27,35 +27,18 @@ envl_result envl__read_file(const char *path, size_t max_bytes, uint8_t **data, 
 {
     *data = NULL;
     *size = 0;
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return envl__fail(ENVL_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    struct stat st;
-    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
-        fclose(f);
-        return envl__fail(ENVL_ERR_IO, "%s: not a regular file", path);
-    }
-    if (st.st_size == 0) {
-        fclose(f);
-        return envl__fail(ENVL_ERR_FORMAT, "%s: file is empty", path);
-    }
-    if ((uint64_t)st.st_size > max_bytes) {
-        fclose(f);
-        return envl__fail(ENVL_ERR_LIMIT, "%s: file of %lld bytes exceeds the limit of %zu bytes",
-                          path, (long long)st.st_size, max_bytes);
-    }
-    size_t n = (size_t)st.st_size;
+    envl_infile f;
+    envl_result rc = envl__infile_open(path, max_bytes, &f);
+    if (rc)
+        return rc;
+    size_t n = (size_t)f.size;
     uint8_t *buf = malloc(n);
-    if (!buf) {
-        fclose(f);
-        return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate %zu bytes", path, n);
-    }
-    size_t got = fread(buf, 1, n, f);
-    int err = ferror(f);
-    fclose(f);
-    if (got != n || err) {
+    rc = buf ? envl__infile_read(&f, 0, buf, n)
+             : envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate %zu bytes", path, n);
+    envl__infile_close(&f);
+    if (rc) {
         free(buf);
-        return envl__fail(ENVL_ERR_IO, "%s: read %zu of %zu bytes", path, got, n);
+        return rc;
     }
     *data = buf;
     *size = n;

@@ -17,13 +17,14 @@ void envl__split_free(split *s)
 {
     envl__sun_split_free(&s->sun);
     envl__cells_free(s->cells);
+    free(s->cells_px);
     memset(s, 0, sizeof *s);
 }
 
 envl_result envl__split_make(const envl_envmap *m, split *s)
 {
     memset(s, 0, sizeof *s);
-    return envl__sun_split_make(m, &s->sun);
+    return envl__sun_split_lobes(m, &s->sun); /* no residual copy: request.c makes its own */
 }
 
 

@@ -16,11 +16,26 @@ double *envl__fibonacci_dirs(void);
  * within this fraction of the mean over the sphere of what it computes (per channel) of the
  * brute force. 2e-4 moves an error figure by at most 0.02 percentage points. */
 #define ENVL_REFERENCE_TOLERANCE 2e-4
+/* The split irradiance map's promise (irradiance_map.c): the rest of the map (the bright
+ * pixels apart) summed through the kernel tree within this fraction of each texel's E (at
+ * least ENVL_TEXEL_DARK x the mean of E). */
+#define ENVL_SPLIT_RELATIVE 5e-3
 /* envl_irradiance_exact's E(n) (irradiance.c), each value within `tolerance` x the mean of E
  * over the sphere; bound_out (may be NULL): count x 3, the bound of each value's distance from
  * envl_irradiance_exact's (besides rounding). */
 envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const double *normals,
                                   double tolerance, double *rgb_out, double *bound_out);
+
+/* The integral of max(0, n.d) dw over pixel (c, r) of a w x h lat-long map, as
+ * envl_irradiance_exact integrates a pixel across n's horizon (exact in elevation, azimuth in
+ * slices of at most 0.25 degrees). */
+double envl__pixel_cosine(int32_t w, int32_t h, int32_t c, int32_t r, const double n[3]);
+/* The same sums, each within relative x max(base + E, floor) of envl_irradiance_exact's, per
+ * normal and channel (base: count x 3, what the caller adds to E, or NULL; floor: per channel,
+ * absolute): accurate where E is small, cheap where it is large. */
+envl_result envl__irradiance_relative(const envl_envmap *m, int32_t count, const double *normals,
+                                      double relative, const double floor[3], const double *base,
+                                      double *rgb_out);
 
 /* Sets the diffuse_error of an SH projection (sh.c) or of lights (lights.c) computed from m. */
 envl_result envl__sh_measure(envl_envmap *m, envl_sh *sh);
@@ -49,10 +64,21 @@ int32_t envl__glossy_reference_base(double roughness, int32_t height);
 envl_result envl__glossy_reference(const envl_envmap *m, const envl_cells *C, double roughness,
                                    int32_t count, const double *dirs, double *out);
 
-/* The error of a lat-long product read bilinearly, plus n_sun sun lights as they add to P(R) at
- * `roughness` (or to E(n) for roughness < 0), against ref at dirs. */
+/* The error of a product image read bilinearly (layout ENVL_LAYOUT_LATLONG, or _STRIP_H: cube
+ * faces, across their edges), plus n_sun sun lights as they add to P(R) at `roughness` (or to
+ * E(n) for roughness < 0), against ref at dirs. */
 envl_result envl__sampled_error(const double *dirs, const double *ref, const float *rgb,
-                                int32_t w, int32_t h, const envl_light *sun, int32_t n_sun,
-                                double roughness, double *error);
+                                int32_t layout, int32_t w, int32_t h, const envl_light *sun,
+                                int32_t n_sun, double roughness, double *error);
+
+/* ---- the per-texel error (texel_error.c) ---- */
+extern const envl_texel_error envl__texel_error_none; /* not measured: rms, worst -1 */
+/* docs/design.md's per-texel error of a product image (layout, w x h; plus n_sun sun lights
+ * as they add to P(R) at `roughness`, or to E(n) for roughness < 0) against m's exact values
+ * at the texels' centres: E (roughness < 0), P(R) (roughness > 0; C: m's cell pyramid or NULL)
+ * or the map's mean over the texel (roughness 0). */
+envl_result envl__texel_error(envl_envmap *m, const envl_cells *C, const float *rgb,
+                              int32_t layout, int32_t w, int32_t h, const envl_light *sun,
+                              int32_t n_sun, double roughness, envl_texel_error *out);
 
 #endif

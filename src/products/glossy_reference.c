@@ -1,6 +1,7 @@
 /* The glossy reference: the brute force (every pixel of the map, the test oracle) and the
  * measure's, a finer cut of the cell pyramid (cells.c); the glossy error of a product against
- * it (docs/design.md, "Error measures"). */
+ * it, and of an irradiance map against the exact irradiance (docs/design.md, "Error
+ * measures"). */
 #include "prefilter_impl.h"
 #include "ggx.h"
 
@@ -94,7 +95,8 @@ envl_result envl_prefilter_reference(const envl_envmap *m, double roughness, int
  * its time at 1024 x 512 and 1/35 at 2048 x 1024; test_prefilter holds it to
  * ENVL_GLOSSY_REFERENCE_TOLERANCE. The cells' mean directions are doubles: as floats they moved
  * the sharpest lobes' peaks (rooitou_park at 0.1: 2.9e-3). */
-const cut_accuracy envl__reference_cut = {.rho = 6.0, .core_k = 4.0, .horizon_eps = 4e-3};
+const cut_accuracy envl__reference_cut = {.rho = 6.0, .core_k = 4.0, .horizon_eps = 4e-3,
+                                          .horizon_power = 1e-5};
 
 int32_t envl__glossy_reference_base(double roughness, int32_t height)
 {
@@ -123,14 +125,18 @@ envl_result envl__glossy_reference(const envl_envmap *m, const envl_cells *C, do
 /* The error of a lat-long product read bilinearly, plus n_sun sun lights as they add to P(R)
  * at `roughness` (or to E(n) for roughness < 0). */
 envl_result envl__sampled_error(const double *dirs, const double *ref, const float *rgb,
-                                 int32_t w, int32_t h, const envl_light *sun, int32_t n_sun,
-                                 double roughness, double *error)
+                                 int32_t layout, int32_t w, int32_t h, const envl_light *sun,
+                                 int32_t n_sun, double roughness, double *error)
 {
     double *approx = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
     if (!approx)
         return envl__fail(ENVL_ERR_MEMORY, "error measure: out of memory");
-    for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
-        envl_latlong_sample(rgb, w, h, dirs + 3 * i, approx + 3 * i);
+    for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++) {
+        if (layout == ENVL_LAYOUT_STRIP_H)
+            envl__strip_sample(rgb, h, dirs + 3 * i, approx + 3 * i);
+        else
+            envl_latlong_sample(rgb, w, h, dirs + 3 * i, approx + 3 * i);
+    }
     envl__sun_lights_add(sun, n_sun, roughness, ENVL_ERROR_NORMALS, dirs, approx);
     *error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, approx, ref);
     free(approx);
@@ -154,7 +160,8 @@ envl_result envl_glossy_error(const envl_envmap *m, double roughness, const floa
                                     ref);
     envl_envmap_free(copy);
     if (!rc)
-        rc = envl__sampled_error(dirs, ref, rgb, w, h, NULL, 0, roughness, error);
+        rc = envl__sampled_error(dirs, ref, rgb, ENVL_LAYOUT_LATLONG, w, h, NULL, 0, roughness,
+                                 error);
     free(dirs);
     free(ref);
     return rc;

@@ -31,26 +31,29 @@ static double row_below(int32_t r, int32_t h)
 }
 
 /* A copy of map whose lower hemisphere is the uniform radiance rgb (a row straddling the
- * horizon mixed by solid angle, so the power stays exact). */
+ * horizon mixed by solid angle, so the power stays exact). The pixels are the new map's own
+ * (adopted, not copied again); a black lower hemisphere is left as calloc gave it, pages the
+ * system backs with its one zero page until written: half a map of memory, not a whole one. */
 static envl_result replace_lower_hemisphere(const envl_envmap *map, const double rgb[3],
                                             int32_t threads, envl_envmap **out)
 {
     int32_t w = envl_envmap_width(map), h = envl_envmap_height(map);
     const float *src = envl_envmap_pixels(map);
-    float *px = malloc(sizeof(float) * 3 * (size_t)w * h);
+    int black = rgb[0] == 0 && rgb[1] == 0 && rgb[2] == 0;
+    float *px = calloc((size_t)3 * w * h, sizeof(float));
     if (!px)
-        return ENVL_ERR_MEMORY;
+        return envl__fail(ENVL_ERR_MEMORY, "ground plane: cannot allocate a copy of the map");
     for (int32_t r = 0; r < h; r++) {
         double below = row_below(r, h);
+        if (below == 1 && black)
+            continue; /* zero already */
         const float *s = src + (size_t)3 * w * r;
         float *d = px + (size_t)3 * w * r;
         for (int32_t i = 0; i < 3 * w; i++)
             d[i] = below == 0 ? s[i] : (float)((1 - below) * s[i] + below * rgb[i % 3]);
     }
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
-    envl_result rc = envl_envmap_from_pixels(px, w, h, 3, &lo, out);
-    free(px);
-    return rc;
+    return envl__envmap_adopt(px, w, h, &lo, "", out);
 }
 
 envl_result envl_ground_plane_map(const envl_envmap *map, double albedo, int32_t threads,

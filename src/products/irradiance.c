@@ -156,6 +156,33 @@ static double straddling_wide(const irradiance_tables *t, const double n[3], int
     return acc * dt;
 }
 
+/* Integral over elevations [a, b] (their sin and cos given) of max(0, A cos t + B sin t) cos t:
+ * the lit side of t* (A cos t* + B sin t* = 0, t* in [-pi/2, pi/2]) in closed form. */
+static double slice_integral(double A, double B, double a, double sa, double ca, double b,
+                             double sb, double cb)
+{
+    if (B == 0.0) {
+        if (!(A > 0))
+            return 0;
+    } else {
+        double R = sqrt(A * A + B * B);
+        double ss = (B > 0 ? -A : A) / R, cs = fabs(B) / R; /* sin t*, cos t* */
+        double ts = atan2(ss, cs);
+        if (B > 0) { /* lit above t* */
+            if (ts >= b)
+                return 0;
+            if (ts > a)
+                a = ts, sa = ss, ca = cs;
+        } else {     /* lit below t* */
+            if (ts <= a)
+                return 0;
+            if (ts < b)
+                b = ts, sb = ss, cb = cs;
+        }
+    }
+    return A * 0.5 * ((b - a) + sb * cb - sa * ca) + B * 0.5 * (sb * sb - sa * sa);
+}
+
 /* Integral of max(0, n.d) over pixel (c, r): exact in elevation, `sub` slices in azimuth (or,
  * wider than tall, the other way round). */
 static double straddling_pixel(const irradiance_tables *t, const double n[3], int32_t c,
@@ -170,31 +197,22 @@ static double straddling_pixel(const irradiance_tables *t, const double n[3], in
     for (int32_t j = 0; j < sub; j++) {
         size_t k = (size_t)c * sub + j;
         double A = n[0] * t->subc[k] + n[1] * t->subs[k];
-        /* lit side of t* (A cos t* + B sin t* = 0, t* in [-pi/2, pi/2]) */
-        double a = t->t0[r], sa = t->s0[r], ca = t->c0[r];
-        double b = t->t1[r], sb = t->s1[r], cb = t->c1[r];
-        if (B == 0.0) {
-            if (!(A > 0))
-                continue;
-        } else {
-            double R = sqrt(A * A + B * B);
-            double ss = (B > 0 ? -A : A) / R, cs = fabs(B) / R; /* sin t*, cos t* */
-            double ts = atan2(ss, cs);
-            if (B > 0) { /* lit above t* */
-                if (ts >= b)
-                    continue;
-                if (ts > a)
-                    a = ts, sa = ss, ca = cs;
-            } else {     /* lit below t* */
-                if (ts <= a)
-                    continue;
-                if (ts < b)
-                    b = ts, sb = ss, cb = cs;
-            }
-        }
-        acc += A * 0.5 * ((b - a) + sb * cb - sa * ca) + B * 0.5 * (sb * sb - sa * sa);
+        acc += slice_integral(A, B, t->t0[r], t->s0[r], t->c0[r], t->t1[r], t->s1[r], t->c1[r]);
     }
     return acc * slice;
+}
+
+double envl__pixel_cosine(int32_t w, int32_t h, int32_t c, int32_t r, const double n[3])
+{
+    int32_t sub = (int32_t)fmin(SUB_MAX, fmax(SUB_MIN, ceil(360.0 / w / SUB_DEGREES)));
+    double p0 = ENVL_PI * (1.0 - 2.0 * (c + 1.0) / w), p1 = ENVL_PI * (1.0 - 2.0 * c / w);
+    double t1 = ENVL_PI * (0.5 - (double)r / h), t0 = ENVL_PI * (0.5 - (r + 1.0) / h);
+    double s0 = sin(t0), c0 = cos(t0), s1 = sin(t1), c1 = cos(t1), acc = 0;
+    for (int32_t j = 0; j < sub; j++) {
+        double phi = p0 + (p1 - p0) * (j + 0.5) / sub;
+        acc += slice_integral(n[0] * cos(phi) + n[1] * sin(phi), n[2], t0, s0, c0, t1, s1, c1);
+    }
+    return acc * (p1 - p0) / sub;
 }
 
 static void irradiance_one(const envl_envmap *m, const irradiance_tables *t, const double n[3],
@@ -389,6 +407,8 @@ typedef struct fast_job {
     const ktree *tree;
     irradiance_kernel kernel;  /* its tol: the allowance of the first try */
     double limit[3];           /* the promised bound: tolerance x the mean of E */
+    double relative;           /* > 0: the promise is relative x max(base + E, limit) instead */
+    const double *base;        /* relative: per normal, what the caller adds to E (or NULL) */
     const double *normals;
     double *out, *bound;
     envl_cancel cancel;       /* a cancel seen between normals */
@@ -403,14 +423,20 @@ static void fast_range(void *arg, int64_t begin, int64_t end)
     for (int64_t i = begin; i < end && !envl__cancel_check(&j->cancel); i++) {
         irradiance_kernel k = j->kernel;
         ktree_kernel kn = {irradiance_block, irradiance_pixels, &k};
-        double e[KTREE_MAX_CHANNELS], b[KTREE_MAX_CHANNELS];
+        double e[KTREE_MAX_CHANNELS], b[KTREE_MAX_CHANNELS], lim[3];
         for (int tries = 0;; tries++) {
             envl__ktree_sum(j->tree, &kn, j->normals + 3 * i, e, b);
-            if ((b[0] <= j->limit[0] && b[1] <= j->limit[1] && b[2] <= j->limit[2]) ||
-                tries == 60)
-                break;
             for (int c = 0; c < 3; c++)
-                k.tol[c] *= 0.5;
+                lim[c] = j->relative > 0
+                             ? j->relative * fmax((j->base ? j->base[3 * i + c] : 0) + e[c],
+                                                  j->limit[c])
+                             : j->limit[c];
+            if ((b[0] <= lim[0] && b[1] <= lim[1] && b[2] <= lim[2]) || tries == 60)
+                break;
+            /* halved, and at once down to half the promise the estimate now gives (relative:
+             * a dark normal needs a far smaller allowance than the mean's) */
+            for (int c = 0; c < 3; c++)
+                k.tol[c] = fmin(0.5 * k.tol[c], 0.5 * lim[c]);
         }
         for (int c = 0; c < 3; c++) {
             j->out[3 * i + c] = e[c];
@@ -420,8 +446,11 @@ static void fast_range(void *arg, int64_t begin, int64_t end)
     }
 }
 
-envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const double *normals,
-                                  double tolerance, double *rgb_out, double *bound_out)
+/* The tree's sums at `count` normals: within `tolerance` x the mean of E, or (relative > 0)
+ * within relative x max(base + E, floor) per normal and channel. */
+static envl_result fast_sums(const envl_envmap *m, int32_t count, const double *normals,
+                             double tolerance, double relative, const double floor[3],
+                             const double *base, double *rgb_out, double *bound_out)
 {
     irradiance_tables tables;
     envl_result rc = make_tables(m, &tables);
@@ -434,11 +463,14 @@ envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const dou
     if (!rc) {
         double total[KTREE_MAX_CHANNELS];
         envl__ktree_total(tree, total);
-        fast_job j = {tree, {m, &tables, tree, {0}}, {0}, normals, rgb_out, bound_out, {0}};
+        fast_job j = {tree, {m, &tables, tree, {0}}, {0}, relative, base, normals, rgb_out,
+                      bound_out, {0}};
         /* the mean of E(n) over the sphere is S / 4 (the mean of max(0, n.d) is 1/4) */
         for (int c = 0; c < 3; c++) {
-            j.limit[c] = tolerance * total[c] / 4;
-            j.kernel.tol[c] = 0.5 * j.limit[c];
+            j.limit[c] = relative > 0 ? floor[c] : tolerance * total[c] / 4;
+            /* relative: the first try's allowance as if E were the mean (halved on) */
+            j.kernel.tol[c] = 0.5 * (relative > 0 ? relative * fmax(total[c] / 4, floor[c])
+                                                  : j.limit[c]);
         }
         envl__parallel_for(count, m->threads, fast_range, &j);
         if (atomic_load(&j.cancel.stop))
@@ -447,6 +479,19 @@ envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const dou
     envl__ktree_free(tree);
     free_tables(&tables);
     return rc;
+}
+
+envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const double *normals,
+                                  double tolerance, double *rgb_out, double *bound_out)
+{
+    return fast_sums(m, count, normals, tolerance, 0, NULL, NULL, rgb_out, bound_out);
+}
+
+envl_result envl__irradiance_relative(const envl_envmap *m, int32_t count, const double *normals,
+                                      double relative, const double floor[3], const double *base,
+                                      double *rgb_out)
+{
+    return fast_sums(m, count, normals, 0, relative, floor, base, rgb_out, NULL);
 }
 
 /* Fibonacci sphere: z_i = 1 - (2i + 1)/n, phi_i = 2 pi i / golden ratio. */

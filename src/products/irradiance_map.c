@@ -1,7 +1,7 @@
-/* Irradiance maps: the bright pixels exactly + the SH of the rest (the default), the exact sum,
- * the exact sum over the map area-averaged to 256 x 128, or the SH reconstruction. */
+/* Irradiance maps, each texel computed at its centre direction (a lat-long image or cube
+ * faces): the bright pixels exactly + the rest through the kernel tree (the default), the
+ * exact sum, the exact sum over the map area-averaged to 256 x 128, or the SH reconstruction. */
 #include "prefilter_impl.h"
-#include "sh_basis.h"
 
 #include <float.h>
 #include <math.h>
@@ -9,10 +9,6 @@
 #include <string.h>
 
 #define RESAMPLED_IRRADIANCE_WIDTH 256
-/* The split method's SH order for the rest: its clamped cosine passes band l by A_l ~ l^-5/2;
- * with no pixel above 50x the mean left, order 16 stays within about 1e-3 of the exact sum
- * over the map area-averaged to 256 x 128 (docs/accuracy.md measures both on every map). */
-#define SPLIT_ORDER 16
 
 static const char *irr_names[ENVL_IRRADIANCE_COUNT] = {"split", "sh", "exact", "resampled"};
 
@@ -31,13 +27,14 @@ int32_t envl_irradiance_method_from_name(const char *name)
 
 /* ---- irradiance maps ---- */
 
-static double *latlong_dirs(int32_t w, int32_t h)
+/* The centre directions of the texels of a product image (layout.c). */
+static double *texel_dirs(int32_t layout, int32_t w, int32_t h)
 {
     double *d = malloc(sizeof(double) * 3 * (size_t)w * h);
     if (d)
         for (int32_t r = 0; r < h; r++)
             for (int32_t c = 0; c < w; c++)
-                envl_latlong_direction(w, h, c, r, d + 3 * ((size_t)r * w + c));
+                envl__texel_direction(layout, w, h, c, r, d + 3 * ((size_t)r * w + c));
     return d;
 }
 
@@ -61,7 +58,7 @@ static envl_result resampled_copy(const float *px, int32_t w, int32_t h, int32_t
 }
 
 /* The split-off pixels of one 16 x 16 block of the map: their sum of e d per channel and the
- * cap (centre, radius) that holds their directions. Where n lights the whole cap, the group
+ * cap (centre, radius) that holds them. Where n lights the whole cap, the group
  * adds n.M exactly (max(0, n.d) is linear there); where it lights none, nothing; else each of
  * its pixels is added. */
 #define LOBE_BLOCK 16
@@ -81,16 +78,29 @@ static int by_block(const void *a, const void *b)
     return x->block != y->block ? (x->block < y->block ? -1 : 1) : (x->k > y->k) - (x->k < y->k);
 }
 
-/* Adds sum over the lobes of e max(0, n.d) to e_out at the n directions. */
-static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t n, const double *dirs,
-                             double *e_out)
+/* Adds sum over the lobes of e max(0, n.d) to e_out at the n directions; a lobe whose pixel
+ * (w x h) straddles n's horizon adds its pixel's exact integral, e / dw x the integral of
+ * max(0, n.d) dw over it (there a point is off by a good part of the pixel's light). */
+static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t h, int32_t n,
+                             const double *dirs, double *e_out)
 {
     lobe_key *key = malloc(sizeof(lobe_key) * sp->n);
     lobe_group *g = calloc((size_t)sp->n, sizeof *g);
-    if (!key || !g) {
+    double *pixel_radius = malloc(sizeof(double) * 2 * h), *omega = pixel_radius + h;
+    if (!key || !g || !pixel_radius) {
         free(key);
         free(g);
+        free(pixel_radius);
         return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    }
+    for (int32_t r = 0; r < h; r++) {
+        /* a pixel's directions are within half its diagonal of its centre (the row's widest
+         * width), as irradiance.c's tables */
+        double t1 = ENVL_PI * (0.5 - (double)r / h), t0 = ENVL_PI * (0.5 - (r + 1.0) / h);
+        double widest = t0 < 0 && t1 > 0 ? 1.0 : fmax(cos(t0), cos(t1));
+        double dt = t1 - t0, dw = 2 * ENVL_PI / w * widest;
+        pixel_radius[r] = 0.5 * sqrt(dt * dt + dw * dw) * 1.0001 + 1e-12;
+        omega[r] = envl_latlong_solid_angle(w, h, r);
     }
     int64_t across = (w + LOBE_BLOCK - 1) / LOBE_BLOCK;
     for (int32_t k = 0; k < sp->n; k++)
@@ -113,11 +123,12 @@ static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t n, con
         lobe_group *q = &g[j];
         double len = sqrt(q->centre[0] * q->centre[0] + q->centre[1] * q->centre[1] +
                           q->centre[2] * q->centre[2]);
-        double radius = 0;
+        double radius = 0; /* the cap holds every pixel, not only its centre */
         for (int32_t k = q->first; k < q->first + q->count; k++) {
-            const double *d = sp->lobes[key[k].k].d;
-            double c = (q->centre[0] * d[0] + q->centre[1] * d[1] + q->centre[2] * d[2]) / len;
-            radius = fmax(radius, acos(fmin(1.0, c)) * (1 + 1e-9) + 1e-12);
+            const envl_sun_lobe *b = &sp->lobes[key[k].k];
+            double c = (q->centre[0] * b->d[0] + q->centre[1] * b->d[1] +
+                        q->centre[2] * b->d[2]) / len;
+            radius = fmax(radius, acos(fmin(1.0, c)) * (1 + 1e-9) + 1e-12 + pixel_radius[b->r]);
         }
         for (int a = 0; a < 3; a++)
             q->centre[a] /= len;
@@ -136,97 +147,207 @@ static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t n, con
                 for (int32_t k = q->first; k < q->first + q->count; k++) {
                     const envl_sun_lobe *b = &sp->lobes[key[k].k];
                     double t = d[0] * b->d[0] + d[1] * b->d[1] + d[2] * b->d[2];
-                    if (t > 0)
+                    if (fabs(t) < pixel_radius[b->r]) {
+                        double f = envl__pixel_cosine(w, h, b->c, b->r, d) / omega[b->r];
+                        for (int ch = 0; ch < 3; ch++)
+                            e[ch] += b->e[ch] * f;
+                    } else if (t > 0) {
                         for (int ch = 0; ch < 3; ch++)
                             e[ch] += b->e[ch] * t;
+                    }
                 }
             }
         }
     }
     free(key);
     free(g);
+    free(pixel_radius);
     return ENVL_OK;
 }
 
-/* The SH irradiance of `sh` over a w x h lat-long grid, separably: with x + i y = cos t e^(i phi),
- * Y_l^{+-m} = [sqrt2 K_l^m Pbar_l^m(z) cos^m t] x {cos m phi, sin m phi} (sh_basis.c), so each
- * row needs the basis once (at phi = 0, where the bracket is Y_l^m itself) and each texel
- * sum over m of cos m phi C_m(row) + sin m phi S_m(row): O(L^2) a row, O(L) a texel. */
-static envl_result sh_latlong(const envl_sh *sh, int32_t w, int32_t h, double *e)
+/* Cube faces wider than REST_FACE get the rest's irradiance (the map less its bright pixels:
+ * at most the threshold anywhere, so its E is smooth) at faces of REST_FACE texels, read
+ * bilinearly (envl__strip_sample) at their texels; the bright pixels stay exact per texel.
+ * Bilinear reading of f at spacing h is off by h^2/8 (|f_ss| + |f_tt|) where f is smooth: the
+ * second differences D2 at the coarse texels are h^2 f'', so (|D2_s| + |D2_t|) / 8; a kink of
+ * slope jump g inside a cell (a source's horizon) is off by up to g h / 4, and the fourth
+ * difference D4 at one of the cell's corners is at least g h / 2 (h^4 f'''' where f is
+ * smooth), so |D4| / 2 more. The coarse texels are summed within REST_COARSE x the split's
+ * promise (ENVL_SPLIT_RELATIVE x max(E, the floor)); a texel where the largest estimate of its
+ * cell's corners passes REST_READ x the promise (8/3 of margin on the 0.8 left: an estimate,
+ * not a bound) gets the rest summed through the kernel tree at its own direction. Read
+ * everywhere, 128-texel faces were up to 9 % of a dark texel off (tests/test_irradiance.c). */
+#define REST_FACE 32
+#define REST_COARSE 0.2
+#define REST_READ 0.3
+
+/* The bound of reading the coarse faces bilinearly near each coarse texel, per channel:
+ * (|D2_s| + |D2_t|) / 8 + (|D4_s| + |D4_t|) / 2 from the second and fourth differences along
+ * s and t of the values 2 texels either side (across a face's edge: read where the face's
+ * plane continues, envl__strip_sample). */
+static void rest_curvature(const float *rest, double *bound)
 {
-    envl_sh_summary s;
-    envl_sh_get_summary(sh, &s);
-    const double *c = envl_sh_irradiance(sh);
-    int32_t L = s.order, n = envl_sh_count(L);
-    double *y = malloc(sizeof(double) * n), *cs = malloc(sizeof(double) * 2 * (L + 1) * 3);
-    double *trig = malloc(sizeof(double) * 2 * (L + 1) * (size_t)w);
-    if (!y || !cs || !trig) {
-        free(y), free(cs), free(trig);
-        return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
-    }
-    for (int32_t col = 0; col < w; col++) {
-        double phi = ENVL_PI * (1.0 - 2.0 * (col + 0.5) / w);
-        for (int32_t m = 0; m <= L; m++) {
-            trig[2 * ((size_t)col * (L + 1) + m)] = cos(m * phi);
-            trig[2 * ((size_t)col * (L + 1) + m) + 1] = sin(m * phi);
-        }
-    }
-    for (int32_t row = 0; row < h; row++) {
-        double t = ENVL_PI * (0.5 - (row + 0.5) / h), d[3] = {cos(t), 0.0, sin(t)};
-        envl_sh_eval(L, d, y);
-        for (int32_t i = 0; i < 2 * (L + 1) * 3; i++)
-            cs[i] = 0;
-        for (int32_t l = 0; l <= L; l++)
-            for (int32_t m = 0; m <= l; m++) {
-                double a = y[l * (l + 1) + m]; /* the bracket at phi = 0 */
-                for (int k = 0; k < 3; k++) {
-                    cs[(2 * m) * 3 + k] += a * c[3 * (l * (l + 1) + m) + k];
-                    if (m > 0)
-                        cs[(2 * m + 1) * 3 + k] += a * c[3 * (l * (l + 1) - m) + k];
+    const int32_t f = REST_FACE, w = 6 * REST_FACE;
+    for (int32_t r = 0; r < f; r++)
+        for (int32_t c = 0; c < w; c++) {
+            double s = 2 * (c % f + 0.5) / f - 1, t = 1 - 2 * (r + 0.5) / f, step = 2.0 / f;
+            double v[2][5][3]; /* along s, along t: the values at -2 .. 2 steps */
+            for (int axis = 0; axis < 2; axis++)
+                for (int k = -2; k <= 2; k++) {
+                    double d[3];
+                    envl__face_direction(c / f, s + (axis ? 0 : k * step),
+                                         t + (axis ? k * step : 0), d);
+                    envl__strip_sample(rest, f, d, v[axis][k + 2]);
                 }
+            for (int ch = 0; ch < 3; ch++) {
+                double sum = 0;
+                for (int axis = 0; axis < 2; axis++) {
+                    const double(*q)[3] = v[axis];
+                    double d2 = q[1][ch] - 2 * q[2][ch] + q[3][ch];
+                    double d4 = q[0][ch] - 4 * q[1][ch] + 6 * q[2][ch] - 4 * q[3][ch] + q[4][ch];
+                    sum += fabs(d2) / 8 + fabs(d4) / 2;
+                }
+                bound[3 * ((size_t)r * w + c) + ch] = sum;
             }
-        for (int32_t col = 0; col < w; col++) {
-            const double *tr = trig + 2 * (size_t)col * (L + 1);
-            double *o = e + 3 * ((size_t)row * w + col);
-            o[0] = o[1] = o[2] = 0;
-            for (int32_t m = 0; m <= L; m++)
-                for (int k = 0; k < 3; k++)
-                    o[k] += tr[2 * m] * cs[(2 * m) * 3 + k] + tr[2 * m + 1] * cs[(2 * m + 1) * 3 + k];
+        }
+}
+
+/* The largest bound of the (up to 4) coarse texels around fine texel (c, r) of faces of
+ * `face` texels (the same face; its texel centres at (i + 0.5) / face of the face's width). */
+static void cell_bound(const double *bound, int32_t face, int32_t c, int32_t r, double out[3])
+{
+    const int32_t f = REST_FACE, w = 6 * REST_FACE;
+    int32_t base = c / face * f;
+    double x = ((c % face) + 0.5) * f / face - 0.5, y = (r + 0.5) * f / face - 0.5;
+    int32_t x0 = (int32_t)floor(x), y0 = (int32_t)floor(y);
+    out[0] = out[1] = out[2] = 0;
+    for (int32_t v = y0; v <= y0 + 1; v++)
+        for (int32_t u = x0; u <= x0 + 1; u++) {
+            int32_t uu = u < 0 ? 0 : u > f - 1 ? f - 1 : u, vv = v < 0 ? 0 : v > f - 1 ? f - 1 : v;
+            const double *b = bound + 3 * ((size_t)vv * w + base + uu);
+            for (int ch = 0; ch < 3; ch++)
+                out[ch] = fmax(out[ch], b[ch]);
+        }
+}
+
+/* The rest's E at the n texels of faces of `face` > REST_FACE texels (dirs; lobes: the
+ * bright pixels' E there, the base of the tolerance), see above. */
+static envl_result rest_from_coarse(const envl_envmap *rest_map, const envl_sun_split *sp,
+                                    int32_t map_w, int32_t map_h, int32_t face,
+                                    const double *dirs, const double floor[3],
+                                    const double *lobes, double *e)
+{
+    const int32_t nc = 6 * REST_FACE * REST_FACE;
+    size_t n = (size_t)6 * face * face;
+    double *cdirs = texel_dirs(ENVL_LAYOUT_STRIP_H, 6 * REST_FACE, REST_FACE);
+    double *clobes = calloc(3 * (size_t)nc, sizeof(double)), *ce = malloc(sizeof(double) * 3 * nc);
+    double *bound = malloc(sizeof(double) * 3 * nc);
+    float *strip = malloc(sizeof(float) * 3 * nc);
+    int32_t *redo = malloc(sizeof(int32_t) * n);
+    envl_result rc = cdirs && clobes && ce && bound && strip && redo
+                         ? ENVL_OK
+                         : envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    if (!rc && sp->n)
+        rc = add_lobes(sp, map_w, map_h, nc, cdirs, clobes);
+    if (!rc)
+        rc = envl__irradiance_relative(rest_map, nc, cdirs, REST_COARSE * ENVL_SPLIT_RELATIVE,
+                                       floor, clobes, ce);
+    int32_t nredo = 0;
+    if (!rc) {
+        for (int32_t i = 0; i < 3 * nc; i++)
+            strip[i] = (float)ce[i];
+        rest_curvature(strip, bound);
+        for (size_t i = 0; i < n; i++) {
+            double b[3];
+            int32_t c = (int32_t)(i % (6 * (size_t)face)), r = (int32_t)(i / (6 * (size_t)face));
+            envl__strip_sample(strip, REST_FACE, dirs + 3 * i, e + 3 * i);
+            cell_bound(bound, face, c, r, b);
+            int over = 0;
+            for (int ch = 0; ch < 3; ch++)
+                over |= b[ch] > REST_READ * ENVL_SPLIT_RELATIVE *
+                                    fmax(lobes[3 * i + ch] + e[3 * i + ch], floor[ch]);
+            if (over)
+                redo[nredo++] = (int32_t)i;
         }
     }
-    free(y), free(cs), free(trig);
-    return ENVL_OK;
+    if (!rc && nredo) {
+        /* the texels the cells cannot promise: summed at their own directions */
+        double *rd = malloc(sizeof(double) * 3 * nredo), *rl = malloc(sizeof(double) * 3 * nredo);
+        double *re = malloc(sizeof(double) * 3 * nredo);
+        rc = rd && rl && re ? ENVL_OK
+                            : envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+        for (int32_t k = 0; !rc && k < nredo; k++)
+            for (int a = 0; a < 3; a++) {
+                rd[3 * k + a] = dirs[3 * (size_t)redo[k] + a];
+                rl[3 * k + a] = lobes[3 * (size_t)redo[k] + a];
+            }
+        if (!rc)
+            rc = envl__irradiance_relative(rest_map, nredo, rd, ENVL_SPLIT_RELATIVE, floor, rl, re);
+        for (int32_t k = 0; !rc && k < nredo; k++)
+            for (int a = 0; a < 3; a++)
+                e[3 * (size_t)redo[k] + a] = re[3 * k + a];
+        free(rd);
+        free(rl);
+        free(re);
+    }
+    free(cdirs);
+    free(clobes);
+    free(ce);
+    free(bound);
+    free(strip);
+    free(redo);
+    return rc;
 }
 
 /* The split method: E(n) = sum over the split-off pixels of e max(0, n.d) (e: their excess
  * over the threshold, L dw less T's share, at their centre: a pixel as a point, off by
- * O(pixel^2) of its own part) + the SH order-16 irradiance of the rest (every split pixel at
- * the threshold), projected from its 256-wide copy. */
-static envl_result split_irradiance(envl_envmap *m, int32_t threads, int32_t w, int32_t h,
+ * O(pixel^2) of its own part; integrated over the pixel where it straddles n's horizon) + the
+ * irradiance of the rest (every split pixel at the
+ * threshold) area-averaged to 256 wide, summed through the kernel tree (irradiance.c), within
+ * ENVL_SPLIT_RELATIVE of each texel's E (at least ENVL_TEXEL_DARK x the mean of E): the rest's
+ * sharp edges (the threshold's plateau) stay exact where an SH expansion of them rang by
+ * several percent in the dark directions (docs/accuracy.md). On cube faces wider than
+ * REST_FACE the rest comes from faces of REST_FACE texels where that keeps the promise (above).
+ * face: the cube's face width, or 0 (a lat-long image). */
+static envl_result split_irradiance(envl_envmap *m, int32_t threads, int32_t face, size_t n,
                                     const double *dirs, double *e)
 {
     envl_sun_split sp;
-    envl_envmap *rest = NULL, *small = NULL;
-    envl_sh *sh = NULL;
-    envl_result rc = envl__sun_split_make(m, &sp);
+    envl_envmap *small = NULL;
+    envl_pixel_patch *patch = NULL;
+    double *lobes = calloc(3 * n, sizeof(double));
+    envl_result rc = lobes ? envl__sun_split_lobes(m, &sp)
+                           : envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    if (!lobes)
+        memset(&sp, 0, sizeof sp);
     if (!rc && sp.n) {
-        envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
-        rc = envl_envmap_from_pixels(sp.res, m->width, m->height, 3, &lo, &rest);
+        /* the rest resampled straight from the map with the split pixels as patches: the same
+         * floats as resampling a residual copy, without the copy */
+        int32_t w = m->width < RESAMPLED_IRRADIANCE_WIDTH ? m->width : RESAMPLED_IRRADIANCE_WIDTH;
+        rc = (patch = envl__sun_split_patches(&sp))
+                 ? envl__envmap_resampled_patched(m->px, m->width, m->height, patch, sp.n, w,
+                                                  threads, &small)
+                 : envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
+    } else if (!rc) {
+        rc = resampled_copy(m->px, m->width, m->height, threads, &small);
     }
-    envl_envmap *r = rest ? rest : m;
-    if (!rc)
-        rc = resampled_copy(r->px, r->width, r->height, threads, &small);
-    if (!rc) {
-        envl_sh_options so = {.order = SPLIT_ORDER, .window = ENVL_WINDOW_NONE};
-        rc = envl_sh_compute(small ? small : r, &so, &sh);
-    }
-    if (!rc)
-        rc = sh_latlong(sh, w, h, e);
     if (!rc && sp.n)
-        rc = add_lobes(&sp, m->width, w * h, dirs, e);
-    envl_sh_free(sh);
+        rc = add_lobes(&sp, m->width, m->height, (int32_t)n, dirs, lobes);
+    if (!rc) {
+        double floor[3]; /* the mean of E over the sphere is the power / 4 */
+        for (int c = 0; c < 3; c++)
+            floor[c] = ENVL_TEXEL_DARK * m->info.power[c] / 4;
+        rc = face > REST_FACE
+                 ? rest_from_coarse(small ? small : m, &sp, m->width, m->height, face, dirs,
+                                    floor, lobes, e)
+                 : envl__irradiance_relative(small ? small : m, (int32_t)n, dirs,
+                                             ENVL_SPLIT_RELATIVE, floor, lobes, e);
+    }
+    for (size_t i = 0; !rc && i < 3 * n; i++)
+        e[i] += lobes[i];
+    free(lobes);
+    free(patch);
     envl_envmap_free(small);
-    envl_envmap_free(rest);
     envl__sun_split_free(&sp);
     return rc;
 }
@@ -236,10 +357,13 @@ envl_result envl__irradiance_map(envl_envmap *m, const resolved *o, const envl_s
                                   float **out, envl_irradiance_map *st, int *projected)
 {
     double t0 = envl__seconds();
-    int32_t w = o->irr_width, h = w / 2 > 0 ? w / 2 : 1;
+    int32_t layout = o->faces ? ENVL_LAYOUT_STRIP_H : ENVL_LAYOUT_LATLONG;
+    int32_t face = o->irr_width / 4 > 0 ? o->irr_width / 4 : 1;
+    int32_t w = o->faces ? 6 * face : o->irr_width;
+    int32_t h = o->faces ? face : w / 2 > 0 ? w / 2 : 1;
     size_t n = (size_t)w * h;
     *out = NULL;
-    double *dirs = latlong_dirs(w, h), *e = malloc(sizeof(double) * 3 * n);
+    double *dirs = texel_dirs(layout, w, h), *e = malloc(sizeof(double) * 3 * n);
     float *px = malloc(sizeof(float) * 3 * n);
     envl_result rc = ENVL_OK;
     envl_sh *own = NULL;
@@ -264,10 +388,7 @@ envl_result envl__irradiance_map(envl_envmap *m, const resolved *o, const envl_s
         for (size_t i = 0; !rc && i < 3 * n; i++)
             e[i] = e[i] < 0 ? 0 : e[i];
     } else if (o->irr_method == ENVL_IRRADIANCE_SPLIT) {
-        rc = split_irradiance(m, o->threads, w, h, dirs, e);
-        /* the SH of the rest may dip a little below 0 between its lobes: 0 */
-        for (size_t i = 0; !rc && i < 3 * n; i++)
-            e[i] = e[i] < 0 ? 0 : e[i];
+        rc = split_irradiance(m, o->threads, o->faces ? face : 0, n, dirs, e);
     } else {
         /* resampled: the clamped cosine is smooth: the map area-averaged to 256 x 128 changes
          * E by about h^2 relative (h = pi / 128: ~6e-4), at a fraction of the cost */
@@ -291,7 +412,9 @@ envl_result envl__irradiance_map(envl_envmap *m, const resolved *o, const envl_s
     st->method = o->irr_method;
     st->width = w;
     st->height = h;
+    st->layout = layout;
     st->diffuse_error = -1;
+    st->texel_error = envl__texel_error_none;
     st->seconds = envl__seconds() - t0;
     *out = px;
     px = NULL;

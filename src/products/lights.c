@@ -152,7 +152,7 @@ envl_result envl_lights_compute(envl_envmap *m, const envl_lights_options *optio
         if (!(rc = envl__progress(0.0, "fitting the lights")))
             rc = envl__fit_lights(m, n, order, !ls->residual_skipped, ls);
     } else if (o->method == ENVL_METHOD_SUN) {
-        rc = envl__sun_lights(m, n, ls);
+        rc = envl__sun_lights(m, n, !(options && options->skip_residual), ls);
     } else {
         region *rs;
         int32_t k;
@@ -212,6 +212,7 @@ void envl_lights_free(envl_lights *ls)
         return;
     free(ls->lights);
     free(ls->remainder);
+    free(ls->patch);
     free(ls->residual);
     free(ls);
 }
@@ -239,6 +240,27 @@ const double *envl_lights_remainder(const envl_lights *ls, int32_t *order)
     if (order)
         *order = ls ? ls->summary.remainder_order : -1;
     return ls ? ls->remainder : NULL;
+}
+
+envl_result envl__lights_residual_map(const envl_envmap *m, const envl_lights *ls,
+                                      int32_t threads, envl_envmap **out)
+{
+    *out = NULL;
+    if (!ls || ls->width != m->width || ls->height != m->height)
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: not the lights of this map");
+    size_t n = 3 * (size_t)m->width * m->height;
+    const float *kept = ls->summary.method == ENVL_METHOD_SUN ? NULL : envl_lights_residual(ls);
+    if (ls->summary.method != ENVL_METHOD_SUN && !kept)
+        return ls->residual_skipped ? ENVL_ERR_ARGUMENT : ENVL_ERR_MEMORY; /* it said why */
+    float *px = malloc(sizeof(float) * n);
+    if (!px)
+        return envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the residual map");
+    if (kept)
+        memcpy(px, kept, sizeof(float) * n);
+    else
+        envl__sun_residual(m, ls, px);
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
+    return envl__envmap_adopt(px, m->width, m->height, &lo, "", out);
 }
 
 const float *envl_lights_residual(const envl_lights *ls)

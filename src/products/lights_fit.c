@@ -323,6 +323,7 @@ envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_
     if ((rc = envl__reference_copy(m, &fm)))
         return rc;
     fit_problem p = {.m = FIT_NORMALS + 1, .nsh = order >= 0 ? envl_sh_count(order) : 0};
+    envl_envmap *coarse = NULL; /* before the first goto done: it frees it */
     p.up_weight = sqrt(FIT_UP_WEIGHT * FIT_NORMALS);
     double *cand = malloc(sizeof(double) * 3 * (2 * FIT_CANDIDATES + 1));
     p.normals = malloc(sizeof(double) * 3 * p.m);
@@ -355,7 +356,6 @@ envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_
         }
     }
     /* the caps (cone_power) are counted on a copy FIT_CAP_WIDTH wide, as the take starts */
-    envl_envmap *coarse = NULL;
     if (fm->width > FIT_CAP_WIDTH &&
         (rc = envl__envmap_resampled(fm->px, fm->width, fm->height, FIT_CAP_WIDTH, m->threads,
                                      &coarse)))

@@ -21,7 +21,10 @@ struct envl_lights {
     float *residual;        /* width x height x 3 (fit: what the takes left; sun: the map
                                less the suns' excess); for the cuts (which take everything)
                                made, all zero, only when asked for */
-    int32_t residual_skipped; /* fit with options.skip_residual: there is none */
+    int32_t residual_skipped; /* fit or sun with options.skip_residual: there is none */
+    envl_pixel_patch *patch;  /* sun: the pixels where the residual differs from the map (the
+                                 kept suns' pixels at the split's threshold), row-major */
+    int32_t npatch;
 };
 
 /* A pixel rectangle of the canonical lat-long map, [x0, x1) x [y0, y1); x1 may exceed the width:
@@ -125,8 +128,10 @@ envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_li
                               envl__take *out);
 
 /* ---- sun (lights_sun.c) ---- */
-/* The map's n brightest suns as lights, the rest the residual map. */
-envl_result envl__sun_lights(const envl_envmap *m, int32_t n, envl_lights *ls);
+/* The map's n brightest suns as lights and the patches that make the map their residual;
+ * the residual map itself (ls->residual) only with keep_residual. */
+envl_result envl__sun_lights(const envl_envmap *m, int32_t n, int32_t keep_residual,
+                             envl_lights *ls);
 /* Adds the exact irradiance of the sun method's residual at the error normals to approx. */
 envl_result envl__add_residual_irradiance(const envl_envmap *m, const envl_lights *ls,
                                           const double *ref, double *approx);

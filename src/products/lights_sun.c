@@ -64,12 +64,13 @@ static void sun_rect(const envl_envmap *m, const envl_sun_split *sp, const int32
  * the lights, and the residual is the map less exactly their excess: the pixels of a kept sun
  * at the split's threshold luminance, every other pixel (of other bright groups, or of suns
  * beyond n) as it was. */
-envl_result envl__sun_lights(const envl_envmap *m, int32_t n, envl_lights *ls)
+envl_result envl__sun_lights(const envl_envmap *m, int32_t n, int32_t keep_residual,
+                             envl_lights *ls)
 {
     envl_sun_split sp;
     envl_light *all = NULL;
     int32_t nall = 0;
-    envl_result rc = envl__sun_split_make(m, &sp);
+    envl_result rc = envl__sun_split_lobes(m, &sp);
     if (rc == ENVL_OK)
         rc = envl__sun_split_lights(m, &sp, &all, &nall);
     if (rc) {
@@ -82,8 +83,11 @@ envl_result envl__sun_lights(const envl_envmap *m, int32_t n, envl_lights *ls)
     int32_t *slot = malloc(sizeof(int32_t) * (size_t)(nall ? nall : 1));
     unsigned char *cols = malloc((size_t)m->width);
     ls->lights = calloc((size_t)(k ? k : 1), sizeof(envl_light));
-    ls->residual = malloc(sizeof(float) * 3 * npx);
-    if (!order || !slot || !cols || !ls->lights || !ls->residual) {
+    ls->patch = malloc(sizeof(envl_pixel_patch) * (size_t)(sp.n ? sp.n : 1));
+    ls->residual = keep_residual ? malloc(sizeof(float) * 3 * npx) : NULL;
+    ls->residual_skipped = !keep_residual;
+    if (!order || !slot || !cols || !ls->lights || !ls->patch ||
+        (keep_residual && !ls->residual)) {
         rc = envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
         goto done;
     }
@@ -92,14 +96,14 @@ envl_result envl__sun_lights(const envl_envmap *m, int32_t n, envl_lights *ls)
     qsort(order, (size_t)nall, sizeof *order, cmp_bright);
     for (int32_t j = 0; j < nall; j++)
         slot[order[j].i] = j < k ? j : -1;
-    memcpy(ls->residual, m->px, sizeof(float) * 3 * npx);
     for (int32_t i = 0; i < sp.n; i++) {
         const envl_sun_lobe *b = sp.lobes + i;
-        if (b->taken > 0 && slot[b->taken - 1] >= 0) {
-            size_t at = 3 * ((size_t)b->r * m->width + b->c);
-            memcpy(ls->residual + at, sp.res + at, sizeof(float) * 3);
-        }
+        if (b->taken > 0 && slot[b->taken - 1] >= 0)
+            ls->patch[ls->npatch++] = (envl_pixel_patch){b->r, b->c,
+                                                         {b->keep[0], b->keep[1], b->keep[2]}};
     }
+    if (keep_residual)
+        envl__sun_residual(m, ls, ls->residual);
     for (int32_t j = 0; j < k; j++) {
         ls->lights[j] = all[order[j].i];
         sun_rect(m, &sp, slot, j, cols, &ls->lights[j]);
@@ -114,19 +118,64 @@ done:
     return rc;
 }
 
+void envl__sun_residual(const envl_envmap *m, const envl_lights *ls, float *out)
+{
+    memcpy(out, m->px, sizeof(float) * 3 * (size_t)m->width * m->height);
+    for (int32_t i = 0; i < ls->npatch; i++)
+        memcpy(out + 3 * ((size_t)ls->patch[i].r * m->width + ls->patch[i].c), ls->patch[i].rgb,
+               sizeof ls->patch[i].rgb);
+}
+
+envl_result envl__sun_residual_view(envl_envmap *m, const envl_lights *ls, int32_t threads,
+                                    float **saved, envl_envmap **out)
+{
+    *saved = NULL;
+    *out = NULL;
+    float *keep = malloc(sizeof(float) * 3 * (size_t)(ls->npatch > 0 ? ls->npatch : 1));
+    if (!keep)
+        return envl__fail(ENVL_ERR_MEMORY, "lights: cannot save the suns' pixels");
+    for (int32_t i = 0; i < ls->npatch; i++)
+        memcpy(keep + 3 * (size_t)i, m->px + 3 * ((size_t)ls->patch[i].r * m->width +
+                                                  ls->patch[i].c), sizeof(float) * 3);
+    for (int32_t i = 0; i < ls->npatch; i++)
+        memcpy(m->px + 3 * ((size_t)ls->patch[i].r * m->width + ls->patch[i].c),
+               ls->patch[i].rgb, sizeof ls->patch[i].rgb);
+    *saved = keep;
+    envl_result rc = envl__envmap_borrow(m->px, m->width, m->height, threads, out);
+    if (rc) {
+        envl__sun_residual_view_end(m, ls, keep, NULL);
+        *saved = NULL;
+    }
+    return rc;
+}
+
+void envl__sun_residual_view_end(envl_envmap *m, const envl_lights *ls, float *saved,
+                                 envl_envmap *view)
+{
+    envl_envmap_free(view);
+    if (!saved)
+        return;
+    /* backwards: a pixel patched twice gets the value saved first, the map's own */
+    for (int32_t i = ls->npatch - 1; i >= 0; i--)
+        memcpy(m->px + 3 * ((size_t)ls->patch[i].r * m->width + ls->patch[i].c),
+               saved + 3 * (size_t)i, sizeof(float) * 3);
+    free(saved);
+}
+
 /* Exact irradiance of the sun method's residual at the error measure's normals, added to
  * approx: the residual stays an environment map (drawn as one), so it is part of what the
  * method hands a renderer. Computed as the map's reference is (envl_envmap_reference_irradiance,
- * the same resampling for wide maps); with no light the residual is the map itself. */
+ * the same resampling for wide maps), from the map and the patches: no residual map needed;
+ * with no light the residual is the map itself. */
 envl_result envl__add_residual_irradiance(const envl_envmap *m, const envl_lights *ls,
                                            const double *ref, double *approx)
 {
     const double *e = ref;
     envl_envmap *rm = NULL;
     if (ls->summary.count > 0) {
-        envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = m->threads,
-                                .max_pixels = (int64_t)m->width * m->height};
-        envl_result rc = envl_envmap_from_pixels(ls->residual, m->width, m->height, 3, &lo, &rm);
+        int32_t w = m->width > ENVL_REFERENCE_WIDTH ? ENVL_REFERENCE_WIDTH : m->width;
+        envl_result rc = envl__envmap_resampled_patched(m->px, m->width, m->height, ls->patch,
+                                                        ls->npatch, w, m->threads, &rm);
         if (rc == ENVL_OK)
             rc = envl_envmap_reference_irradiance(rm, &e);
         if (rc) {

@@ -1,6 +1,6 @@
 /* The area-averaged mip pyramid of a lat-long map (built once per map and cached in it; the
  * public envl_envmap_mips), the cached cell pyramid of the specular levels (cells.c) and the
- * energy of a lat-long image. */
+ * energy of a product image. */
 #include "prefilter_impl.h"
 
 #include <stdlib.h>
@@ -89,6 +89,19 @@ void envl_envmap_drop_mips(envl_envmap *m)
     m->points_copy = NULL;
 }
 
+envl_result envl__mip_level_for(envl_envmap *m, double pixel, envl_image *out)
+{
+    envl_result rc = envl_envmap_mips(m, NULL);
+    if (rc)
+        return rc;
+    int32_t k = 0; /* a level's pixels are pi / h tall */
+    while (k + 1 < m->mip_levels && ENVL_PI / m->mip_h[k + 1] <= pixel)
+        k++;
+    *out = (envl_image){.width = m->mip_w[k], .height = m->mip_h[k],
+                        .px = k ? m->mip_px + m->mip_offset[k] : m->px};
+    return ENVL_OK;
+}
+
 envl_result envl__map_cells(envl_envmap *m, int32_t base, const envl_cells **out, int *built)
 {
     if (built)
@@ -107,18 +120,29 @@ envl_result envl__map_cells(envl_envmap *m, int32_t base, const envl_cells **out
     return ENVL_OK;
 }
 
-/* Integral of L dw of a lat-long image, per channel. */
-void envl__image_energy(const float *px, int32_t w, int32_t h, double e[3])
+/* Integral of L dw of a product image (lat-long or a strip of faces), per channel: each
+ * texel's value times its solid angle. */
+void envl__image_energy(const float *px, int32_t layout, int32_t w, int32_t h, double e[3])
 {
     e[0] = e[1] = e[2] = 0;
     for (int32_t r = 0; r < h; r++) {
         double row[3] = {0, 0, 0};
         const float *p = px + (size_t)r * w * 3;
-        for (int32_t c = 0; c < w; c++)
+        if (layout == ENVL_LAYOUT_STRIP_H) {
+            for (int32_t c = 0; c < w; c++) {
+                double om = envl__texel_solid_angle(layout, w, h, c, r);
+                for (int k = 0; k < 3; k++)
+                    row[k] += om * p[3 * c + k];
+            }
+        } else {
+            for (int32_t c = 0; c < w; c++)
+                for (int k = 0; k < 3; k++)
+                    row[k] += p[3 * c + k];
+            double om = envl_latlong_solid_angle(w, h, r);
             for (int k = 0; k < 3; k++)
-                row[k] += p[3 * c + k];
-        double om = envl_latlong_solid_angle(w, h, r);
+                row[k] *= om;
+        }
         for (int k = 0; k < 3; k++)
-            e[k] += om * row[k];
+            e[k] += row[k];
     }
 }

@@ -27,12 +27,14 @@ typedef struct resolved {
     int32_t levels, width, min_width, samples, unfiltered;
     int32_t irr_method, irr_width, irr_order, threads, sun_lights;
     int32_t half;             /* measured as half floats (envl_prefilter_options.half) */
+    int32_t faces;            /* layout cube or cross: the maps are cube faces of width / 4 */
 } resolved;
 /* The threads default to the map's (m may be NULL: all cores). */
 envl_result envl__prefilter_resolve(const envl_prefilter_options *o, const envl_envmap *m,
                                     resolved *r);
-/* Width of the level of `roughness`: base width >> floor(roughness (levels - 1)), at least the
- * minimum width. */
+/* k = floor(roughness (levels - 1)): the level of `roughness` is the base width >> k ... */
+int32_t envl__level_shift(const resolved *r, double roughness);
+/* ... at least the minimum width. */
 int32_t envl__level_width(const resolved *r, double roughness);
 /* The quadrature density rho of a filtered level w wide (cells.c). */
 double envl__level_rho(const resolved *r, int32_t w);

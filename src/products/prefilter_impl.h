@@ -24,14 +24,20 @@
 /* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */
 envl_result envl__build_pyramid(const float *px, int32_t w, int32_t h, float **buf_out,
                                 int32_t *n_out, int32_t mw[40], int32_t mh[40], size_t off[40]);
-/* Integral of L dw of a w x h lat-long image, per channel. */
-void envl__image_energy(const float *px, int32_t w, int32_t h, double e[3]);
+/* The coarsest level of the map's mip pyramid (built and cached here; level 0 the map) whose
+ * pixels are at most `pixel` radians tall, as an image (its pixels stay the map's). Each is
+ * the exact area mean of the map over its pixels, so a footprint mean over a texel several
+ * of its pixels wide is the map's, for a fraction of the lookups. */
+envl_result envl__mip_level_for(envl_envmap *m, double pixel, envl_image *out);
+/* Integral of L dw of a w x h product image (ENVL_LAYOUT_LATLONG or _STRIP_H), per channel. */
+void envl__image_energy(const float *px, int32_t layout, int32_t w, int32_t h, double e[3]);
 
 /* ---- bright pixels (bright_lobes.c) ---- */
 /* The map's split (sun_split.c) and, with sun lights, the cells of the map less the lights. */
 typedef struct split {
     envl_sun_split sun;       /* the split-off pixels and the residual (sun_split.c) */
     envl_cells *cells;        /* the map less what the sun lights took; NULL: the map's own */
+    float *cells_px;          /* ... and that image (the cells read it) */
 } split;
 envl_result envl__split_make(const envl_envmap *m, split *s);
 void envl__split_free(split *s);
@@ -50,6 +56,15 @@ envl_result envl__specular_level(envl_envmap *m, const resolved *o, double rough
  * ENVL_ERR_NONFINITE naming the map's file and the roughness. */
 envl_result envl__level_finite(const envl_envmap *m, const envl_level *st, float **px);
 
+/* ---- what a level's width costs (level_width.c) ---- */
+/* The width at which level l (measured: glossy_error >= 0) would meet ENVL_GLOSSY_TARGET: C the
+ * cells it was computed from, sun / n_sun the sun lights added to it, ref the glossy reference
+ * at the error directions dirs. */
+envl_result envl__level_width_estimate(const envl_cells *C, const resolved *o,
+                                       const envl_level *l, const envl_light *sun,
+                                       int32_t n_sun, const double *dirs, const double *ref,
+                                       envl_width_estimate *out);
+
 /* ---- irradiance maps (irradiance_map.c) ---- */
 /* `sh` may be given (an SH object of the right order, shared with the diffuse product);
  * *projected is set when an SH projection was made here. */
@@ -64,6 +79,7 @@ struct envl_products {
     resolved opt;
     int32_t n_levels;
     envl_level *levels;
+    envl_width_estimate *widths; /* per level: the width for ENVL_GLOSSY_TARGET (measured) */
     float **level_px;
     int32_t has_irradiance;
     int32_t measured;         /* request.measure: the errors were measured */
@@ -76,6 +92,7 @@ struct envl_products {
     float *brdf;
     int32_t brdf_size, brdf_multiscatter, brdf_samples;
     char file[1024];
+    envl_info source_info;    /* the map's, as loaded (what the loader repaired) */
     char *source_path;        /* the map's file in full (envl__envmap_source), or NULL */
 };
 

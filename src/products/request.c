@@ -19,6 +19,7 @@ void envl_products_free(envl_products *p)
         free(p->level_px[i]);
     free(p->level_px);
     free(p->levels);
+    free(p->widths);
     free(p->irr_px);
     envl_sh_free(p->sh);
     envl_lights_free(p->lights);
@@ -70,7 +71,8 @@ static envl_result plan_levels(const envl_request *q, envl_products *p, plan *pl
     pl->want = malloc(sizeof(double) * cap);
     p->levels = calloc((size_t)cap, sizeof(envl_level));
     p->level_px = calloc((size_t)cap, sizeof(float *));
-    if (!pl->want || !p->levels || !p->level_px)
+    p->widths = calloc((size_t)cap, sizeof(envl_width_estimate));
+    if (!pl->want || !p->levels || !p->level_px || !p->widths)
         return envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
     if (q->mirror && !q->specular_chain)
         add_level(pl, &p->opt, 0.0);
@@ -102,14 +104,13 @@ static float *pixels_without_sun_lights(const envl_envmap *m, const envl_sun_spl
         return NULL;
     memcpy(px, m->px, sizeof(float) * 3 * npx);
     for (int32_t i = 0; i < sun->n; i++)
-        if (sun->lobes[i].taken) {
-            size_t at = 3 * ((size_t)sun->lobes[i].r * m->width + sun->lobes[i].c);
-            memcpy(px + at, sun->res + at, sizeof(float) * 3);
-        }
+        if (sun->lobes[i].taken)
+            memcpy(px + 3 * ((size_t)sun->lobes[i].r * m->width + sun->lobes[i].c),
+                   sun->lobes[i].keep, sizeof sun->lobes[i].keep);
     return px;
 }
 
-/* The map less what the sun lights took, as a map. */
+/* The map less what the sun lights took, as a map (that owns the pixels: one copy). */
 static envl_result without_sun_lights(const envl_envmap *m, const envl_sun_split *sun,
                                       int32_t threads, envl_envmap **out)
 {
@@ -117,9 +118,7 @@ static envl_result without_sun_lights(const envl_envmap *m, const envl_sun_split
     if (!px)
         return envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
-    envl_result rc = envl_envmap_from_pixels(px, m->width, m->height, 3, &lo, out);
-    free(px);
-    return rc;
+    return envl__envmap_adopt(px, m->width, m->height, &lo, "", out);
 }
 
 static envl_result compute_irradiance(envl_envmap *m, envl_products *p, const plan *pl)
@@ -177,11 +176,10 @@ static envl_result compute_levels(envl_envmap *m, envl_products *p, plan *pl)
                 base = b < base ? b : base;
             }
         if (p->n_sun) {
-            float *px = pixels_without_sun_lights(m, &pl->sp.sun);
+            float *px = pl->sp.cells_px = pixels_without_sun_lights(m, &pl->sp.sun);
             rc = px ? envl__cells_build(px, m->width, m->height, base, m->threads,
                                       &pl->sp.cells)
                     : envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory");
-            free(px);
             C = pl->sp.cells;
             built = 1;
         } else {
@@ -232,24 +230,31 @@ static envl_result compute_brdf(const envl_request *q, envl_products *p)
     return ENVL_OK;
 }
 
-/* The error of a w x h map against ref at the error directions, as written: with half floats
- * (options.half) the map rounded to half first, values above ENVL_HALF_MAX as it. */
-static envl_result written_error(const envl_products *p, const double *dirs, const double *ref,
-                                 const float *px, int32_t w, int32_t h, int32_t n_sun,
-                                 double roughness, double *error)
+/* The error of a map (`layout`, w x h) as written, against ref at the error directions and per
+ * texel (m's exact values; C its cells for roughness > 0): with half floats (options.half) the
+ * map rounded to half first, values above ENVL_HALF_MAX as it. */
+static envl_result written_error(envl_envmap *m, const envl_cells *C, const envl_products *p,
+                                 const double *dirs, const double *ref, const float *px,
+                                 int32_t layout, int32_t w, int32_t h, int32_t n_sun,
+                                 double roughness, double *error, envl_texel_error *texel)
 {
     float *half = p->opt.half ? envl__half_rounded(px, 3 * (size_t)w * h) : NULL;
     if (p->opt.half && !half)
         return envl__fail(ENVL_ERR_MEMORY, "error measure: out of memory");
-    envl_result rc = envl__sampled_error(dirs, ref, half ? half : px, w, h, p->sun, n_sun,
+    const float *as_written = half ? half : px;
+    envl_result rc = envl__sampled_error(dirs, ref, as_written, layout, w, h, p->sun, n_sun,
                                          roughness, error);
+    if (!rc)
+        rc = envl__texel_error(m, C, as_written, layout, w, h, p->sun, n_sun, roughness, texel);
     free(half);
     return rc;
 }
 
 /* The glossy error of every level and the diffuse error of the irradiance map (the sun lights
- * added as the renderer adds them), each as written. */
-static envl_result measure(envl_envmap *m, envl_products *p)
+ * added as the renderer adds them), and the per-texel error of each, as written; for a level
+ * over ENVL_GLOSSY_TARGET the width that would meet it (sp: the split whose cells the levels
+ * were computed from, with sun lights). */
+static envl_result measure(envl_envmap *m, envl_products *p, const split *sp)
 {
     double *dirs = envl__fibonacci_dirs();
     double *ref = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
@@ -268,10 +273,14 @@ static envl_result measure(envl_envmap *m, envl_products *p)
         rc = envl__map_cells(m, base, &C, NULL);
     for (int32_t i = 0; !rc && i < p->n_levels; i++) {
         envl_level *l = &p->levels[i];
+        int32_t n_sun = l->roughness > 0 ? p->n_sun : 0;
         rc = envl__glossy_reference(m, C, l->roughness, ENVL_ERROR_NORMALS, dirs, ref);
         if (!rc)
-            rc = written_error(p, dirs, ref, l->rgb, l->width, l->height,
-                               l->roughness > 0 ? p->n_sun : 0, l->roughness, &l->glossy_error);
+            rc = written_error(m, C, p, dirs, ref, l->rgb, l->layout, l->width, l->height, n_sun,
+                               l->roughness, &l->glossy_error, &l->texel_error);
+        if (!rc)
+            rc = envl__level_width_estimate(sp->cells ? sp->cells : C, &p->opt, l, p->sun, n_sun,
+                                            dirs, ref, &p->widths[i]);
     }
     if (!rc && p->sh)
         rc = envl__sh_measure(m, p->sh);
@@ -279,10 +288,11 @@ static envl_result measure(envl_envmap *m, envl_products *p)
         rc = envl__lights_measure(m, p->lights);
     if (!rc && p->has_irradiance) {
         const double *eref;
+        envl_irradiance_map *im = &p->irr;
         rc = envl_envmap_reference_irradiance(m, &eref);
         if (!rc)
-            rc = written_error(p, dirs, eref, p->irr_px, p->irr.width, p->irr.height, p->n_sun,
-                               -1, &p->irr.diffuse_error);
+            rc = written_error(m, NULL, p, dirs, eref, p->irr_px, im->layout, im->width,
+                               im->height, p->n_sun, -1, &im->diffuse_error, &im->texel_error);
     }
     free(dirs);
     free(ref);
@@ -299,6 +309,7 @@ envl_result envl_compute(envl_envmap *map, const envl_request *q, envl_products 
     if (!p)
         return envl__fail(ENVL_ERR_MEMORY, "envl_compute: out of memory");
     snprintf(p->file, sizeof p->file, "%s", map->info.file);
+    p->source_info = map->info;
     plan pl = {0};
     envl_result rc = ENVL_OK;
     if (map->source_path && !(p->source_path = strdup(map->source_path)))
@@ -329,13 +340,13 @@ envl_result envl_compute(envl_envmap *map, const envl_request *q, envl_products 
         rc = compute_shadows(m, q, p);
     if (!rc)
         rc = compute_levels(m, p, &pl);
-    envl__split_free(&pl.sp);
     free(pl.want);
     if (!rc && q->brdf_lut && !(rc = step(&pl, "BRDF table")))
         rc = compute_brdf(q, p);
     p->summary.seconds = envl__seconds() - t0;
     if (!rc && q->measure && !(rc = step(&pl, "error measures")))
-        rc = measure(m, p);
+        rc = measure(m, p, &pl.sp); /* the split kept for the levels' width estimates */
+    envl__split_free(&pl.sp);
     p->measured = q->measure != 0;
     if (!rc)
         rc = envl__progress(1.0, "done");
@@ -371,6 +382,14 @@ int32_t envl_products_find_level(const envl_products *p, double roughness)
         if (p->levels[i].roughness == roughness)
             return i;
     return -1;
+}
+
+envl_result envl_products_level_width(const envl_products *p, int32_t i, envl_width_estimate *out)
+{
+    if (!p || !out || i < 0 || i >= p->n_levels)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_products_level_width: no level %d", (int)i);
+    *out = p->widths[i];
+    return ENVL_OK;
 }
 
 envl_result envl_products_irradiance(const envl_products *p, envl_irradiance_map *out)

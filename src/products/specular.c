@@ -9,12 +9,20 @@
  * D(h) (N.h) (Hammersley points) reflected about them give l with pdf D(h) / 4 (N = V); the
  * estimator of P is then sum L(l_i) (R.l_i) / sum (R.l_i) (Karis 2013), the same n directions
  * in every texel's tangent frame (east, north, R), each read bilinearly from the map.
- * Roughness exactly 0 is the map itself, area-resampled to the level's size.
+ * Roughness exactly 0 is the map itself, area-resampled to the level's size (cube faces: each
+ * texel the map's mean over its footprint).
+ * A level's texels are a lat-long image or cube faces (options.layout), each computed at its
+ * own centre direction: a cube face is never resampled from a lat-long level (docs/design.md,
+ * "Error measures": the per-texel error).
  *
  * Energy: the kernel D(h) max(R.l, 0) / norm depends on R.l only, so the integral of P over
- * the sphere equals the map's exactly. A finite quadrature misses that by a little; each level
- * is therefore scaled, per channel, so its integral of L dw equals the map's. The factor before
- * the correction is reported (energy_scale) and tested to stay near 1.
+ * the sphere equals the map's exactly. The texels' sum of P dw is a quadrature of that
+ * integral on the level's grid, reported as energy_scale (its ratio to the map's power). A
+ * filtered level is not scaled by it: each texel holds P at its centre (the cells' sums are
+ * normalised per texel, a constant map gives L), and a lobe narrower than the texels makes
+ * the sum miss by up to 15 % (one bright pixel at roughness 0.05), which a scaling would put
+ * into every texel (per-texel RMS 1.5 % at roughness 0.1 on 64-texel faces of the built-in sky).
+ * The unfiltered baseline, whose samples miss energy, is scaled per channel to the map's.
  */
 #include "prefilter_impl.h"
 #include "ggx.h"
@@ -153,7 +161,7 @@ static int32_t make_samples(double alpha, int32_t n, ggx_sample *s)
 
 typedef struct level_job {
     const ggx_sample *s;
-    int32_t ns, w, h;
+    int32_t ns, layout, w, h; /* the level's texels (layout.c) */
     const mip_view *lv;       /* the map */
     double wsum;
     float *out;
@@ -163,14 +171,16 @@ static void level_rows(void *ctx, int64_t begin, int64_t end)
 {
     level_job *j = ctx;
     for (int64_t r = begin; r < end; r++) {
-        double theta = ENVL_PI * (0.5 - (r + 0.5) / j->h);
-        double ct = cos(theta), st = sin(theta);
         for (int32_t c = 0; c < j->w; c++) {
-            double phi = ENVL_PI * (1.0 - 2.0 * (c + 0.5) / j->w);
-            double cp = cos(phi), sp = sin(phi);
-            double R[3] = {ct * cp, ct * sp, st};
-            double T[3] = {-sp, cp, 0};
-            double B[3] = {-st * cp, -st * sp, ct};
+            /* R and its frame: east T = normalize(z x R), north B = R x T (any T at a pole) */
+            double R[3], T[3] = {-1, 0, 0}, B[3];
+            envl__texel_direction(j->layout, j->w, j->h, c, (int32_t)r, R);
+            double e = sqrt(R[0] * R[0] + R[1] * R[1]);
+            if (e > 0)
+                T[0] = -R[1] / e, T[1] = R[0] / e, T[2] = 0;
+            B[0] = R[1] * T[2] - R[2] * T[1];
+            B[1] = R[2] * T[0] - R[0] * T[2];
+            B[2] = R[0] * T[1] - R[1] * T[0];
             double acc[3] = {0, 0, 0};
             for (int32_t i = 0; i < j->ns; i++) {
                 const ggx_sample *s = j->s + i;
@@ -188,8 +198,50 @@ static void level_rows(void *ctx, int64_t begin, int64_t end)
     }
 }
 
+/* The mirror level as cube faces: each texel the map's mean over its footprint (the map read
+ * as piecewise constant, as the lat-long level's exact area resampling reads it), by sub-texels
+ * at least 4 to a pixel of the coarsest mip level no coarser than the texels (an area mean of
+ * the map: a 4K map's 256-texel faces read its 1024-wide level, 36 lookups a texel, not 441). */
+typedef struct mirror_job {
+    envl_image map;
+    int32_t w, h, n;
+    float *out;
+} mirror_job;
+
+static void mirror_rows(void *ctx, int64_t begin, int64_t end)
+{
+    mirror_job *j = ctx;
+    for (int64_t r = begin; r < end; r++)
+        for (int32_t c = 0; c < j->w; c++) {
+            double v[3];
+            envl__texel_footprint_mean(&j->map, ENVL_LAYOUT_STRIP_H, j->w, j->h, c, (int32_t)r,
+                                       j->n, v);
+            for (int k = 0; k < 3; k++)
+                j->out[3 * ((size_t)r * j->w + c) + k] = (float)v[k];
+        }
+}
+
+static envl_result mirror_faces(envl_envmap *m, int32_t face, int32_t threads, float **out)
+{
+    /* a texel at a face's centre is 2 / face radians across, the widest */
+    envl_image map;
+    envl_result rc = envl__mip_level_for(m, 2.0 / face, &map);
+    if (rc)
+        return rc;
+    float *px = malloc(sizeof(float) * 3 * 6 * (size_t)face * face);
+    if (!px)
+        return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for %d-texel faces",
+                          (int)face);
+    mirror_job j = {map, 6 * face, face, envl__footprint_subdivision(2.0 / face, map.height),
+                    px};
+    envl__parallel_for(face, threads, mirror_rows, &j);
+    *out = px;
+    return ENVL_OK;
+}
+
 /* sp: the map's split with the cells of the map less its sun lights (NULL or no cells: the
- * map's own cells). */
+ * map's own cells). The level's texels: a lat-long image `width` wide, or with o->faces cube
+ * faces of width / 4 (layout.c's strip), each computed at its own centre direction. */
 envl_result envl__specular_level(envl_envmap *m, const resolved *o, double roughness,
                                   int32_t width, const split *sp, float **out, envl_level *st)
 {
@@ -202,25 +254,30 @@ envl_result envl__specular_level(envl_envmap *m, const resolved *o, double rough
         width = envl__level_width(o, roughness);
     if (width < 2 || width > 65536)
         return envl__fail(ENVL_ERR_ARGUMENT, "prefilter: level width %d (2..65536)", (int)width);
-    int32_t h = width / 2;
+    int32_t layout = o->faces ? ENVL_LAYOUT_STRIP_H : ENVL_LAYOUT_LATLONG;
+    int32_t face = width / 4 > 0 ? width / 4 : 1;
+    int32_t w = o->faces ? 6 * face : width, h = o->faces ? face : width / 2;
     memset(st, 0, sizeof *st);
     st->roughness = roughness;
     st->alpha = roughness * roughness;
-    st->width = width;
+    st->width = w;
     st->height = h;
+    st->layout = layout;
     st->energy_scale = 1.0;
     st->glossy_error = -1;
+    st->texel_error = envl__texel_error_none;
     envl_result rc;
     if (roughness == 0) {
-        rc = envl__latlong_resample(m->px, m->width, m->height, width, h, 0.0, out);
+        rc = o->faces ? mirror_faces(m, face, o->threads, out)
+                      : envl__latlong_resample(m->px, m->width, m->height, w, h, 0.0, out);
         st->seconds = envl__seconds() - t0;
         return rc;
     }
     double ein[3];
-    float *px = malloc(sizeof(float) * 3 * (size_t)width * h);
+    float *px = malloc(sizeof(float) * 3 * (size_t)w * h);
     if (!px)
         return envl__fail(ENVL_ERR_MEMORY, "prefilter: out of memory for a %d x %d level",
-                          (int)width, (int)h);
+                          (int)w, (int)h);
     int32_t nsamp = o->samples;
     if (o->unfiltered) {
         ggx_sample *s = malloc(sizeof(ggx_sample) * (size_t)nsamp);
@@ -240,10 +297,10 @@ envl_result envl__specular_level(envl_envmap *m, const resolved *o, double rough
         }
         mip_view lv = {m->px, m->width, m->height, {0}};
         pole_means(m->px, m->width, m->height, lv.pole);
-        level_job job = {s, ns, width, h, &lv, wsum, px};
+        level_job job = {s, ns, layout, w, h, &lv, wsum, px};
         envl__parallel_for(h, o->threads, level_rows, &job);
         free(s);
-        envl__image_energy(m->px, m->width, m->height, ein);
+        envl__image_energy(m->px, ENVL_LAYOUT_LATLONG, m->width, m->height, ein);
     } else {
         const envl_cells *C = sp && sp->cells ? sp->cells : NULL;
         int32_t base = envl__cells_base(NULL, st->alpha, m->height);
@@ -252,7 +309,7 @@ envl_result envl__specular_level(envl_envmap *m, const resolved *o, double rough
             return rc;
         }
         double terms;
-        if ((rc = envl__cells_level(C, st->alpha, envl__level_rho(o, width), width, h,
+        if ((rc = envl__cells_level(C, st->alpha, envl__level_rho(o, width), layout, w, h,
                                     o->threads, px, &terms))) {
             free(px);
             return rc;
@@ -261,15 +318,15 @@ envl_result envl__specular_level(envl_envmap *m, const resolved *o, double rough
         envl__cells_energy(C, ein);
     }
     double eout[3];
-    envl__image_energy(px, width, h, eout);
+    envl__image_energy(px, layout, w, h, eout);
     double yin = envl__lum(ein[0], ein[1], ein[2]), yout = envl__lum(eout[0], eout[1], eout[2]);
     if (yout > 0 && yin > 0)
         st->energy_scale = yout / yin;
-    for (int k = 0; k < 3; k++) {
+    for (int k = 0; k < 3 && o->unfiltered; k++) {
         if (!(eout[k] > 0 && ein[k] > 0))
             continue;
         double f = ein[k] / eout[k];
-        for (size_t i = 0; i < (size_t)width * h; i++)
+        for (size_t i = 0; i < (size_t)w * h; i++)
             px[3 * i + k] = (float)(px[3 * i + k] * f);
     }
     st->samples = nsamp;

@@ -19,7 +19,6 @@
 void envl__sun_split_free(envl_sun_split *s)
 {
     free(s->lobes);
-    free(s->res);
     memset(s, 0, sizeof *s);
 }
 
@@ -35,7 +34,7 @@ static double map_power(const envl_envmap *m)
     return envl__lum(m->info.power[0], m->info.power[1], m->info.power[2]);
 }
 
-envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s)
+envl_result envl__sun_split_lobes(const envl_envmap *m, envl_sun_split *s)
 {
     memset(s, 0, sizeof *s);
     int32_t w = m->width, h = m->height;
@@ -62,16 +61,12 @@ envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s)
         free(y);
     }
     s->threshold = T;
-    s->res = malloc(sizeof(float) * 3 * npx);
     s->lobes = malloc(sizeof(envl_sun_lobe) * (count < SPLIT_MAX ? count : SPLIT_MAX));
-    if (!s->res || !s->lobes) {
-        envl__sun_split_free(s);
+    if (!s->lobes)
         return envl__fail(ENVL_ERR_MEMORY, "sun split: out of memory");
-    }
-    memcpy(s->res, m->px, sizeof(float) * 3 * npx);
     for (int32_t r = 0; r < h && s->n < SPLIT_MAX; r++)
         for (int32_t c = 0; c < w && s->n < SPLIT_MAX; c++) {
-            float *p = s->res + 3 * ((size_t)r * w + c);
+            const float *p = m->px + 3 * ((size_t)r * w + c);
             double y = envl__lum(p[0], p[1], p[2]);
             if (!(y > T))
                 continue;
@@ -80,7 +75,7 @@ envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s)
             for (int k = 0; k < 3; k++) {
                 double keep = p[k] * f;
                 l->e[k] = (p[k] - keep) * m->row_omega[r];
-                p[k] = (float)keep;
+                l->keep[k] = (float)keep;
             }
             l->d[0] = m->row_cos[r] * m->col_cos[c];
             l->d[1] = m->row_cos[r] * m->col_sin[c];
@@ -89,6 +84,16 @@ envl_result envl__sun_split_make(const envl_envmap *m, envl_sun_split *s)
             l->taken = 0;
         }
     return ENVL_OK;
+}
+
+envl_pixel_patch *envl__sun_split_patches(const envl_sun_split *s)
+{
+    envl_pixel_patch *patch = malloc(sizeof *patch * (size_t)(s->n ? s->n : 1));
+    for (int32_t i = 0; patch && i < s->n; i++) {
+        const envl_sun_lobe *l = s->lobes + i;
+        patch[i] = (envl_pixel_patch){l->r, l->c, {l->keep[0], l->keep[1], l->keep[2]}};
+    }
+    return patch;
 }
 
 /* ---- the split-off lobes as lights ----
