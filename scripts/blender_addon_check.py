@@ -173,11 +173,28 @@ def world_state(world):
         img = res.image
         buf = np.empty(img.size[0] * img.size[1] * img.channels, np.float32)
         img.pixels.foreach_get(buf)
+        from envlight_addon import eevee_dome
+        w, h, ch = img.size[0], img.size[1], img.channels
+        rows = buf.reshape(h, w, ch)[::-1, :, :3]     # Blender's rows bottom up: row 0 top
+        I, M = eevee_dome.moments(np, rows)
         out["residual_image"] = {"name": img.name, "size": list(img.size),
                                  "packed": img.packed_file is not None,
-                                 "power": latlong_power(buf, img.size[0], img.size[1],
-                                                        img.channels)}
+                                 "power": latlong_power(buf, w, h, ch),
+                                 # EEVEE-Next derings the world's L1 above DERING_BOUND
+                                 "dering_measure": eevee_dome.dering_measure(np, I, M)}
     return out
+
+
+def raytracing_state(scene):
+    """Scene.eevee's ray tracing settings the add-on may change (None before 4.2)."""
+    e = scene.eevee
+    if not hasattr(e, "ray_tracing_options"):
+        return None
+    rt = e.ray_tracing_options
+    return {"use_raytracing": e.use_raytracing, "ray_tracing_method": e.ray_tracing_method,
+            "trace_max_roughness": rt.trace_max_roughness,
+            "resolution_scale": rt.resolution_scale,
+            "clamp_surface_indirect": e.clamp_surface_indirect}
 
 
 def add_objects(scene, objects):
@@ -385,6 +402,12 @@ def main():
     s = world.envlight
     for k, v in spec.get("settings", {}).items():
         setattr(s, k, v)
+    if spec.get("raytracing_before") and hasattr(scene.eevee, "ray_tracing_options"):
+        # the user's own ray tracing settings, for Remove to give back
+        for k, v in spec["raytracing_before"].items():
+            setattr(scene.eevee.ray_tracing_options if k in ("trace_max_roughness",
+                    "resolution_scale") else scene.eevee, k, v)
+    result["raytracing_before"] = raytracing_state(scene)
     if spec.get("reference_render"):
         result["reference_seconds"] = render_sphere(scene, spec["reference_render"], spec)
     if spec.get("reference_render_2"):  # another seed: the render noise
@@ -417,6 +440,7 @@ def main():
                      "plan": {k: (core.last_result or {}).get(k) for k in (
                          "recipe", "reasons", "skipped", "ground_object", "ground_albedo")},
                      "probes": probes(),
+                     "raytracing": raytracing_state(scene),
                      "panel_recipe": s.result_recipe,
                      "panel_skipped": s.result_skipped})
     result["runs"] = runs
@@ -457,7 +481,7 @@ def main():
     if spec.get("remove"):
         bpy.ops.envlight.remove()
         result["after_remove"] = {"lamps": lamps(), "world": world_state(scene.world),
-                                  "probes": probes(),
+                                  "probes": probes(), "raytracing": raytracing_state(scene),
                                   "lightprobe_data": [d.name for d in bpy.data.lightprobes]}
     with open(spec["out"], "w") as f:
         json.dump(result, f, indent=1)

@@ -74,6 +74,21 @@ VARIANTS = {
                          ("eevee", "clamp_surface_indirect", 0.0)],
     "shadow-rays": [("eevee", "shadow_ray_count", 4), ("eevee", "shadow_step_count", 16)],
     "filter0": [("lamps", "shadow_filter_radius", 0.0)],
+    # every surface by the horizon scan (fast GI: occlusion and a screen-space bounce)
+    "fastgi": [("eevee", "use_raytracing", True), ("rt", "trace_max_roughness", 0.0),
+               ("eevee", "fast_gi_method", "GLOBAL_ILLUMINATION"),
+               ("eevee", "fast_gi_resolution", "1"), ("eevee", "fast_gi_quality", 1.0),
+               ("eevee", "fast_gi_step_count", 16), ("eevee", "fast_gi_ray_count", 4)],
+    "fastgi-ao": [("eevee", "use_raytracing", True), ("rt", "trace_max_roughness", 0.0),
+                  ("eevee", "fast_gi_method", "AMBIENT_OCCLUSION_ONLY"),
+                  ("eevee", "fast_gi_resolution", "1"), ("eevee", "fast_gi_quality", 1.0),
+                  ("eevee", "fast_gi_step_count", 16), ("eevee", "fast_gi_ray_count", 4)],
+    "screen": [("eevee", "use_raytracing", True), ("rt", "trace_max_roughness", 1.0),
+               ("rt", "resolution_scale", "1")],
+    # EEVEE's ray tracing off (the add-on turns it on with the dome)
+    "nort": [("eevee", "use_raytracing", False)],
+    "screen-noclamp": [("eevee", "use_raytracing", True), ("rt", "trace_max_roughness", 1.0),
+                       ("rt", "resolution_scale", "1"), ("eevee", "clamp_surface_indirect", 0.0)],
 }
 TERMS = ("recipe", "shading", "shadows", "L1", "dering", "world", "occlusion", "bounce",
          "additive")

@@ -294,22 +294,26 @@ def pov_header_text(bench):
 def blender_figures_text(bench):
     """plugin/envlight_addon/figures.py: per recipe the add-on picks, the median and worst over
     the scenes and maps where it picked it of the converged error (floor) against Cycles."""
-    by = {}
+    by, dates = {}, set()
     for r in bench["runs"]:
+        # fitted-eevee: Read Scene with EEVEE Dome 0, what EEVEE picks without the dome
         if r.get("picked_as") and r.get("floor") is not None and \
-                r["recipe"] in ("picked", "picked-eevee", "probe-eevee"):
+                r["recipe"] in ("picked", "picked-eevee", "probe-eevee", "fitted-eevee"):
             key = r["picked_as"] + ("-probe" if r["recipe"] == "probe-eevee" and
                                     not r["picked_as"].endswith("-probe") else "")
             by.setdefault(key, []).append(r["floor"])
+            # rows merged from a later run carry their own date (scene_bench_merge)
+            dates.add(r.get("date", bench["date"])[:10])
     lines = ['"""The in-scene error the panel quotes per recipe: written by scripts/figures.py '
              '--write from',
              "%s (scripts/scene_bench.py --host blender, %s), checked against it by" %
-             (BLENDER_JSON, bench["date"][:10]),
+             (BLENDER_JSON, ", ".join(sorted(dates)) or bench["date"][:10]),
              "the test py_figures. Do not edit by hand: the median and worst, over the scenes "
              "and maps where",
              "the add-on picked the recipe, of the converged error against Cycles path tracing "
              '(relative RMS)."""',
-             "", "BENCH_DATE = %r" % bench["date"][:10], "", "EXPECTED_ERROR = {"]
+             "", "BENCH_DATE = %r" % (max(dates) if dates else bench["date"][:10]), "",
+             "EXPECTED_ERROR = {"]
     for key in sorted(by):
         if key == "unchanged":
             continue

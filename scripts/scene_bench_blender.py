@@ -87,8 +87,10 @@ RECIPES = {
                       shadows="SOFT", ground_mode="AUTO", suns=True),
     "picked": dict(read_scene=True),
     # EEVEE-Next (Blender 4.2+): the plain HDR world and what the add-on picks there, against
-    # the same Cycles reference (scene.py's read_scene: eevee-residual[-ground], the 4 lamps
-    # fitted with an order-1 SH remainder, EEVEE_ORDER, as EEVEE's world diffuse is L1)
+    # the same Cycles reference (scene.py's read_scene: over a ground with shadow casters
+    # eevee-dome-ground, the dome of 64 lamps with EEVEE's ray tracing on; else
+    # eevee-residual[-ground], the 4 lamps fitted with an order-1 SH remainder, EEVEE_ORDER,
+    # as EEVEE's world diffuse is L1)
     "hdr-eevee": None,
     "picked-eevee": dict(read_scene=True),
     # the same with the panel's Bake Volume Probe (EEVEE-Next: a probe around the objects,
@@ -100,20 +102,25 @@ RECIPES = {
     "dome64-eevee": dict(read_scene=True, eevee_dome=64),
     "dome128-eevee": dict(read_scene=True, eevee_dome=128),
     "dome64-probe-eevee": dict(read_scene=True, eevee_dome=64, volume_probe=True),
+    # the pick before the dome (Read Scene with EEVEE Dome 0): 4 fitted lamps + the residual
+    # world, EEVEE's ray tracing as the user had it (off by default)
+    "fitted-eevee": dict(read_scene=True, eevee_dome=0),
     # not a recipe: the plain HDR world with max bounces 0, the direct light at the first hit
     # alone. Its noise against the HDR world's gives the direct-light ceiling (direct_ceiling)
     "hdr-direct": None,
 }
 EEVEE = ("hdr-eevee", "picked-eevee", "probe-eevee", "dome32-eevee", "dome64-eevee",
-         "dome128-eevee", "dome64-probe-eevee")
+         "dome128-eevee", "dome64-probe-eevee", "fitted-eevee")
 EEVEE_SPP = 64
-#: the report's picture grid (scene_bench.py's grid): per map the Cycles reference and the
-#: picked recipe in Cycles and in EEVEE-Next on (a), the reference and EEVEE on (b) and (c)
-GRID_COLUMNS = [("a", "reference"), ("a", "picked"), ("a", "picked-eevee"),
+#: the report's picture grid (scene_bench.py's grid): per map the Cycles reference and
+#: EEVEE-Next's pick and its fitted lamps (EEVEE Dome 0) on (a) and (c), the reference and
+#: the pick on (b) (Cycles' own pick is exact: it looks as the reference)
+GRID_COLUMNS = [("a", "reference"), ("a", "picked-eevee"), ("a", "fitted-eevee"),
                 ("b", "reference"), ("b", "picked-eevee"), ("c", "reference"),
-                ("c", "picked-eevee")]
-GRID_CAPTION = ("Rows: maps; columns: (a) the Cycles reference, the pick in Cycles, the pick "
-                "in EEVEE-Next; (b) the reference, EEVEE; (c) the reference, EEVEE; one "
+                ("c", "picked-eevee"), ("c", "fitted-eevee")]
+GRID_CAPTION = ("Rows: maps; columns: (a) the Cycles reference, EEVEE-Next's pick (the dome "
+                "with ray tracing), EEVEE with the fitted lamps (EEVEE Dome 0); (b) the "
+                "reference, the pick; (c) the reference, the pick, the fitted lamps; one "
                 "exposure per map, luminance, sRGB.")
 EEVEE_ENGINE = "BLENDER_EEVEE_NEXT"   # Blender 4.2+; legacy EEVEE ("BLENDER_EEVEE") in 3.x
 QUICK_RECIPES = ["hdr", "picked"]
@@ -422,6 +429,23 @@ def run_map(name, path, opts, log=_log):
                 r["recipe"], "-" if r["speedup"] is None else "%.2fx" % r["speedup"],
                 100 * r["error"], 100 * r["floor"]) for r in res["runs"])))
     return entry, runs, images
+
+
+def load_images(name, opts):
+    """The images a run kept in TMP/<map>/ (ref_<scene>.npy, <recipe>_<scene>.npy) for the
+    picture grid of --report-from: {(scene, "reference" or recipe): image}."""
+    import numpy as np
+    d = os.path.join(opts["tmp"], name)
+    images = {}
+    for scene in SCENES:
+        for recipe in ["reference"] + list(RECIPES):
+            f = os.path.join(d, "%s_%s.npy" % ("ref" if recipe == "reference" else recipe,
+                                                scene))
+            if os.path.exists(f):
+                img = np.load(f)
+                images[(scene, recipe)] = np.stack([img] * 3, axis=-1) if img.ndim == 2 \
+                    else img
+    return images
 
 
 # ---- inside Blender ------------------------------------------------------------------------

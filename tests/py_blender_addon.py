@@ -10,6 +10,7 @@ The Blender: $ENVL_BLENDER (a program taking Blender's arguments, e.g. the Debia
 wrapper that scripts/blender4.sh writes), else `blender` on PATH (Debian 12's 3.4). The test
 output names the version; the module is skipped (pytest: no test collected, exit status 5, which
 ctest's command turns into 77) when that Blender is absent or cannot run here."""
+import importlib.util
 import json
 import math
 import os
@@ -747,13 +748,18 @@ def test_reads_a_glossy_scene(addon_zip, spot_hdr):
 def test_reads_an_eevee_scene(addon_zip, spot_hdr):
     """EEVEE lights diffuse and glossy from one capture of the world: every ray but the
     camera's sees the residual image (no ray-type split), over a ground with its lower half the
-    ground's bounce."""
+    ground's bounce. Legacy EEVEE (3.x) gets the fitted lamps, the dome being EEVEE-Next's
+    (test_eevee_next_dome_over_a_ground)."""
     path, _, _ = spot_hdr
     engine = "BLENDER_EEVEE_NEXT" if BLENDER_VERSION >= "4.2" else "BLENDER_EEVEE"
     res, _ = run_blender("scene_eevee", {"hdr": path, "engine": engine,
                                          "objects": [GROUND_OBJ, MATTE_OBJ]}, addon_zip)
     run = res["runs"][0]
-    assert run["rc"] == ["FINISHED"] and run["plan"]["recipe"] == "eevee-residual-ground"
+    recipe = "eevee-dome-ground" if BLENDER_VERSION >= "4.2" else "eevee-residual-ground"
+    assert run["rc"] == ["FINISHED"] and run["plan"]["recipe"] == recipe
+    if BLENDER_VERSION < "4.2":
+        assert "the dome of 64 lamps: EEVEE-Next's (measured there only)" in \
+            run["plan"]["skipped"]
     labels = run["world"]["labels"]
     assert "EnvLight Residual" in labels and "EnvLight Camera or Glossy" not in labels
     suns = [l for l in run["lamps"] if l["tagged"]]
@@ -779,8 +785,10 @@ def test_eevee_fits_its_lamps_with_an_order_1_remainder(addon_zip):
     img[SPOT["row"], SPOT["col"]] = (1000.0, 500.0, 250.0)
     envlight.save_image(path, img)
     engine = "BLENDER_EEVEE_NEXT" if BLENDER_VERSION >= "4.2" else "BLENDER_EEVEE"
+    # EEVEE Dome 0: the fitted lamps also in EEVEE-Next, whose pick over a ground is the dome
     res, _ = run_blender("scene_eevee_order", {"hdr": path, "engine": engine,
                                                "objects": [GROUND_OBJ, MATTE_OBJ],
+                                               "settings": {"eevee_dome": 0},
                                                }, addon_zip)
     run = res["runs"][0]
     plan = run["plan"]
@@ -815,6 +823,68 @@ def test_eevee_fits_its_lamps_with_an_order_1_remainder(addon_zip):
     # map over the ground: the sky half and the whole map's bounce below (the sun's included)
     total = lamps_power(run) + np.array(run["world"]["residual_image"]["power"])
     assert np.allclose(total, over_ground, rtol=1e-5), (total, over_ground)
+
+
+@pytest.mark.skipif(BLENDER_VERSION < "4.2", reason="SKIP: EEVEE-Next's dome (Blender 4.2+)")
+def test_eevee_next_dome_over_a_ground(addon_zip, spot_hdr):
+    """EEVEE-Next, a sphere on a ground: the dome of 64 soft-shadowed lamps, a share k of the
+    sky kept in the world so that EEVEE does not dering the world's order-1 light (which lit
+    open ground from below: eevee_dome.py), and EEVEE's ray tracing on, the user's settings
+    given back by Remove. The share is the one eevee_dome.world_share gives for the map's sky
+    and bounce, the world Blender holds is under the bound, and lamps + world carry the map
+    over the ground: the sky half and its bounce below."""
+    path, _, _ = spot_hdr
+    user_rt = {"use_raytracing": False, "trace_max_roughness": 0.3, "resolution_scale": "4",
+               "clamp_surface_indirect": 5.0}
+    res, _ = run_blender("scene_eevee_dome", {"hdr": path, "engine": "BLENDER_EEVEE_NEXT",
+                                              "objects": [GROUND_OBJ, MATTE_OBJ],
+                                              "raytracing_before": user_rt, "remove": True,
+                                              "settings": {"volume_probe": True}},
+                         addon_zip)
+    run = res["runs"][0]
+    plan = run["plan"]
+    assert run["rc"] == ["FINISHED"] and plan["recipe"] == "eevee-dome-ground"
+    dome = [l for l in suns(run) if l["name"].startswith("EnvLight Light ")]
+    assert len(dome) == 64
+    # the share: the same computation on the map's own sky and bounce (the spot is a sun,
+    # carried by its own lamp: the dome's sky is the map over the ground less it)
+    px, _ = rgbe_decode(res, path)
+    spec = importlib.util.spec_from_file_location("eevee_dome", os.path.join(
+        SRC, "plugin", "envlight_addon", "eevee_dome.py"))
+    dome_mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(dome_mod)
+    with envlight.from_pixels(px, layout="latlong") as env, \
+            env.lights(4, method="sun") as sres:
+        full, _ = env.ground_plane(plan["ground_albedo"])
+        with full:
+            over_ground = full.info()["power"]
+            rest = np.maximum(full.pixels() - (env.pixels() - sres.residual), 0.0)
+    sky = rest.copy()
+    sky[sky.shape[0] // 2:] = 0
+    k, after, before = dome_mod.world_share(np, rest - sky, sky)
+    assert 0 < k < 1 and before > dome_mod.DERING_BOUND >= after
+    assert any(r.startswith("EEVEE-Next: %.0f %% of the sky kept in the world" % (100 * k))
+               for r in plan["reasons"]), plan["reasons"]
+    world = run["world"]["residual_image"]
+    assert world["dering_measure"] <= dome_mod.DERING_BOUND + 1e-6
+    total = lamps_power(run) + np.array(world["power"])
+    assert np.allclose(total, over_ground, rtol=1e-5), (total, over_ground)
+    # EEVEE's ray tracing on, said in the reasons and the notes; Remove gives the user's back
+    assert any(r.startswith("EEVEE-Next: ray tracing on") for r in plan["reasons"])
+    assert run["raytracing"] == {"use_raytracing": True, "ray_tracing_method": "SCREEN",
+                                 "trace_max_roughness": 1.0, "resolution_scale": "1",
+                                 "clamp_surface_indirect": 0.0}
+    assert any(n.startswith("EEVEE: ray tracing use_raytracing False -> True")
+               for n in run["notes"]), run["notes"]
+    before = res["raytracing_before"]   # the user's, as Blender holds them (float32)
+    assert before["use_raytracing"] is False and before["resolution_scale"] == "4"
+    assert before["trace_max_roughness"] == pytest.approx(0.3, rel=1e-6)
+    assert before["clamp_surface_indirect"] == pytest.approx(5.0)
+    assert res["after_remove"]["raytracing"] == before
+    # Bake Volume Probe is not combined with the dome (its bake overflowed the shadow pool)
+    assert run["probes"] == [] and any(
+        s.startswith("volume probe: not with the dome") for s in plan["skipped"])
+    assert not any(l["tagged"] for l in res["after_remove"]["lamps"])
 
 
 def test_a_lone_object_gets_no_ground_treatment(addon_zip, spot_hdr):
@@ -872,7 +942,8 @@ def test_eevee_volume_probe_is_baked_and_removed(addon_zip, spot_hdr):
     path, _, _ = spot_hdr
     res, log = run_blender("scene_probe", {
         "hdr": path, "engine": "BLENDER_EEVEE_NEXT", "objects": [GROUND_OBJ, MATTE_OBJ],
-        "settings": {"volume_probe": True}, "probe_effect": [1.0, 1.6], "remove": True},
+        "settings": {"volume_probe": True, "eevee_dome": 0}, "probe_effect": [1.0, 1.6],
+        "remove": True},
         addon_zip)
     run = res["runs"][0]
     assert run["rc"] == ["FINISHED"], log[-2000:]
@@ -904,7 +975,8 @@ def test_eevee_says_the_volume_probe_is_off(addon_zip, spot_hdr):
         addon_zip)
     run = res["runs"][0]
     assert run["rc"] == ["FINISHED"] and run["probes"] == []
-    assert run["plan"]["recipe"] == "eevee-residual-ground", run["plan"]
+    assert run["plan"]["recipe"] == ("eevee-dome-ground" if next_ else
+                                     "eevee-residual-ground"), run["plan"]
     skipped = [s for s in run["plan"]["skipped"] if s.startswith("volume probe")]
     assert skipped == ["volume probe: off (Bake Volume Probe: the objects' bounce light and the "
                        "sky they hide; in the scene benchmark nearer Cycles on some maps, "

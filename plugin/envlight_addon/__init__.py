@@ -88,9 +88,10 @@ class EnvLightSettings(bpy.types.PropertyGroup):
         "ground): the light they bounce onto one another and the sky they hide; with or "
         "without Read Scene. Nearer Cycles on some maps, further on others (docs/blender_scenes.md)")
     eevee_dome: IntProperty(
-        name="EEVEE Dome", default=0, min=0, max=1024,
-        description="Read Scene in EEVEE: the sky as this many soft-shadowed lamps for the "
-        "diffuse light, the world the map itself for reflections (0: 4 fitted lamps)")
+        name="EEVEE Dome", default=64, min=0, max=1024,
+        description="Read Scene in EEVEE-Next, objects casting shadows on a ground: the sky "
+        "as this many soft-shadowed lamps, so the objects hide its light (0: 4 fitted lamps "
+        "and the residual world)")
     # results, shown by the panel; list-valued ones hold one item a line ("\n"-joined: an
     # item may itself contain "; ", issue 28's orphan lines)
     has_result: BoolProperty(default=False)
@@ -299,6 +300,8 @@ class WORLD_PT_envlight(bpy.types.Panel):
             if s.ground_mode == "ON":
                 col.prop(s, "ground_albedo")
         if context.scene.render.engine == "BLENDER_EEVEE_NEXT":
+            if s.read_scene:   # Read Scene's dome (with Read Scene off: the fitted lamps)
+                layout.prop(s, "eevee_dome")
             layout.prop(s, "volume_probe")
         row = layout.row(align=True)
         row.operator(ENVLIGHT_OT_create_lights.bl_idname, icon="LIGHT_SUN")

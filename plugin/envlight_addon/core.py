@@ -447,6 +447,7 @@ def remove_created(world):
     if world is not None:
         restore_world_sampling(world)
         restore_sun_extraction(world)
+        restore_raytracing(world)
     for img in [i for i in bpy.data.images if tagged(i) and i.users == 0]:
         bpy.data.images.remove(img)
     # a probe whose object was deleted by hand: its data is ours and used by nothing
@@ -498,6 +499,56 @@ def restore_sun_extraction(world):
     if hasattr(world, "sun_threshold"):
         world.sun_threshold = float(saved)
     del world[USER_SUN_THRESHOLD]
+
+
+#: scene custom property: the user's EEVEE-Next ray tracing settings while ours are in place
+USER_RAYTRACING = "envlight_user_raytracing"
+#: EEVEE-Next's ray tracing as the dome recipe was measured with (scripts/
+#: blender_eevee_parts.py's variant "screen-noclamp"): on, screen-traced for every roughness
+#: (no horizon-scan fallback), at full resolution, the traced (indirect) light unclamped:
+#: EEVEE's default clamp of 10 cut a traced world's bright pixels (empty_warehouse_01, 63 %
+#: of its light above 10: a matte sphere on a ground -50 %). (target, attribute, value);
+#: target "eevee" is Scene.eevee, "rt" its ray_tracing_options
+RAYTRACING = (("eevee", "use_raytracing", True), ("eevee", "ray_tracing_method", "SCREEN"),
+              ("rt", "trace_max_roughness", 1.0), ("rt", "resolution_scale", "1"),
+              ("eevee", "clamp_surface_indirect", 0.0))
+
+
+def _raytracing_targets(scene):
+    e = getattr(scene, "eevee", None)
+    return {"eevee": e, "rt": getattr(e, "ray_tracing_options", None)}
+
+
+def enable_raytracing(scene):
+    """EEVEE-Next's ray tracing as RAYTRACING, the user's settings kept on the scene for
+    Remove. Returns what changed for the report, None where Blender has no such settings."""
+    targets = _raytracing_targets(scene)
+    if any(targets[t] is None or not hasattr(targets[t], a) for t, a, _ in RAYTRACING):
+        return None
+    if USER_RAYTRACING not in scene:
+        scene[USER_RAYTRACING] = {"%s.%s" % (t, a): getattr(targets[t], a)
+                                  for t, a, _ in RAYTRACING}
+    changed = []
+    for t, a, v in RAYTRACING:
+        if getattr(targets[t], a) != v:
+            changed.append("%s %s -> %s" % (a, getattr(targets[t], a), v))
+            setattr(targets[t], a, v)
+    return "EEVEE: ray tracing %s" % ("; ".join(changed) if changed else "already as needed")
+
+
+def restore_raytracing(world):
+    """The user's ray tracing settings back, on every scene of `world` that holds them."""
+    import bpy
+    for scene in bpy.data.scenes:
+        saved = scene.get(USER_RAYTRACING)
+        if saved is None or scene.world not in (world, None):
+            continue
+        targets = _raytracing_targets(scene)
+        for key, value in dict(saved).items():
+            t, a = key.split(".", 1)
+            if targets.get(t) is not None and hasattr(targets[t], a):
+                setattr(targets[t], a, value)
+        del scene[USER_RAYTRACING]
 
 
 # ---- lamps ------------------------------------------------------------------------------------
@@ -905,8 +956,12 @@ def dome_rest(pkg, env, rest, used, plan, step, start=0.2):
     world = used.pixels()
     ground = plan.ground_albedo is not None
     sky = eevee_dome.upper_half(np, world) if ground else world
+    share = 0.0
+    if ground and plan.engine == "BLENDER_EEVEE_NEXT":
+        # a share of the sky stays in the world so that EEVEE-Next does not dering it
+        share, after, before = eevee_dome.world_share(np, world - sky, sky)
     try:
-        with pkg.from_pixels(sky, layout="latlong") as smap, \
+        with pkg.from_pixels(sky * (1.0 - share), layout="latlong") as smap, \
                 pkg.progress(lambda f, stage: step(min(0.6, start + (0.6 - start) * f))), \
                 smap.lights(plan.dome, method="variance") as res:
             lights, summary = list(res.lights), dict(res.summary)
@@ -921,7 +976,12 @@ def dome_rest(pkg, env, rest, used, plan, step, start=0.2):
         "degrees each: the objects occlude the sky's light as they hide the sky)%s" % (
             len(lights), lo, hi, "; the world is the ground's bounce below the horizon "
             "(EEVEE lights it unoccluded)" if ground else "; the world is black"))
-    return lights, summary, world - sky, None
+    if share > 0:
+        plan.reasons.append(
+            "EEVEE-Next: %.0f %% of the sky kept in the world, unoccluded: the least that "
+            "keeps EEVEE from deringing the world's order-1 light (its first moment %.2f -> "
+            "%.2f, bound 1/3), which lit open ground from below" % (100 * share, before, after))
+    return lights, summary, world - sky * (1.0 - share), None
 
 
 class NothingToDo(Exception):
@@ -1130,6 +1190,9 @@ def create_lights(context, settings, progress=None, force=False):
             notes.append(sun_note)
     elif mode != "LIGHTS":
         warnings.append("the world does not use nodes: world left as it was")
+    if plan.raytrace:
+        note = enable_raytracing(scene)
+        notes += [note] if note else []
     if plan.probe is not None:
         note, warning = bake_probe(scene, plan.probe)
         notes += [note] if note else []

@@ -1,6 +1,7 @@
 """The scene's own lights beside EnvLight's (issue 28): the default startup scene's 1000 W point
 light renders on top of the map's light unless it is hidden. Create Lights says which lights
-render besides its own; Hide Other Lights hides them in renders (Object.hide_render, the
+render besides its own; the panel's Hide Them for the Render (the operator Hide Other
+Lights) hides them in renders (Object.hide_render, the
 camera icon), marking each with HIDDEN so that Remove EnvLight shows them again; nothing else
 about them changes.
 """
@@ -41,7 +42,8 @@ def warning(scene):
     if not objs:
         return None
     return ("the scene has %d other light%s that render%s: %s; %s light adds to the map's "
-            "(Hide Other Lights hides %s for the render; Remove EnvLight shows %s again)"
+            "(the button Hide Them for the Render hides %s in renders; Remove EnvLight "
+            "shows %s again)"
             % (len(objs), "s" if len(objs) > 1 else "", "" if len(objs) > 1 else "s",
                names(objs), "their" if len(objs) > 1 else "its",
                "them" if len(objs) > 1 else "it", "them" if len(objs) > 1 else "it"))

@@ -83,6 +83,7 @@ class Plan:
         self.probe = None              # EEVEE volume probe: (centre, half size, resolution)
         self.force = False             # Create Lamps Anyway (Cycles)
         self.dome = 0                  # EEVEE: lamps in the dome (eevee_dome), 0: none
+        self.raytrace = False          # EEVEE-Next: its ray tracing turned on (core)
 
     def settings_lines(self, lamps, suns, order):
         """What was used, one line per setting, for the panel (with Read Scene on the panel's
@@ -356,6 +357,30 @@ def read_scene(scene, volume_probe=False, dome=0):
         p.skipped.append("the SH world: EEVEE captures the world once, the residual image is "
                          "as cheap there")
         p.recipe = "eevee-residual" + ("-ground" if p.ground_albedo is not None else "")
+        # EEVEE-Next over a ground with objects casting shadows: the dome (its lamps' shadows
+        # are the occlusion EEVEE's world light lacks) with EEVEE's own ray tracing (the
+        # bounce between objects and the world light they hide, screen-traced). Measured on
+        # every map: docs/scene_bench_blender.md (picked-eevee against fitted-eevee, the
+        # fitted lamps without ray tracing, which they do not gain from: with it the residual
+        # world's bright pixels are traced and clamped)
+        next_gen = engine == "BLENDER_EEVEE_NEXT"
+        why_not = None if next_gen and casters and p.ground_albedo is not None else (
+            "EEVEE-Next's (measured there only)" if not next_gen else
+            "no object casts a shadow" if not casters else "no ground found")
+        if dome and why_not:
+            p.skipped.append("the dome of %d lamps: %s" % (dome, why_not))
+            dome = 0
+        elif not dome and next_gen:
+            p.skipped.append("the dome: EEVEE Dome is 0 (the panel)")
+        if dome:
+            p.raytrace = True
+            p.reasons.append(
+                "EEVEE-Next: ray tracing on (screen-traced at every roughness, full "
+                "resolution, indirect light unclamped): the light the objects bounce onto "
+                "one another and the sky they hide, which its world light does not know")
+        elif next_gen:
+            p.skipped.append("EEVEE-Next's ray tracing: it goes with the dome (the fitted "
+                             "lamps' residual world, traced, was further from Cycles)")
         if dome:
             p.dome = dome
             p.shadows = "SOFT"
@@ -365,7 +390,13 @@ def read_scene(scene, volume_probe=False, dome=0):
         # EEVEE has no light bouncing between objects, and its world light is not occluded
         # by them, unless a volume probe is baked (EEVEE-Next): the panel's choice, as the
         # scene benchmark found it nearer Cycles on some maps and further on others
-        if volume_probe:
+        if volume_probe and p.dome:
+            # the bake renders the dome's lamps' shadows from every probe: EEVEE's shadow
+            # pool overflowed (4474 of 2048 pages for 64 lamps) and the bake failed
+            p.skipped.append("volume probe: not with the dome (baking it, the %d lamps' "
+                             "shadows overflow EEVEE's shadow pool); EEVEE Dome 0 bakes it "
+                             "with the fitted lamps" % p.dome)
+        elif volume_probe:
             set_probe(p, scene)
         elif engine == "BLENDER_EEVEE_NEXT":
             p.skipped.append(PROBE_OFF)
