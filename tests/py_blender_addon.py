@@ -766,6 +766,18 @@ def test_reads_an_eevee_scene(addon_zip, spot_hdr):
     assert len(suns) >= 2 and all(l["visible_glossy"] in (True, None) for l in suns)
 
 
+def over_ground_less_suns(px, albedo):
+    """-> (pixels, power of the map over the ground): the map over a ground of `albedo` (its
+    lower half the whole map's bounce, the suns' too) less the suns (above the horizon), which
+    their own lamps carry: what the EEVEE recipes fit or cut (core.py)."""
+    with envlight.from_pixels(px, layout="latlong") as env, \
+            env.lights(4, method="sun") as sres:
+        full, _ = env.ground_plane(albedo)
+        with full:
+            return (np.maximum(full.pixels() - (env.pixels() - sres.residual), 0.0),
+                    full.info()["power"])
+
+
 def test_eevee_fits_its_lamps_with_an_order_1_remainder(addon_zip):
     """EEVEE lights diffuse from an order-1 SH of the world (EEVEE-Next's probes; legacy
     EEVEE's HL2, 4 coefficients): what a residual world holds above order 1 is lost there
@@ -798,19 +810,12 @@ def test_eevee_fits_its_lamps_with_an_order_1_remainder(addon_zip):
     assert fitted
     px, _ = rgbe_decode(res, path)
     expect = {}
-    with envlight.from_pixels(px, layout="latlong") as env, \
-            env.lights(4, method="sun") as sres:
-        # the map over the ground (its lower half the whole map's bounce, the spot's too) less
-        # the suns (above the horizon), which their own lamps carry
-        full, _ = env.ground_plane(plan["ground_albedo"])
-        with full:
-            over_ground = full.info()["power"]
-            rest_px = np.maximum(full.pixels() - (env.pixels() - sres.residual), 0.0)
-        with envlight.from_pixels(rest_px, layout="latlong") as ground:
-            for order in (1, 2):
-                with ground.lights(4, method="fit", order=order) as fit:
-                    expect[order] = {i: np.array(l.rgb) * (1 - l.solid_angle / (4 * math.pi))
-                                     for i, l in enumerate(fit.lights)}
+    rest_px, over_ground = over_ground_less_suns(px, plan["ground_albedo"])
+    with envlight.from_pixels(rest_px, layout="latlong") as ground:
+        for order in (1, 2):
+            with ground.lights(4, method="fit", order=order) as fit:
+                expect[order] = {i: np.array(l.rgb) * (1 - l.solid_angle / (4 * math.pi))
+                                 for i, l in enumerate(fit.lights)}
     # the lamps' energy and colour are float32 in Blender: 2^-24 relative, a few roundings
     scale = max(np.abs(v).max() for v in expect[1].values())
     for i, rgb in fitted.items():
@@ -853,12 +858,7 @@ def test_eevee_next_dome_over_a_ground(addon_zip, spot_hdr):
         SRC, "plugin", "envlight_addon", "eevee_dome.py"))
     dome_mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(dome_mod)
-    with envlight.from_pixels(px, layout="latlong") as env, \
-            env.lights(4, method="sun") as sres:
-        full, _ = env.ground_plane(plan["ground_albedo"])
-        with full:
-            over_ground = full.info()["power"]
-            rest = np.maximum(full.pixels() - (env.pixels() - sres.residual), 0.0)
+    rest, over_ground = over_ground_less_suns(px, plan["ground_albedo"])
     sky = rest.copy()
     sky[sky.shape[0] // 2:] = 0
     k, after, before = dome_mod.world_share(np, rest - sky, sky)
