@@ -384,10 +384,13 @@ def test_undo_and_redo_in_a_window(addon_zip, spot_hdr):
         assert a["direction"] == pytest.approx(b["direction"], abs=1e-6)
         assert a["energy"] == pytest.approx(b["energy"], rel=1e-6)
         assert a["color"] == pytest.approx(b["color"], rel=1e-6)
-    # same nodes, outputs and image; the image's power (float32 pixels summed in float64)
-    # to 1e-12: numpy's summation order may differ with the buffer's alignment
-    pw = lambda st: st["world"]["residual_image"].pop("power")  # noqa: E731
-    assert pw(redone) == pytest.approx(pw(created), rel=1e-12)
+    # same nodes, outputs and image; the image's power and first moment (float32 pixels
+    # summed in float64) to 1e-12: numpy's summation order may differ with the buffer's
+    # alignment
+    pw = lambda st, k: st["world"]["residual_image"].pop(k)  # noqa: E731
+    assert pw(redone, "power") == pytest.approx(pw(created, "power"), rel=1e-12)
+    assert pw(redone, "dering_measure") == pytest.approx(pw(created, "dering_measure"),
+                                                         rel=1e-12)
     assert redone["world"] == created["world"]
 
 

@@ -42,8 +42,7 @@ def warning(scene):
     if not objs:
         return None
     return ("the scene has %d other light%s that render%s: %s; %s light adds to the map's "
-            "(the button Hide Them for the Render hides %s in renders; Remove EnvLight "
-            "shows %s again)"
+            "(the panel's button hides %s in renders; Remove EnvLight shows %s again)"
             % (len(objs), "s" if len(objs) > 1 else "", "" if len(objs) > 1 else "s",
                names(objs), "their" if len(objs) > 1 else "its",
                "them" if len(objs) > 1 else "it", "them" if len(objs) > 1 else "it"))
