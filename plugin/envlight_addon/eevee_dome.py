@@ -50,9 +50,10 @@ def moments(np, pixels):
     th = (rows + 0.5) * math.pi / h
     ph = math.pi - 2 * math.pi * (np.arange(w) + 0.5) / w
     px = np.asarray(pixels[..., :3], dtype=np.float32)
-    row_sum = px.sum(axis=1, dtype=np.float64)                            # (h, 3)
-    row_cos = np.einsum("hwc,w->hc", px, np.cos(ph).astype(np.float32), dtype=np.float64)
-    row_sin = np.einsum("hwc,w->hc", px, np.sin(ph).astype(np.float32), dtype=np.float64)
+    # one pass over the image: per row and channel the sums of L, L cos phi, L sin phi
+    basis = np.stack([np.ones(w), np.cos(ph), np.sin(ph)], axis=1)       # (w, 3)
+    rows_k = np.einsum("hwc,wk->hkc", px, basis, dtype=np.float64)        # (h, 3, 3)
+    row_sum, row_cos, row_sin = rows_k[:, 0], rows_k[:, 1], rows_k[:, 2]
     I = (row_sum * dw[:, None]).sum(axis=0)
     M = np.stack([(row_cos * (dw * np.sin(th))[:, None]).sum(axis=0),
                   (row_sin * (dw * np.sin(th))[:, None]).sum(axis=0),
