@@ -679,7 +679,8 @@ ENVL_API envl_result envl_prefilter_specular(envl_envmap *map, double roughness,
                                              const envl_prefilter_options *options, float **rgb,
                                              envl_level *stats);
 /* The map's area-averaged mip pyramid (level 0 = the map, each next level half the size, down
- * to 1 x 1), built once and cached on the map; envl_envmap_drop_mips frees it and the specular
+ * to 1 x 1; levels wider than 4096 are not kept: the products read the map there), built once
+ * and cached on the map; envl_envmap_drop_mips frees it and the specular
  * levels' cell pyramid (docs/methods.md), cached the same way. */
 ENVL_API envl_result envl_envmap_mips(envl_envmap *map, int32_t *levels);
 ENVL_API void envl_envmap_drop_mips(envl_envmap *map);

@@ -203,10 +203,59 @@ static void test_dome_sky(void)
     envl_envmap_free(map);
 }
 
+/* The dome from windows of the map's rows (no copies: pov_dome.c) is the dome from copies of
+ * its halves, bit for bit: the built-in sky with a glint below the horizon brighter than the
+ * sky half's sun threshold (a window that read it would split it off as a sun of the sky) and
+ * a bright patch across the seam. The map's pixels are its own again afterwards (the suns'
+ * patches put back); a window's power is its half's; rows that are no window fail. */
+static void test_dome_windows(void)
+{
+    envl_sky_options so = {.width = 512};
+    envl_envmap *sky, *map, *upper, *window;
+    CHECK_OK(envl_envmap_sky(&so, &sky));
+    int32_t w = sky->width, h = sky->height;
+    size_t n = (size_t)3 * w * h;
+    float *px = malloc(sizeof(float) * n), *before = malloc(sizeof(float) * n);
+    memcpy(px, sky->px, sizeof(float) * n);
+    for (int r = h / 2 + 20; r < h / 2 + 22; r++)
+        for (int c = 100; c < 102; c++)
+            for (int ch = 0; ch < 3; ch++)
+                px[3 * ((size_t)r * w + c) + ch] = 1e4f;
+    for (int r = 60; r < 70; r++)
+        for (int c = w - 4; c < w + 4; c++)
+            for (int ch = 0; ch < 3; ch++)
+                px[3 * ((size_t)r * w + c % w) + ch] += 50.0f;
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG};
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &lo, &map));
+    memcpy(before, map->px, sizeof(float) * n);
+    CHECK_OK(envl_sky_hemisphere_map(map, 0, &upper));
+    pov_light *a = NULL, *b = NULL;
+    int32_t na = 0, sa = 0, ba = 0, nb = 0, sb = 0, bb = 0;
+    CHECK_OK(pov_dome_lights(upper, map, 32, 0, &a, &na, &sa, &ba)); /* copies */
+    CHECK_OK(pov_dome_lights(NULL, map, 32, 0, &b, &nb, &sb, &bb));  /* windows */
+    CHECK(na == 32 && nb == na && sb == sa && bb == ba && ba >= 2);
+    CHECK(a && b && !memcmp(a, b, sizeof *a * (size_t)na));
+    CHECK(!memcmp(before, map->px, sizeof(float) * n));
+    CHECK_OK(envl__envmap_window(map, 0, h / 2, &window));
+    for (int k = 0; k < 3; k++)
+        CHECK(window->info.power[k] == upper->info.power[k]);
+    envl_envmap_free(window);
+    CHECK(envl__envmap_window(map, h / 2, h / 2, &window) == ENVL_ERR_ARGUMENT && !window);
+    CHECK(envl__envmap_window(map, 0, h + 1, &window) == ENVL_ERR_ARGUMENT && !window);
+    free(a);
+    free(b);
+    free(px);
+    free(before);
+    envl_envmap_free(upper);
+    envl_envmap_free(map);
+    envl_envmap_free(sky);
+}
+
 int main(void)
 {
     test_patch_grid();
     test_horizon();
     test_dome_sky();
+    test_dome_windows();
     return check_report("test_pov_dome");
 }

@@ -5,6 +5,7 @@
 #include "internal.h"
 #include "check.h"
 #include "error_measure.h"
+#include "prefilter_impl.h"
 
 #include <dirent.h>
 #include <time.h>
@@ -880,8 +881,53 @@ static void test_glossy_reference(void)
     free(dirs);
 }
 
+/* The mip pyramid keeps no level wider than 4096 (a 16K map's level 1 would be a quarter of
+ * the map again): on a 16384 x 8 map, level 1 (8192 x 4) is not kept and a request for it
+ * reads the map; level 2 (4096 x 2) is the map's exact area mean, each of its pixels the mean
+ * of 4 x 4 of the map's (the rows' solid angles within the block weigh them); the level count
+ * is the whole pyramid's. A request the map itself meets builds nothing. */
+static void test_mips_kept(void)
+{
+    const int32_t w = 16384, h = 8;
+    float *px = malloc(sizeof(float) * 3 * (size_t)w * h);
+    for (size_t i = 0; i < (size_t)3 * w * h; i++)
+        px[i] = (float)((i * 2654435761u) % 1000) / 100.0f;
+    envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG};
+    envl_envmap *m = NULL;
+    CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &lo, &m));
+    envl_image lev;
+    CHECK_OK(envl__mip_level_for(m, ENVL_PI / h, &lev)); /* the map's own pixels */
+    CHECK(lev.px == m->px && lev.width == w && m->mip_levels == 0);
+    CHECK_OK(envl__mip_level_for(m, ENVL_PI / 4, &lev)); /* level 1: not kept */
+    CHECK(lev.px == m->px && lev.width == w && m->mip_levels == 15 && m->mip_first == 2);
+    CHECK_OK(envl__mip_level_for(m, ENVL_PI / 2, &lev)); /* level 2 */
+    CHECK(lev.width == 4096 && lev.height == 2 && lev.px != m->px);
+    double worst = 0;
+    for (int32_t r = 0; r < 2; r++)
+        for (int32_t c = 0; c < 4096; c++)
+            for (int ch = 0; ch < 3; ch++) {
+                double sum = 0, om = 0;
+                for (int32_t y = 4 * r; y < 4 * r + 4; y++)
+                    for (int32_t x = 4 * c; x < 4 * c + 4; x++) {
+                        double o = envl_latlong_solid_angle(w, h, y);
+                        sum += o * px[3 * ((size_t)y * w + x) + ch];
+                        om += o;
+                    }
+                double want = sum / om, got = lev.px[3 * ((size_t)r * 4096 + c) + ch];
+                worst = fmax(worst, fabs(got - want) / fmax(want, 1e-30));
+            }
+    /* two float roundings: the column pass's rows are floats (resample.c), then the mean */
+    CHECK(worst <= 2 * 0x1p-24);
+    int32_t levels = 0;
+    CHECK_OK(envl_envmap_mips(m, &levels));
+    CHECK(levels == 15);
+    envl_envmap_free(m);
+    free(px);
+}
+
 int main(void)
 {
+    test_mips_kept();
     test_hostile_numbers();
     test_constant();
     test_linear();

@@ -159,6 +159,10 @@ static void stats_of_rows(void *ctx, int64_t begin, int64_t end)
     const envl_envmap *m = j->m;
     for (int64_t r = begin; r < end; r++) {
         row_stats *o = &j->rows[r];
+        if (m->window && (r < m->row0 || r >= m->row1)) { /* black: what a black row gives */
+            *o = (row_stats){{0, 0, 0}, {0, 0, 0}, 0, 0};
+            continue;
+        }
         /* one local per channel (not arrays): the three sums and maxima stay in registers */
         double s0 = 0, s1 = 0, s2 = 0, best = -1.0;
         float m0 = 0, m1 = 0, m2 = 0;
@@ -409,8 +413,8 @@ envl_result envl__envmap_adopt(float *px, int32_t w, int32_t h, const envl_load_
     return envl__envmap_from_image(&img, o, name, out);
 }
 
-envl_result envl__envmap_borrow(float *px, int32_t w, int32_t h, int32_t threads,
-                                envl_envmap **out)
+static envl_result borrow(float *px, int32_t w, int32_t h, int32_t row0, int32_t row1,
+                          int32_t threads, envl_envmap **out)
 {
     *out = NULL;
     envl_envmap *m = calloc(1, sizeof *m);
@@ -429,6 +433,9 @@ envl_result envl__envmap_borrow(float *px, int32_t w, int32_t h, int32_t threads
     m->px_borrowed = 1;
     m->width = w;
     m->height = h;
+    m->window = row0 > 0 || row1 < h;
+    m->row0 = row0;
+    m->row1 = row1;
     envl_result rc = build_tables(m);
     if (!rc)
         rc = compute_stats(m);
@@ -439,6 +446,22 @@ envl_result envl__envmap_borrow(float *px, int32_t w, int32_t h, int32_t threads
     memcpy(info->signed_power, info->power, sizeof info->power);
     *out = m;
     return ENVL_OK;
+}
+
+envl_result envl__envmap_borrow(float *px, int32_t w, int32_t h, int32_t threads,
+                                envl_envmap **out)
+{
+    return borrow(px, w, h, 0, h, threads, out);
+}
+
+envl_result envl__envmap_window(const envl_envmap *map, int32_t row0, int32_t row1,
+                                envl_envmap **out)
+{
+    *out = NULL;
+    if (!(row0 >= 0 && row0 < row1 && row1 <= map->height))
+        return envl__fail(ENVL_ERR_ARGUMENT, "envmap: rows [%d, %d) are no window of a map %d "
+                          "rows high", (int)row0, (int)row1, (int)map->height);
+    return borrow(map->px, map->width, map->height, row0, row1, map->threads, out);
 }
 
 envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t height,

@@ -8,6 +8,10 @@ struct envl_envmap {
     int32_t width, height;
     float *px;            /* RGB, row 0 = top (canonical lat-long) */
     int32_t px_borrowed;  /* px belongs to another map (envl__sun_residual_view): not freed */
+    int32_t window;       /* a window (envl__envmap_window): only rows [row0, row1) are the
+                             map's, the others read as black in the statistics, the region
+                             table, the cuts, the sun split and pov_area (not elsewhere) */
+    int32_t row0, row1;
     double *row_omega;    /* solid angle of a pixel of each row (exact) */
     double *row_cos;      /* cos(theta) at each row's centre */
     double *row_sin;      /* sin(theta) = z at each row's centre */
@@ -25,10 +29,11 @@ struct envl_envmap {
     struct envl_envmap *reference_copy; /* cached: the map area-resampled to
                                            ENVL_REFERENCE_WIDTH when wider (irradiance.c) */
     double *region_table; /* cached region table of the lights (region_table.c) */
-    /* prefilter.c: the cached area-averaged mip pyramid. Level 0 is px itself; levels 1 ..
-     * mip_levels - 1 live in mip_px at mip_offset[level] (floats). mip_levels 0: not built. */
+    /* mips.c: the cached area-averaged mip pyramid. Level 0 is px itself; levels mip_first ..
+     * mip_levels - 1 live in mip_px at mip_offset[level] (floats; levels 1 .. mip_first - 1,
+     * wider than 4096, are not kept). mip_levels 0: not built. */
     float *mip_px;
-    int32_t mip_levels;
+    int32_t mip_levels, mip_first;
     int32_t mip_w[40], mip_h[40];
     size_t mip_offset[40];
     /* cells.c: the cached cell pyramid of the specular levels (one malloc'd block) or NULL */
@@ -37,6 +42,23 @@ struct envl_envmap {
      * NULL (none made yet, or none needed) */
     struct envl_envmap *points_copy;
 };
+
+/* Rows [*y0, *y1) clipped to the map's window (unchanged for a whole map): the rows outside
+ * it are black, and a black row adds nothing to any of the sums that read a window. */
+static inline void envl__window_rows(const envl_envmap *m, int32_t *y0, int32_t *y1)
+{
+    if (m->window) {
+        *y0 = *y0 < m->row0 ? m->row0 : *y0;
+        *y1 = *y1 > m->row1 ? m->row1 : *y1;
+    }
+}
+
+/* The rows [row0, row1) of map (0 <= row0 < row1 <= its height) as a map of its own size over
+ * its pixels (borrowed: map must outlive it), every other row black: the sky half or the
+ * ground half of a map without a copy (pov_dome.c). Only the functions named at `window`
+ * read it as such. */
+envl_result envl__envmap_window(const envl_envmap *map, int32_t row0, int32_t row1,
+                                envl_envmap **out);
 
 /* The GGX sums (the levels' cell pyramid, the glossy reference) take each pixel as a point at
  * its centre. A map whose pixels are too coarse for that (fewer than 16 columns or 8 rows, or

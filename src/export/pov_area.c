@@ -60,6 +60,7 @@ void pov_area_shape(const envl_envmap *m, double sun_threshold, pov_light *p)
     tangents(l, e1, e2);
     int32_t w = m->width, x0 = p->l.rect[0], x1 = p->l.rect[2];
     int32_t y0 = p->l.rect[1] < 0 ? 0 : p->l.rect[1], y1 = p->l.rect[3] > m->height ? m->height : p->l.rect[3];
+    envl__window_rows(m, &y0, &y1);
     double power[3] = {0, 0, 0}, along[3] = {0, 0, 0}, mom[3] = {0, 0, 0}, weight = 0;
     for (int32_t r = y0; r < y1; r++) {
         double dw = m->row_omega[r], rc = m->row_cos[r], z = m->row_sin[r];

@@ -6,7 +6,9 @@
  * (lights_cut.c), whose cells follow the sky's spread. Without a ground (a scene whose ground
  * is not known), the map's lower half is cut apart with its share of the lights (2 .. count / 4):
  * a cell across the horizon would put its light below a floor that hides it (-10 % on a studio
- * map). Each light then gets the shape of its region (pov_area.c). */
+ * map). Each light then gets the shape of its region (pov_area.c). The two halves of a map of
+ * even height are windows of its rows (envl__envmap_window): no copy, so a 16K map's dome
+ * needs little beyond the map (docs/scale_bench.md). */
 #include "pov_light.h"
 #include "envmap_impl.h"
 
@@ -69,14 +71,25 @@ envl_result pov_dome_lights(const envl_envmap *upper_c, const envl_envmap *map_c
                             int32_t *below)
 {
     envl_envmap *upper = (envl_envmap *)upper_c, *lower = NULL, *rest = NULL; /* rest: a view */
+    envl_envmap *window = NULL; /* the sky half as the map's rows, when upper_c is NULL */
     envl_lights *sun = NULL, *cells = NULL, *down = NULL;
     pov_light *down_lights = NULL, *sun_lights = NULL;
     float *saved = NULL; /* the sky's pixels under the suns while `rest` views them */
     *lights = NULL;
     *n = *suns = *below = 0;
     envl_result r = ENVL_OK;
-    if (map_c && (r = lower_half(map_c, upper, threads, &lower)))
+    if (!upper) {
+        /* the horizon between rows h / 2 - 1 and h / 2: each half is the map's own rows */
+        int32_t h = map_c->height;
+        if ((r = envl__envmap_window(map_c, 0, h / 2, &window)) ||
+            (r = envl__envmap_window(map_c, h / 2, h, &lower))) {
+            envl_envmap_free(window);
+            return r;
+        }
+        upper = window;
+    } else if (map_c && (r = lower_half(map_c, upper, threads, &lower))) {
         return r;
+    }
     double pu = power_lum(upper), pl = lower ? power_lum(lower) : 0;
     int32_t nd = 0;
     if (pl > 0 && count >= 2) {
@@ -142,5 +155,6 @@ done:
     envl_lights_free(cells);
     envl_lights_free(down);
     envl_envmap_free(lower);
+    envl_envmap_free(window);
     return r;
 }

@@ -234,10 +234,11 @@ static envl_result compute_maps(const pov_plan *p, int32_t threads, pov_work *w)
     }
     /* A dome over a ground takes its lights from the sky half: the plane would shadow any
      * light below the horizon. The dome (pov_dome.c) always cuts the sky half apart, and
-     * without a ground the lower half too. */
+     * without a ground the lower half too: from the map's own rows when the horizon lies
+     * between two (an even height), else from copies. */
     w->cut_map = w->lit;
     int dome = p->recipe == POV_RECIPE_DOME || p->recipe == POV_RECIPE_DOME_AMBIENT;
-    if ((dome && w->grounded) || p->recipe == POV_RECIPE_DOME) {
+    if ((dome && w->grounded) || (p->recipe == POV_RECIPE_DOME && w->map->height % 2)) {
         envl_result r = envl_sky_hemisphere_map(w->map, threads, &w->sky_half);
         if (r)
             return r;

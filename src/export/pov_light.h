@@ -53,7 +53,8 @@ void pov_light_irradiance(const pov_light *p, const double n[3], double out[3]);
 /* The dome's light set (pov_dome.c): the suns of `upper` (the sky half, at most POV_DOME_SUNS
  * of them) as lights of their own size, the rest of `upper` cut by variance and, when `map` is
  * given (no ground hides its lower half), map - upper cut apart: `count` lights in all, each
- * with its shape and grid. *lights is malloc'd; *suns and *below count the suns and the lights
+ * with its shape and grid. `upper` NULL: the sky half of `map` (of even height) as a window of
+ * its rows, and its lower half likewise (no copies). *lights is malloc'd; *suns and *below count the suns and the lights
  * below the horizon. */
 envl_result pov_dome_lights(const envl_envmap *upper, const envl_envmap *map, int32_t count,
                             int32_t threads, pov_light **lights, int32_t *n, int32_t *suns,

@@ -127,7 +127,9 @@ static int split_variance(const envl_envmap *m, region *r, region *a, region *b,
         free(row);
         return -1;
     }
-    for (int32_t y = r->y0; y < r->y1; y++) {
+    int32_t ya = r->y0, yb = r->y1; /* a window's other rows add nothing */
+    envl__window_rows(m, &ya, &yb);
+    for (int32_t y = ya; y < yb; y++) {
         double omega = m->row_omega[y], ct = m->row_cos[y], st = m->row_sin[y];
         double *rw = row + 3 * (y - r->y0);
         for (int32_t x = r->x0; x < r->x1; x++) {
@@ -198,7 +200,9 @@ static double region_variance(const envl_envmap *m, const region *r)
 {
     int32_t W = m->width;
     double e = 0, s[3] = {0, 0, 0};
-    for (int32_t y = r->y0; y < r->y1; y++) {
+    int32_t ya = r->y0, yb = r->y1;
+    envl__window_rows(m, &ya, &yb);
+    for (int32_t y = ya; y < yb; y++) {
         double omega = m->row_omega[y], ct = m->row_cos[y], st = m->row_sin[y];
         for (int32_t x = r->x0; x < r->x1; x++) {
             int32_t c = x < W ? x : x - W;

@@ -141,7 +141,9 @@ envl_result envl__sun_residual_view(envl_envmap *m, const envl_lights *ls, int32
         memcpy(m->px + 3 * ((size_t)ls->patch[i].r * m->width + ls->patch[i].c),
                ls->patch[i].rgb, sizeof ls->patch[i].rgb);
     *saved = keep;
-    envl_result rc = envl__envmap_borrow(m->px, m->width, m->height, threads, out);
+    /* a window's rest is the same window */
+    envl_result rc = m->window ? envl__envmap_window(m, m->row0, m->row1, out)
+                               : envl__envmap_borrow(m->px, m->width, m->height, threads, out);
     if (rc) {
         envl__sun_residual_view_end(m, ls, keep, NULL);
         *saved = NULL;

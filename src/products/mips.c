@@ -8,37 +8,49 @@
 
 /* ---- the mip pyramid ---- */
 
-/* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */
+/* Levels wider than this are not kept: a 16K map's level 1 alone is 384 MiB, a quarter of the
+ * map again, and no product reads it at the chain's default sizes (docs/scale_bench.md). A
+ * request for a finer level than the first one kept reads the map itself (pixels no wider
+ * than asked for). 8K maps and smaller keep every level. */
+#define MIP_KEPT_WIDTH 4096
+
+/* The area-averaged pyramid of a W x H image: the sizes of levels 0 .. *n - 1 in mw, mh; the
+ * levels from *first (the first no wider than MIP_KEPT_WIDTH) in *buf at off[k]. */
 envl_result envl__build_pyramid(const float *px, int32_t w, int32_t h, float **buf_out,
-                                 int32_t *n_out, int32_t mw[40], int32_t mh[40], size_t off[40])
+                                 int32_t *n_out, int32_t *first_out, int32_t mw[40],
+                                 int32_t mh[40], size_t off[40])
 {
-    int32_t n = 1;
+    int32_t n = 1, first = 0;
     size_t total = 0;
     mw[0] = w, mh[0] = h, off[0] = 0;
     while ((w > 1 || h > 1) && n < 40) {
         w = w > 1 ? w / 2 : 1;
         h = h > 1 ? h / 2 : 1;
         mw[n] = w, mh[n] = h, off[n] = total;
-        total += (size_t)w * h * 3;
+        if (!first && w <= MIP_KEPT_WIDTH)
+            first = n;
+        if (first)
+            total += (size_t)w * h * 3;
         n++;
     }
     float *buf = n > 1 ? NULL : malloc(sizeof(float));
     if (n == 1 && !buf)
         return envl__fail(ENVL_ERR_MEMORY, "mip pyramid: out of memory");
     const float *prev = px;
-    for (int32_t k = 1; k < n; k++) {
+    for (int32_t k = first; k < n; k++) {
         float *lev;
         /* Levels nest (each texel edge of level k is one of level k - 1, in azimuth and in
-         * z), so resampling the previous level is the same as resampling the map. */
-        envl_result rc = envl__latlong_resample(prev, mw[k - 1], mh[k - 1], mw[k], mh[k],
-                                                0.0, &lev);
+         * z), so resampling the previous level, or the map, is resampling the map. */
+        const int32_t from = k == first ? 0 : k - 1;
+        envl_result rc = envl__latlong_resample(prev, mw[from], mh[from], mw[k], mh[k], 0.0,
+                                                &lev);
         if (rc) {
             free(buf);
             return rc;
         }
-        if (k == 1) {
-            /* Level 1 sits at offset 0: its buffer grows to hold every level (for a large
-             * block realloc remaps the pages: no second copy of level 1 at the peak). */
+        if (k == first) {
+            /* The first level sits at offset 0: its buffer grows to hold every level (for a
+             * large block realloc remaps the pages: no second copy of it at the peak). */
             buf = realloc(lev, sizeof(float) * total);
             if (!buf) {
                 free(lev);
@@ -52,6 +64,7 @@ envl_result envl__build_pyramid(const float *px, int32_t w, int32_t h, float **b
     }
     *buf_out = buf;
     *n_out = n;
+    *first_out = first;
     return ENVL_OK;
 }
 
@@ -63,7 +76,8 @@ envl_result envl_envmap_mips(envl_envmap *m, int32_t *levels)
         int32_t n, mw[40], mh[40];
         size_t off[40];
         float *buf;
-        envl_result rc = envl__build_pyramid(m->px, m->width, m->height, &buf, &n, mw, mh, off);
+        envl_result rc = envl__build_pyramid(m->px, m->width, m->height, &buf, &n,
+                                             &m->mip_first, mw, mh, off);
         if (rc)
             return rc;
         m->mip_px = buf;
@@ -91,14 +105,24 @@ void envl_envmap_drop_mips(envl_envmap *m)
 
 envl_result envl__mip_level_for(envl_envmap *m, double pixel, envl_image *out)
 {
-    envl_result rc = envl_envmap_mips(m, NULL);
-    if (rc)
-        return rc;
-    int32_t k = 0; /* a level's pixels are pi / h tall */
-    while (k + 1 < m->mip_levels && ENVL_PI / m->mip_h[k + 1] <= pixel)
+    /* the coarsest level whose pixels (pi / h tall) are no taller than `pixel`, by the sizes
+     * alone: a request the map itself meets builds no pyramid */
+    int32_t k = 0, w = m->width, h = m->height;
+    while ((w > 1 || h > 1) && k + 1 < 40 && ENVL_PI / (h > 1 ? h / 2 : 1) <= pixel) {
+        w = w > 1 ? w / 2 : 1;
+        h = h > 1 ? h / 2 : 1;
         k++;
-    *out = (envl_image){.width = m->mip_w[k], .height = m->mip_h[k],
-                        .px = k ? m->mip_px + m->mip_offset[k] : m->px};
+    }
+    if (k > 0) {
+        envl_result rc = envl_envmap_mips(m, NULL);
+        if (rc)
+            return rc;
+        if (k < m->mip_first) /* not kept: the map */
+            k = 0;
+    }
+    *out = k ? (envl_image){.width = m->mip_w[k], .height = m->mip_h[k],
+                            .px = m->mip_px + m->mip_offset[k]}
+             : (envl_image){.width = m->width, .height = m->height, .px = m->px};
     return ENVL_OK;
 }
 

@@ -21,13 +21,16 @@
 #include "cells.h"
 
 /* ---- the mip pyramid (mips.c) ---- */
-/* The area-averaged pyramid of a W x H image: levels 1 .. *n - 1 in *buf at off[k]. */
+/* The area-averaged pyramid of a W x H image: the sizes of levels 0 .. *n - 1 in mw, mh; the
+ * levels kept (from *first, the first no wider than 4096) in *buf at off[k]. */
 envl_result envl__build_pyramid(const float *px, int32_t w, int32_t h, float **buf_out,
-                                int32_t *n_out, int32_t mw[40], int32_t mh[40], size_t off[40]);
+                                int32_t *n_out, int32_t *first, int32_t mw[40], int32_t mh[40],
+                                size_t off[40]);
 /* The coarsest level of the map's mip pyramid (built and cached here; level 0 the map) whose
  * pixels are at most `pixel` radians tall, as an image (its pixels stay the map's). Each is
  * the exact area mean of the map over its pixels, so a footprint mean over a texel several
- * of its pixels wide is the map's, for a fraction of the lookups. */
+ * of its pixels wide is the map's, for a fraction of the lookups. A level not kept (wider
+ * than 4096) gives the map. The pyramid is built on the first request past level 0. */
 envl_result envl__mip_level_for(envl_envmap *m, double pixel, envl_image *out);
 /* Integral of L dw of a w x h product image (ENVL_LAYOUT_LATLONG or _STRIP_H), per channel. */
 void envl__image_energy(const float *px, int32_t layout, int32_t w, int32_t h, double e[3]);

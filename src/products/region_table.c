@@ -113,6 +113,10 @@ static void table_rows(void *arg, int64_t begin, int64_t end)
         const float *row = m->px + (size_t)r * w * 3;
         double *t = j->t + (size_t)(r + 1) * (nb + 1) * 6, acc[6] = {0, 0, 0, 0, 0, 0};
         memset(t, 0, sizeof(double) * 6);
+        if (m->window && (r < m->row0 || r >= m->row1)) { /* black: sums of 0 */
+            memset(t, 0, sizeof(double) * 6 * (size_t)(nb + 1));
+            continue;
+        }
         for (int32_t k = 0; k < nb; k++) {
             double s[5], v[6];
             int32_t c0 = boundary(w, k);
@@ -184,6 +188,7 @@ static void direct_sums(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0
     if (x0 >= x1)
         return;
     int32_t w = m->width;
+    envl__window_rows(m, &y0, &y1);
     for (int32_t y = y0; y < y1; y++) {
         const float *p = m->px + 3 * ((size_t)y * w + x0);
         double s[5] = {0, 0, 0, 0, 0}, v[6];
@@ -251,6 +256,7 @@ void envl__rect_sums(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0, i
 static double direct_energy(const envl_envmap *m, int32_t x0, int32_t x1, int32_t y0, int32_t y1)
 {
     double e = 0;
+    envl__window_rows(m, &y0, &y1);
     for (int32_t y = y0; x0 < x1 && y < y1; y++) {
         const float *p = m->px + 3 * ((size_t)y * m->width + x0);
         double r = 0, g = 0, b = 0;
@@ -310,6 +316,7 @@ void envl__column_energies(const envl_envmap *m, int32_t x0, int32_t x1, int32_t
 {
     int32_t w = m->width;
     memset(out, 0, sizeof(double) * (size_t)(x1 - x0));
+    envl__window_rows(m, &y0, &y1);
     for (int32_t y = y0; y < y1; y++) {
         double om = m->row_omega[y];
         const float *row = m->px + (size_t)y * w * 3;

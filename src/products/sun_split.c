@@ -41,8 +41,10 @@ envl_result envl__sun_split_lobes(const envl_envmap *m, envl_sun_split *s)
     double T = SPLIT_K * map_power(m) / (4 * ENVL_PI);
     if (!(T > 0) || !isfinite(T))
         return ENVL_OK;
-    size_t npx = (size_t)w * h, count = 0;
-    for (size_t i = 0; i < npx; i++)
+    int32_t r0 = 0, r1 = h; /* a window's other rows are black: none is over T */
+    envl__window_rows(m, &r0, &r1);
+    size_t count = 0, i0 = (size_t)w * r0, i1 = (size_t)w * r1;
+    for (size_t i = i0; i < i1; i++)
         count += envl__lum(m->px[3 * i], m->px[3 * i + 1], m->px[3 * i + 2]) > T;
     if (count == 0)
         return ENVL_OK;
@@ -51,7 +53,7 @@ envl_result envl__sun_split_lobes(const envl_envmap *m, envl_sun_split *s)
         if (!y)
             return envl__fail(ENVL_ERR_MEMORY, "sun split: out of memory");
         size_t k = 0;
-        for (size_t i = 0; i < npx; i++) {
+        for (size_t i = i0; i < i1; i++) {
             double l = envl__lum(m->px[3 * i], m->px[3 * i + 1], m->px[3 * i + 2]);
             if (l > T)
                 y[k++] = (float)l;
@@ -64,7 +66,7 @@ envl_result envl__sun_split_lobes(const envl_envmap *m, envl_sun_split *s)
     s->lobes = malloc(sizeof(envl_sun_lobe) * (count < SPLIT_MAX ? count : SPLIT_MAX));
     if (!s->lobes)
         return envl__fail(ENVL_ERR_MEMORY, "sun split: out of memory");
-    for (int32_t r = 0; r < h && s->n < SPLIT_MAX; r++)
+    for (int32_t r = r0; r < r1 && s->n < SPLIT_MAX; r++)
         for (int32_t c = 0; c < w && s->n < SPLIT_MAX; c++) {
             const float *p = m->px + 3 * ((size_t)r * w + c);
             double y = envl__lum(p[0], p[1], p[2]);
