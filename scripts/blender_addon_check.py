@@ -438,7 +438,8 @@ def main():
                      "notes": list((core.last_result or {}).get("notes", [])),
                      # the plan Create Lights made from the scene (or the panel)
                      "plan": {k: (core.last_result or {}).get(k) for k in (
-                         "recipe", "reasons", "skipped", "ground_object", "ground_albedo")},
+                         "recipe", "reasons", "skipped", "ground_object", "ground_albedo",
+                         "ground_edge")},
                      "probes": probes(),
                      "raytracing": raytracing_state(scene),
                      "panel_recipe": s.result_recipe,

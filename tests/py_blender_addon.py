@@ -769,16 +769,43 @@ def test_reads_an_eevee_scene(addon_zip, spot_hdr):
     assert len(suns) >= 2 and all(l["visible_glossy"] in (True, None) for l in suns)
 
 
-def over_ground_less_suns(px, albedo):
+def over_ground_less_suns(px, albedo, edge=None, with_band=False):
     """-> (pixels, power of the map over the ground): the map over a ground of `albedo` (its
     lower half the whole map's bounce, the suns' too) less the suns (above the horizon), which
-    their own lamps carry: what the EEVEE recipes fit or cut (core.py)."""
+    their own lamps carry: what the EEVEE recipes fit or cut (core.py). The power is what the
+    lamps and the world carry together: with the ground's `edge` (the plan's: box lo, hi, the
+    objects' centre), the directions that pass beyond it below the horizon hold the map less
+    its suns instead of the bounce (ground_edge.py, tested in py_ground_edge); with_band: the
+    pixels returned are those too (the dome's world before its share)."""
     with envlight.from_pixels(px, layout="latlong") as env, \
             env.lights(4, method="sun") as sres:
         full, _ = env.ground_plane(albedo)
         with full:
-            return (np.maximum(full.pixels() - (env.pixels() - sres.residual), 0.0),
-                    full.info()["power"])
+            fit = np.maximum(full.pixels() - (env.pixels() - sres.residual), 0.0)
+            if edge is None:
+                return fit, full.info()["power"]
+            spec = importlib.util.spec_from_file_location("ground_edge", os.path.join(
+                SRC, "plugin", "envlight_addon", "ground_edge.py"))
+            mod = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(mod)
+            mask = mod.band(np, fit.shape[0], fit.shape[1], *edge)
+            assert mask.any()
+            world, total = fit.copy(), full.pixels()
+            world[mask] = sres.residual[mask]   # the lamps' and the world's
+            total[mask] = env.pixels()[mask]    # with the suns' lamps
+            with envlight.from_pixels(total, layout="latlong") as c:
+                return (world if with_band else fit), c.info()["power"]
+
+
+def check_ground_edge(plan):
+    """The plan's ground edge is GROUND_OBJ's box (20 m, top at z = 0) seen from MATTE_OBJ's
+    centre (0, 0, 1)."""
+    lo, hi, centre = plan["ground_edge"]
+    assert np.allclose(lo[:2], (-10, -10)) and np.allclose(hi, (10, 10, 0), atol=1e-6)
+    assert np.allclose(centre, (0, 0, 1), atol=1e-6)
+    assert any(r.startswith("the ground ends: below the horizon the world keeps the map down "
+                            "to where the objects see the ground begin (4.0-5.7 degrees)")
+               for r in plan["reasons"]), plan["reasons"]
 
 
 def test_eevee_fits_its_lamps_with_an_order_1_remainder(addon_zip):
@@ -813,7 +840,8 @@ def test_eevee_fits_its_lamps_with_an_order_1_remainder(addon_zip):
     assert fitted
     px, _ = rgbe_decode(res, path)
     expect = {}
-    rest_px, over_ground = over_ground_less_suns(px, plan["ground_albedo"])
+    check_ground_edge(plan)
+    rest_px, over_ground = over_ground_less_suns(px, plan["ground_albedo"], plan["ground_edge"])
     with envlight.from_pixels(rest_px, layout="latlong") as ground:
         for order in (1, 2):
             with ground.lights(4, method="fit", order=order) as fit:
@@ -861,7 +889,9 @@ def test_eevee_next_dome_over_a_ground(addon_zip, spot_hdr):
         SRC, "plugin", "envlight_addon", "eevee_dome.py"))
     dome_mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(dome_mod)
-    rest, over_ground = over_ground_less_suns(px, plan["ground_albedo"])
+    check_ground_edge(plan)
+    rest, over_ground = over_ground_less_suns(px, plan["ground_albedo"], plan["ground_edge"],
+                                              with_band=True)
     sky = rest.copy()
     sky[sky.shape[0] // 2:] = 0
     k, after, before = dome_mod.world_share(np, rest - sky, sky)

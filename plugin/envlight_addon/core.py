@@ -12,7 +12,7 @@ import time
 import bpy
 import mathutils
 
-from . import eevee_dome, exact_discs, other_lights
+from . import eevee_dome, exact_discs, ground_edge, other_lights
 from . import scene as scene_reader
 
 TAG = "envlight"
@@ -903,8 +903,9 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step, start=0.2):
             used = pkg.from_pixels(px, layout="latlong")
     elif plan.ground_albedo is not None:
         used = rest.sky_hemisphere()
+    band = band_pixels(plan, rest, used)
     if plan.dome:
-        return dome_rest(pkg, env, rest, used, plan, step, start)
+        return dome_rest(pkg, env, rest, used, plan, step, start, band)
     try:
         # the library's own progress moves the bar to 0.6 while it fits (issue 16)
         with pkg.progress(lambda f, stage: step(min(0.6, start + (0.6 - start) * f))), \
@@ -928,7 +929,19 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step, start=0.2):
         for m in {id(used): used, id(rest): rest}.values():
             if m is not env:
                 m.close()
+    if band is not None and mode == "RESIDUAL" and residual is not None:
+        residual = ground_edge.add(residual, *band)
     return lights, summary, residual, sh_coeffs
+
+
+def band_pixels(plan, rest, used):
+    """Over a ground whose edge is known (plan.ground_band, ground_edge.py): (the band's mask,
+    the map's pixels there less what `used`, the map as the ground leaves it, has there),
+    else None."""
+    if plan.ground_band is None or used is rest:
+        return None
+    mask = plan.ground_band
+    return mask, rest.pixels()[mask] - used.pixels()[mask]
 
 
 def exact_figures(pkg, env, lamps, residual):
@@ -947,13 +960,15 @@ def exact_figures(pkg, env, lamps, residual):
             "residual_power": residual_power}
 
 
-def dome_rest(pkg, env, rest, used, plan, step, start=0.2):
+def dome_rest(pkg, env, rest, used, plan, step, start=0.2, band=None):
     """EEVEE's dome (eevee_dome) over `used` (the map less the suns; over a ground its lower
     half the bounce): -> (the dome's lamps, the cut's summary, the world's image: the ground's
     bounce below the horizon over a ground, else nothing, None). Closes `used` and `rest`
-    unless they are `env`."""
+    unless they are `env`. band: band_pixels'."""
     import numpy as np
     world = used.pixels()
+    if band is not None:  # the world as it will be, the share below computed on it
+        world = ground_edge.add(world, *band)
     ground = plan.ground_albedo is not None
     sky = eevee_dome.upper_half(np, world) if ground else world
     share = 0.0
@@ -1059,6 +1074,11 @@ def create_lights(context, settings, progress=None, force=False):
     if plan.ground_albedo is not None and abs(rot[2][2] - 1.0) > 1e-6:
         warnings.append("the Mapping node tilts the world: no ground treatment")
         plan.ground_albedo = None
+    plan.ground_band = None
+    if plan.ground_albedo is not None and plan.ground_edge:
+        # the directions that pass beyond the ground's edge see the map (ground_edge.py)
+        plan.ground_band = ground_edge.band(np, env.height, env.width, *plan.ground_edge,
+                                            rot=[list(r) for r in rot])
     sun_lights, glossy_pixels, sun_summary = [], None, None
     with env:
         power = env.info()["power"]
@@ -1210,6 +1230,7 @@ def create_lights(context, settings, progress=None, force=False):
         "settings": plan.settings_lines(len(suns), n_suns, order if plan.count else None),
         "diffuse_label": plan.diffuse_label(),
         "ground_albedo": plan.ground_albedo, "ground_object": plan.ground_object,
+        "ground_edge": plan.ground_edge if plan.ground_band is not None else None,
         # what the add-on changed in the world's render settings (reported as INFO)
         "notes": notes,
     }

@@ -10,6 +10,7 @@ import math
 import bpy
 import mathutils
 
+from . import ground_edge
 from .figures import BENCH_DATE, EXPECTED_ERROR
 
 #: a surface is glossy when its roughness is below this (Principled BSDF, Glossy BSDF) or it
@@ -72,6 +73,8 @@ class Plan:
         self.shadows = "SOFT"
         self.ground_albedo = None      # None: no ground treatment
         self.ground_object = None
+        self.ground_edge = None        # (ground box lo, hi, the objects' centre): ground_edge.py
+        self.ground_band = None        # core: the map's pixels beyond the ground's edge
         self.glossy = False
         self.glossy_hdr = False        # glossy rays see the map itself (SH world)
         self.suns = True               # the suns split off first as lamps of their own
@@ -249,11 +252,18 @@ def find_ground(objs):
     return best[0] if best else None
 
 
-def set_ground(p, ground):
-    """The ground treatment of plan p for the object `ground` (or None), with its reason."""
+def set_ground(p, ground, others=()):
+    """The ground treatment of plan p for the object `ground` (or None), with its reason;
+    `others`: the objects on it, whose box's centre sees the ground's edge (ground_edge.py)."""
     if ground is None:
         p.skipped.append("ground treatment: no large flat object under the others")
         return
+    if others:
+        boxes = [_world_box(o) for o in others]
+        centre = [(min(b[0][i] for b in boxes) + max(b[1][i] for b in boxes)) / 2
+                  for i in range(3)]
+        lo, hi = _world_box(ground)
+        p.ground_edge = (tuple(lo), tuple(hi), tuple(centre))
     albedo = None
     for m in _materials(ground):
         _, _, a = material_surface(m)
@@ -264,6 +274,11 @@ def set_ground(p, ground):
     p.ground_albedo = max(0.0, min(1.0, albedo if albedo is not None else DEFAULT_ALBEDO))
     p.reasons.append("ground '%s' (albedo %.2f%s): the map's lower half is left to it"
                      % (ground.name, p.ground_albedo, "" if albedo is not None else ", default"))
+    if p.ground_edge:
+        least, most = ground_edge.depression_range(*p.ground_edge)
+        p.reasons.append("the ground ends: below the horizon the world keeps the map down to "
+                         "where the objects see the ground begin (%.1f-%.1f degrees)"
+                         % (math.degrees(least), math.degrees(most)))
 
 
 def set_probe(p, scene):
@@ -348,7 +363,7 @@ def read_scene(scene, volume_probe=False, dome=0):
         # EEVEE drops: scene (a) 25.9 -> 7.1 % on dikhololo_night, 14.9 -> 7.2 % on
         # potsdamer_platz (scripts/scene_bench.py --host blender, picked-eevee)
         p.order = EEVEE_ORDER
-        set_ground(p, ground)
+        set_ground(p, ground, rest)
         p.reasons.append("%s: %d fitted lamps + the residual image as the world's light "
                          "(EEVEE lights diffuse and glossy from one capture of the world)"
                          % (name, p.count))
@@ -442,7 +457,9 @@ def plan_from_settings(settings, scene):
         p.ground_albedo = settings.ground_albedo
         p.reasons.append("ground albedo %.2f (the panel)" % p.ground_albedo)
     elif settings.ground_mode == "AUTO":
-        set_ground(p, find_ground(_visible_meshes(scene)))
+        objs = _visible_meshes(scene)
+        ground = find_ground(objs)
+        set_ground(p, ground, [o for o in objs if o is not ground])
     if settings.volume_probe:
         set_probe(p, scene)
     elif p.engine == "BLENDER_EEVEE_NEXT":
