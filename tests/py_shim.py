@@ -679,9 +679,11 @@ def test_sun_lights_through_the_shim():
         assert (residual.astype(np.float64) @ lum).max() <= threshold * (1 + 1e-6)
         normals = envlight.fibonacci_directions()
         with envlight.from_pixels(residual, layout="latlong") as r:
-            approx = np.array(res.irradiance(normals)) + np.array(r.reference_irradiance())
-        err = envlight.relative_rms_luminance(approx, env.reference_irradiance())
-        assert err == pytest.approx(s["diffuse_error"], rel=1e-6) and err < 1e-3
+            approx = np.array(res.irradiance(normals)) + np.array(r.irradiance(normals))
+        err = envlight.relative_rms_luminance(approx, env.irradiance(normals))
+        # brute force (envl_irradiance_exact) against the library's, whose denominator is the
+        # map's reference, within ENVL_REFERENCE_TOLERANCE (2e-4) of the mean E at 1024 wide
+        assert err == pytest.approx(s["diffuse_error"], rel=2e-4) and err < 1e-3
 
 
 # ---- the POV-Ray include (envl_pov_include_write) -------------------------------------------

@@ -604,8 +604,7 @@ static void test_sun_sky(void)
     envl_envmap_free(m);
 
     /* 2048 wide (the error's reference resampled to 1024): skip_residual keeps no residual,
-     * the same light and error bit for bit; the error is the residual's exact irradiance
-     * (its pixels, resampled, as the map's reference is) + the light's, against the map's */
+     * the same light and error bit for bit */
     so.width = 2048;
     CHECK_OK(envl_envmap_sky(&so, &m));
     envl_lights *lk;
@@ -621,25 +620,45 @@ static void test_sun_sky(void)
     CHECK_OK(envl_lights_get_summary(lk, &s2));
     CHECK(s.diffuse_error == s2.diffuse_error && s.diffuse_error > 0);
     CHECK(envl_lights_residual(lk) == NULL);
+    envl_lights_free(lk);
+    envl_lights_free(ls);
+    envl_envmap_free(m);
+
+    /* 256 x 128 (the reference is the brute force, envl_irradiance_exact): the error is the
+     * lights' irradiance + the residual's exact irradiance against the map's, both brute
+     * force here; the library adds the patched pixels' change to the map's (linear in the
+     * pixels, each pixel integrated as envl_irradiance_exact does): equal to rounding */
+    so.width = 256;
+    o.skip_residual = 0;
+    CHECK_OK(envl_envmap_sky(&so, &m));
+    CHECK_OK(envl_lights_compute(m, &o, &ls));
+    CHECK_OK(envl_lights_get_summary(ls, &s));
+    CHECK(s.count == 1);
     const float *res = envl_lights_residual(ls);
     envl_envmap *rm;
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG};
-    CHECK(res && !envl_envmap_from_pixels(res, 2048, 1024, 3, &lo, &rm));
-    const double *ref, *eres;
+    CHECK(res && !envl_envmap_from_pixels(res, 256, 128, 3, &lo, &rm));
     double *dirs = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
     double *e = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
+    double *ex = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
+    double *eres = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
     for (int32_t i = 0; i < ENVL_ERROR_NORMALS; i++)
         envl_fibonacci_direction(i, ENVL_ERROR_NORMALS, dirs + 3 * i);
-    CHECK_OK(envl_envmap_reference_irradiance(m, &ref));
-    CHECK_OK(envl_envmap_reference_irradiance(rm, &eres));
+    CHECK_OK(envl_irradiance_exact(m, ENVL_ERROR_NORMALS, dirs, ex));
+    CHECK_OK(envl_irradiance_exact(rm, ENVL_ERROR_NORMALS, dirs, eres));
     CHECK_OK(envl_lights_irradiance(ls, ENVL_ERROR_NORMALS, dirs, e));
     for (int32_t i = 0; i < 3 * ENVL_ERROR_NORMALS; i++)
         e[i] += eres[i];
-    CHECK(envl_relative_rms_luminance(ENVL_ERROR_NORMALS, e, ref) == s.diffuse_error);
+    double brute = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, e, ex);
+    printf("sun method, sky 256 x 128: diffuse error %.9g, brute force %.9g\n", s.diffuse_error,
+           brute);
+    /* the difference is E's rounding (~1e-16 of E) over the error's own size (~1e-5 of E) */
+    CHECK(brute > 0 && fabs(s.diffuse_error - brute) <= 1e-9 * brute);
     free(dirs);
     free(e);
+    free(ex);
+    free(eres);
     envl_envmap_free(rm);
-    envl_lights_free(lk);
     envl_lights_free(ls);
     envl_envmap_free(m);
 }

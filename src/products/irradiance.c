@@ -215,6 +215,30 @@ double envl__pixel_cosine(int32_t w, int32_t h, int32_t c, int32_t r, const doub
     return acc * (p1 - p0) / sub;
 }
 
+void envl__pixel_cosines(int32_t w, int32_t h, int32_t c, int32_t r, int32_t count,
+                         const double *normals, double *out)
+{
+    /* the pixel's D = integral of d dw (top of the file) and its angular radius, as
+     * make_tables has them */
+    double p0 = ENVL_PI * (1.0 - 2.0 * (c + 1.0) / w), p1 = ENVL_PI * (1.0 - 2.0 * c / w);
+    double t1 = ENVL_PI * (0.5 - (double)r / h), t0 = ENVL_PI * (0.5 - (r + 1.0) / h);
+    double I = 0.5 * ((t1 - t0) + sin(t1) * cos(t1) - sin(t0) * cos(t0));
+    double sx = sin(p1) - sin(p0), sy = cos(p0) - cos(p1);
+    double rz = 2.0 * ENVL_PI / w * 0.5 * (sin(t1) * sin(t1) - sin(t0) * sin(t0));
+    double widest = t0 < 0 && t1 > 0 ? 1.0 : fmax(cos(t0), cos(t1));
+    double dt = t1 - t0, dw = 2.0 * ENVL_PI / w * widest;
+    double rho = 0.5 * sqrt(dt * dt + dw * dw) * 1.0001 + 1e-12;
+    double tc = ENVL_PI * (0.5 - (r + 0.5) / h), pc = ENVL_PI * (1.0 - 2.0 * (c + 0.5) / w);
+    double d[3] = {cos(tc) * cos(pc), cos(tc) * sin(pc), sin(tc)};
+    for (int32_t i = 0; i < count; i++) {
+        const double *n = normals + 3 * i;
+        double centre = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+        out[i] = centre > rho    ? I * (n[0] * sx + n[1] * sy) + n[2] * rz
+                 : centre < -rho ? 0.0
+                                 : envl__pixel_cosine(w, h, c, r, n);
+    }
+}
+
 static void irradiance_one(const envl_envmap *m, const irradiance_tables *t, const double n[3],
                            double *colfac, double out[3])
 {

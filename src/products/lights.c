@@ -110,7 +110,7 @@ envl_result envl__lights_measure(envl_envmap *m, envl_lights *ls)
     if (!rc)
         envl_lights_irradiance(ls, ENVL_ERROR_NORMALS, normals, approx);
     if (!rc && method == ENVL_METHOD_SUN)
-        rc = envl__add_residual_irradiance(m, ls, ref, approx);
+        rc = envl__add_residual_irradiance(m, ls, ref, normals, approx);
     if (!rc)
         ls->summary.diffuse_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, approx, ref);
     free(normals);

@@ -132,8 +132,10 @@ envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_li
  * the residual map itself (ls->residual) only with keep_residual. */
 envl_result envl__sun_lights(const envl_envmap *m, int32_t n, int32_t keep_residual,
                              envl_lights *ls);
-/* Adds the exact irradiance of the sun method's residual at the error normals to approx. */
+/* Adds the exact irradiance of the sun method's residual at the error normals (`normals`,
+ * envl__fibonacci_dirs) to approx, from the map's reference `ref` and the patches. */
 envl_result envl__add_residual_irradiance(const envl_envmap *m, const envl_lights *ls,
-                                          const double *ref, double *approx);
+                                          const double *ref, const double *normals,
+                                          double *approx);
 
 #endif

@@ -2,6 +2,7 @@
  * of the map as the residual environment. */
 #include "lights_impl.h"
 #include "sun_split.h"
+#include "error_measure.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -166,27 +167,31 @@ void envl__sun_residual_view_end(envl_envmap *m, const envl_lights *ls, float *s
 
 /* Exact irradiance of the sun method's residual at the error measure's normals, added to
  * approx: the residual stays an environment map (drawn as one), so it is part of what the
- * method hands a renderer. Computed as the map's reference is (envl_envmap_reference_irradiance,
- * the same resampling for wide maps), from the map and the patches: no residual map needed;
- * with no light the residual is the map itself. */
+ * method hands a renderer. The residual is the map with the suns' pixels patched, and
+ * irradiance is linear in the pixels: E_res(n) = E_map(n) + sum over the patched pixels of
+ * (keep - L) integral of max(0, n . d) dw over the pixel (as envl_irradiance_exact integrates
+ * it), E_map the map's reference `ref`. At most 4096 pixels (sun_split.c): no resampled copy
+ * of the residual (which made the sun map's measure cost 1.5x the sun-free map's at 8K and
+ * 16K, docs/performance.md). */
 envl_result envl__add_residual_irradiance(const envl_envmap *m, const envl_lights *ls,
-                                           const double *ref, double *approx)
+                                          const double *ref, const double *normals,
+                                          double *approx)
 {
-    const double *e = ref;
-    envl_envmap *rm = NULL;
-    if (ls->summary.count > 0) {
-        int32_t w = m->width > ENVL_REFERENCE_WIDTH ? ENVL_REFERENCE_WIDTH : m->width;
-        envl_result rc = envl__envmap_resampled_patched(m->px, m->width, m->height, ls->patch,
-                                                        ls->npatch, w, m->threads, &rm);
-        if (rc == ENVL_OK)
-            rc = envl_envmap_reference_irradiance(rm, &e);
-        if (rc) {
-            envl_envmap_free(rm);
-            return rc;
-        }
-    }
+    double *f = malloc(sizeof(double) * ENVL_ERROR_NORMALS);
+    if (!f)
+        return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
     for (int32_t i = 0; i < 3 * ENVL_ERROR_NORMALS; i++)
-        approx[i] += e[i];
-    envl_envmap_free(rm);
+        approx[i] += ref[i];
+    for (int32_t p = 0; p < ls->npatch; p++) {
+        const envl_pixel_patch *q = ls->patch + p;
+        const float *px = m->px + 3 * ((size_t)q->r * m->width + q->c);
+        double dl[3] = {q->rgb[0] - (double)px[0], q->rgb[1] - (double)px[1],
+                        q->rgb[2] - (double)px[2]};
+        envl__pixel_cosines(m->width, m->height, q->c, q->r, ENVL_ERROR_NORMALS, normals, f);
+        for (int32_t j = 0; j < ENVL_ERROR_NORMALS; j++)
+            for (int k = 0; k < 3; k++)
+                approx[3 * j + k] += dl[k] * f[j];
+    }
+    free(f);
     return ENVL_OK;
 }
