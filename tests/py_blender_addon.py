@@ -10,7 +10,6 @@ The Blender: $ENVL_BLENDER (a program taking Blender's arguments, e.g. the Debia
 wrapper that scripts/blender4.sh writes), else `blender` on PATH (Debian 12's 3.4). The test
 output names the version; the module is skipped (pytest: no test collected, exit status 5, which
 ctest's command turns into 77) when that Blender is absent or cannot run here."""
-import importlib.util
 import json
 import math
 import os
@@ -23,6 +22,9 @@ import pytest
 
 np = pytest.importorskip("numpy", reason="SKIP: numpy is not installed (python3-numpy)")
 import envlight  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import addon_modules  # noqa: E402
 
 BLENDER = os.environ.get("ENVL_BLENDER") or shutil.which("blender")
 if not BLENDER:
@@ -784,11 +786,7 @@ def over_ground_less_suns(px, albedo, edge=None, with_band=False):
             fit = np.maximum(full.pixels() - (env.pixels() - sres.residual), 0.0)
             if edge is None:
                 return fit, full.info()["power"]
-            spec = importlib.util.spec_from_file_location("ground_edge", os.path.join(
-                SRC, "plugin", "envlight_addon", "ground_edge.py"))
-            mod = importlib.util.module_from_spec(spec)
-            spec.loader.exec_module(mod)
-            mask = mod.band(np, fit.shape[0], fit.shape[1], *edge)
+            mask = addon_modules.load("ground_edge").band(np, fit.shape[0], fit.shape[1], *edge)
             assert mask.any()
             world, total = fit.copy(), full.pixels()
             world[mask] = sres.residual[mask]   # the lamps' and the world's
@@ -885,10 +883,7 @@ def test_eevee_next_dome_over_a_ground(addon_zip, spot_hdr):
     # the share: the same computation on the map's own sky and bounce (the spot is a sun,
     # carried by its own lamp: the dome's sky is the map over the ground less it)
     px, _ = rgbe_decode(res, path)
-    spec = importlib.util.spec_from_file_location("eevee_dome", os.path.join(
-        SRC, "plugin", "envlight_addon", "eevee_dome.py"))
-    dome_mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(dome_mod)
+    dome_mod = addon_modules.load("eevee_dome")
     check_ground_edge(plan)
     rest, over_ground = over_ground_less_suns(px, plan["ground_albedo"], plan["ground_edge"],
                                               with_band=True)

@@ -3,20 +3,18 @@ moments of a lat-long image against their closed forms, and the least share k of
 kept in a world of the ground's bounce so that EEVEE-Next does not dering its order-1 light.
 
 The module needs only numpy and math: it is loaded from its file, outside Blender."""
-import importlib.util
 import math
 import os
+import sys
 
 import pytest
 
 np = pytest.importorskip("numpy", reason="SKIP: numpy is not installed (python3-numpy)")
 
-SRC = os.environ.get("ENVL_SOURCE_DIR") or os.path.dirname(os.path.dirname(
-    os.path.abspath(__file__)))
-_spec = importlib.util.spec_from_file_location(
-    "eevee_dome", os.path.join(SRC, "plugin", "envlight_addon", "eevee_dome.py"))
-dome = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(dome)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import addon_modules  # noqa: E402
+
+dome = addon_modules.load("eevee_dome")
 
 H, W = 256, 512
 

@@ -4,20 +4,18 @@ band of a lat-long map that passes beyond the edge (rows by their centres' eleva
 by their azimuth, turned with the world's Mapping node) and the band's pixels filled.
 
 The module needs only numpy and math: it is loaded from its file, outside Blender."""
-import importlib.util
 import math
 import os
+import sys
 
 import pytest
 
 np = pytest.importorskip("numpy", reason="SKIP: numpy is not installed (python3-numpy)")
 
-SRC = os.environ.get("ENVL_SOURCE_DIR") or os.path.dirname(os.path.dirname(
-    os.path.abspath(__file__)))
-_spec = importlib.util.spec_from_file_location(
-    "ground_edge", os.path.join(SRC, "plugin", "envlight_addon", "ground_edge.py"))
-edge = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(edge)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import addon_modules  # noqa: E402
+
+edge = addon_modules.load("ground_edge")
 
 # the scene bench's ground: 20 x 20 m, its top at z = 0, a sphere of radius 1 on it
 LO, HI, CENTRE = (-10.0, -10.0, -0.01), (10.0, 10.0, 0.0), (0.0, 0.0, 1.0)
