@@ -786,7 +786,10 @@ def over_ground_less_suns(px, albedo, edge=None, with_band=False):
             fit = np.maximum(full.pixels() - (env.pixels() - sres.residual), 0.0)
             if edge is None:
                 return fit, full.info()["power"]
-            mask = addon_modules.load("ground_edge").band(np, fit.shape[0], fit.shape[1], *edge)
+            first, rows = addon_modules.load("ground_edge").band(np, fit.shape[0],
+                                                                  fit.shape[1], *edge)
+            mask = np.zeros(fit.shape[:2], bool)
+            mask[first:first + rows.shape[0]] = rows
             assert mask.any()
             world, total = fit.copy(), full.pixels()
             world[mask] = sres.residual[mask]   # the lamps' and the world's

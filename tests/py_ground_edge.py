@@ -42,6 +42,14 @@ def test_depression_closed_form():
     assert most == pytest.approx(math.atan(0.1), abs=1e-15)
 
 
+def full(h, w, band):
+    """band()'s rows as a height x width mask."""
+    first, rows = band
+    mask = np.zeros((h, w), bool)
+    mask[first:first + rows.shape[0]] = rows
+    return mask
+
+
 def band_rows_expected(h, depression):
     """Rows whose centre elevation pi (0.5 - (r + 0.5) / h) lies in (-depression, 0)."""
     return [r for r in range(h) if -depression < math.pi * (0.5 - (r + 0.5) / h) < 0]
@@ -50,8 +58,10 @@ def band_rows_expected(h, depression):
 def test_band_rows_and_columns():
     h, w = 128, 256
     lo, hi = (-10.0, -2.0, -0.01), (10.0, 2.0, 0.0)  # narrow along y: a deeper band there
-    mask = edge.band(np, h, w, lo, hi, CENTRE)
-    assert mask.shape == (h, w) and not mask[:h // 2].any()
+    b = edge.band(np, h, w, lo, hi, CENTRE)
+    mask = full(h, w, b)
+    # the rows held: from the first below the horizon to the deepest, no more
+    assert b[0] == h // 2 and b[1].any(axis=1).all() and not mask[:h // 2].any()
     for c in (0, 31, 64, 100, 192, 255):
         phi = math.pi - 2 * math.pi * (c + 0.5) / w
         want = band_rows_expected(h, edge.edge_depression(lo, hi, CENTRE, phi))
@@ -66,20 +76,21 @@ def test_band_turns_with_the_mapping():
     lo, hi = (-10.0, -2.0, -0.01), (10.0, 2.0, 0.0)
     t = math.pi / 2
     rot = [[math.cos(t), -math.sin(t), 0.0], [math.sin(t), math.cos(t), 0.0], [0.0, 0.0, 1.0]]
-    turned = edge.band(np, h, w, lo, hi, CENTRE, rot)
+    turned = full(h, w, edge.band(np, h, w, lo, hi, CENTRE, rot))
     for c in range(0, w, 7):
         phi = math.pi - 2 * math.pi * (c + 0.5) / w + t
         want = band_rows_expected(h, edge.edge_depression(lo, hi, CENTRE, phi))
         assert list(np.nonzero(turned[:, c])[0]) == want
-    assert not (turned == edge.band(np, h, w, lo, hi, CENTRE)).all()
+    assert not (turned == full(h, w, edge.band(np, h, w, lo, hi, CENTRE))).all()
 
 
 def test_add_fills_the_band_only():
     h, w = 32, 64
-    mask = edge.band(np, h, w, LO, HI, (0.0, 0.0, 4.0))
+    b = edge.band(np, h, w, LO, HI, (0.0, 0.0, 4.0))
+    mask = full(h, w, b)
     image = np.full((h, w, 3), 0.25, np.float32)
     source = np.random.default_rng(3).random((h, w, 3)).astype(np.float32)
-    out = edge.add(image, mask, source[mask] - 0.25)
+    out = edge.add(image, b, source[mask] - 0.25)
     assert out is image  # in place
     # two float32 roundings (the difference, the sum) of values under 1: 2 x 2^-25
     assert mask.any() and np.abs(out[mask] - source[mask]).max() <= 2.0 ** -24

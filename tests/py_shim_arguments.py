@@ -290,6 +290,14 @@ def test_envmap_pixel_arguments_refused(env):
     refused(lambda: env.direction(1.0, 2), TypeError, "Envmap.direction: column")
     refused(lambda: env.pixel_of((0, NAN, 1)), ARG, "Envmap.pixel_of: direction")
     refused(lambda: env.pixel_of((0, 1)), ARG, "Envmap.pixel_of: direction")
+    for first, end, arg in ((-1, None, "first_row"), (h + 1, None, "first_row"),
+                            (BIG, None, "first_row"), (2, 1, "end_row"), (0, h + 1, "end_row")):
+        refused(lambda: env.pixels(first, end), ARG, "Envmap.pixels: " + arg)
+    refused(lambda: env.pixels(0.5), TypeError, "Envmap.pixels: first_row")
+    # a band of rows is those rows of the whole copy (the pointer arithmetic: 3 floats a pixel)
+    whole = env.pixels()
+    assert np.array_equal(env.pixels(1, h - 1), whole[1:h - 1])
+    assert np.array_equal(env.pixels(h - 1), whole[h - 1:]) and env.pixels(h).shape[0] == 0
 
 
 def test_envmap_irradiance_refuses_bad_normals(env):

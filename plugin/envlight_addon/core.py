@@ -935,13 +935,14 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step, start=0.2):
 
 
 def band_pixels(plan, rest, used):
-    """Over a ground whose edge is known (plan.ground_band, ground_edge.py): (the band's mask,
-    the map's pixels there less what `used`, the map as the ground leaves it, has there),
-    else None."""
+    """Over a ground whose edge is known (plan.ground_band, ground_edge.py): (the band, the
+    map's pixels there less what `used`, the map as the ground leaves it, has there), else
+    None. Only the band's rows are copied out of the library."""
     if plan.ground_band is None or used is rest:
         return None
-    mask = plan.ground_band
-    return mask, rest.pixels()[mask] - used.pixels()[mask]
+    first, mask = plan.ground_band
+    end = first + mask.shape[0]
+    return plan.ground_band, rest.pixels(first, end)[mask] - used.pixels(first, end)[mask]
 
 
 def exact_figures(pkg, env, lamps, residual):
@@ -1075,10 +1076,18 @@ def create_lights(context, settings, progress=None, force=False):
         warnings.append("the Mapping node tilts the world: no ground treatment")
         plan.ground_albedo = None
     plan.ground_band = None
-    if plan.ground_albedo is not None and plan.ground_edge:
-        # the directions that pass beyond the ground's edge see the map (ground_edge.py)
-        plan.ground_band = ground_edge.band(np, env.height, env.width, *plan.ground_edge,
-                                            rot=[list(r) for r in rot])
+    if plan.ground_albedo is not None and plan.ground_edge and mode == "RESIDUAL" and \
+            plan.count > 0:
+        # the directions that pass beyond the ground's edge see the map in the world image
+        # (ground_edge.py; an SH world cannot hold a band a few degrees high)
+        least, most = ground_edge.depression_range(*plan.ground_edge)
+        if most > 0:
+            plan.ground_band = ground_edge.band(np, env.height, env.width, *plan.ground_edge,
+                                                rot=[list(r) for r in rot])
+            plan.reasons.append(
+                "the ground ends: below the horizon the world keeps the map down to where "
+                "the objects see the ground begin (%.1f-%.1f degrees)"
+                % (math.degrees(least), math.degrees(most)))
     sun_lights, glossy_pixels, sun_summary = [], None, None
     with env:
         power = env.info()["power"]

@@ -48,10 +48,11 @@ def depression_range(lo, hi, centre):
 
 
 def band(np, height, width, lo, hi, centre, rot=None):
-    """The pixels (a height x width boolean array) of a lat-long map whose directions, seen
-    from `centre`, pass beyond the ground box's edge below the horizon: the rows whose centre
-    lies between the horizon and the edge's depression in that column. rot: the world's turn
-    (3 x 3, rows; a turn about Z), None for none."""
+    """The pixels of a lat-long map whose directions, seen from `centre`, pass beyond the
+    ground box's edge below the horizon: the rows whose centre lies between the horizon and
+    the edge's depression in that column. -> (first row, a boolean array of the rows from it
+    that hold any, by width): a band, not a map's worth of flags (a 16K map's would be 128
+    MiB). rot: the world's turn (3 x 3, rows; a turn about Z), None for none."""
     elev = math.pi * (0.5 - (np.arange(height) + 0.5) / height)
     depression = np.empty(width)
     for c in range(width):
@@ -60,12 +61,17 @@ def band(np, height, width, lo, hi, centre, rot=None):
         if rot is not None:
             d = tuple(sum(rot[i][k] * d[k] for k in range(3)) for i in range(3))
         depression[c] = edge_depression(lo, hi, centre, math.atan2(d[1], d[0]))
-    return (elev[:, None] < 0.0) & (elev[:, None] > -depression[None, :])
+    rows = np.nonzero((elev < 0.0) & (elev > -depression.max()))[0]
+    first = int(rows[0]) if len(rows) else height
+    last = int(rows[-1]) + 1 if len(rows) else height
+    e = elev[first:last, None]
+    return first, (e < 0.0) & (e > -depression[None, :])
 
 
-def add(image, mask, delta):
-    """Adds `delta` to the pixels of image (height x width x 3, a numpy array) under `mask`,
-    in place (no second copy of a 16K map): the band's map pixels less what the image's source
-    held there (core.band_pixels). Returns image."""
-    image[mask] += delta
+def add(image, band, delta):
+    """Adds `delta` to the pixels of image (height x width x 3, a numpy array) in `band`
+    (band()'s), in place (no second copy of a 16K map): the band's map pixels less what the
+    image's source held there (core.band_pixels). Returns image."""
+    first, mask = band
+    image[first:first + mask.shape[0]][mask] += delta
     return image

@@ -10,7 +10,6 @@ import math
 import bpy
 import mathutils
 
-from . import ground_edge
 from .figures import BENCH_DATE, EXPECTED_ERROR
 
 #: a surface is glossy when its roughness is below this (Principled BSDF, Glossy BSDF) or it
@@ -254,7 +253,8 @@ def find_ground(objs):
 
 def set_ground(p, ground, others=()):
     """The ground treatment of plan p for the object `ground` (or None), with its reason;
-    `others`: the objects on it, whose box's centre sees the ground's edge (ground_edge.py)."""
+    `others`: the objects on it, whose box's centre sees the ground's edge (ground_edge.py,
+    used by core where the world is an image)."""
     if ground is None:
         p.skipped.append("ground treatment: no large flat object under the others")
         return
@@ -274,11 +274,6 @@ def set_ground(p, ground, others=()):
     p.ground_albedo = max(0.0, min(1.0, albedo if albedo is not None else DEFAULT_ALBEDO))
     p.reasons.append("ground '%s' (albedo %.2f%s): the map's lower half is left to it"
                      % (ground.name, p.ground_albedo, "" if albedo is not None else ", default"))
-    if p.ground_edge:
-        least, most = ground_edge.depression_range(*p.ground_edge)
-        p.reasons.append("the ground ends: below the horizon the world keeps the map down to "
-                         "where the objects see the ground begin (%.1f-%.1f degrees)"
-                         % (math.degrees(least), math.degrees(most)))
 
 
 def set_probe(p, scene):

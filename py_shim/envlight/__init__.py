@@ -561,11 +561,18 @@ class Envmap(_Handle):
             "infinity_value": i.infinity_value,
         }
 
-    def pixels(self):
-        """A copy of the map: (height, width, 3) float32 numpy array (flat list without numpy)."""
+    def pixels(self, first_row=0, end_row=None):
+        """A copy of the map: (height, width, 3) float32 numpy array (flat list without numpy);
+        rows first_row .. end_row - 1 only (end_row None: to the last), e.g. a band of a map
+        too large to copy whole."""
         with self._use() as h:
-            return _image(lib.envl_envmap_pixels(h), lib.envl_envmap_width(h),
-                          lib.envl_envmap_height(h))
+            w, height = lib.envl_envmap_width(h), lib.envl_envmap_height(h)
+            r0 = A.integer(first_row, "Envmap.pixels: first_row", 0, height)
+            r1 = A.integer(end_row, "Envmap.pixels: end_row", r0, height, height,
+                           "the last row")
+            p = ctypes.cast(ctypes.addressof(lib.envl_envmap_pixels(h).contents) +
+                            4 * 3 * w * r0, ctypes.POINTER(c_float))
+            return _image(p, w, r1 - r0)
 
     def solid_angle(self, row):
         """Solid angle of a pixel of row 0..height-1 (sr)."""
