@@ -571,7 +571,7 @@ class Envmap(_Handle):
             r1 = A.integer(end_row, "Envmap.pixels: end_row", r0, height, height,
                            "the last row")
             p = ctypes.cast(ctypes.addressof(lib.envl_envmap_pixels(h).contents) +
-                            4 * 3 * w * r0, ctypes.POINTER(c_float))
+                            ctypes.sizeof(c_float) * 3 * w * r0, ctypes.POINTER(c_float))
             return _image(p, w, r1 - r0)
 
     def solid_angle(self, row):

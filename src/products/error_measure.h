@@ -32,7 +32,7 @@ envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const dou
 double envl__pixel_cosine(int32_t w, int32_t h, int32_t c, int32_t r, const double n[3]);
 /* The same integral for `count` normals (out[i] for normals + 3 i): in closed form, n . D,
  * where the pixel is lit throughout, 0 where unlit, envl__pixel_cosine across the horizon. */
-void envl__pixel_cosines(int32_t w, int32_t h, int32_t c, int32_t r, int32_t count,
+void envl__pixel_cosines(const envl_envmap *m, int32_t c, int32_t r, int32_t count,
                          const double *normals, double *out);
 /* The same sums, each within relative x max(base + E, floor) of envl_irradiance_exact's, per
  * normal and channel (base: count x 3, what the caller adds to E, or NULL; floor: per channel,

@@ -51,6 +51,33 @@ typedef struct irradiance_tables {
 
 static void free_tables(irradiance_tables *t) { free(t->sx); }
 
+/* Column c's factors of a pixel's D (the top of the file): column c spans u in [c/W, (c+1)/W],
+ * phi from p0 = pi (1 - 2 (c + 1) / W) up to p1 = pi (1 - 2 c / W); sx = sin p1 - sin p0,
+ * sy = cos p0 - cos p1. */
+static void column_factors(int32_t w, int32_t c, double *p0, double *p1, double *sx, double *sy)
+{
+    *p0 = ENVL_PI * (1.0 - 2.0 * (c + 1.0) / w), *p1 = ENVL_PI * (1.0 - 2.0 * c / w);
+    *sx = sin(*p1) - sin(*p0);
+    *sy = cos(*p0) - cos(*p1);
+}
+
+/* Row r's: its edges t0 < t1 (elevation), I = integral cos^2 t dt, rz = dphi (sin^2 t1 -
+ * sin^2 t0) / 2, a pixel's width dw at the row's widest latitude, and rho, the angle from a
+ * pixel's centre to its corner (half the diagonal), past which n.d keeps its sign over it. */
+static void row_factors(int32_t w, int32_t h, int32_t r, double *t0, double *t1, double *I,
+                        double *rz, double *dw, double *rho)
+{
+    *t1 = ENVL_PI * (0.5 - (double)r / h), *t0 = ENVL_PI * (0.5 - (r + 1.0) / h);
+    *I = 0.5 * ((*t1 - *t0) + sin(*t1) * cos(*t1) - sin(*t0) * cos(*t0));
+    *rz = 2.0 * ENVL_PI / w * 0.5 * (sin(*t1) * sin(*t1) - sin(*t0) * sin(*t0));
+    double widest = fmax(cos(*t0), cos(*t1));
+    if (*t0 < 0 && *t1 > 0)
+        widest = 1.0;
+    double dt = *t1 - *t0;
+    *dw = 2.0 * ENVL_PI / w * widest;
+    *rho = 0.5 * sqrt(dt * dt + *dw * *dw) * 1.0001 + 1e-12;
+}
+
 static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
 {
     int32_t w = m->width, h = m->height;
@@ -79,12 +106,9 @@ static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
     t->c1 = q, q += h;
     t->subc = q, q += (size_t)w * sub;
     t->subs = q;
-    const double dphi = 2.0 * ENVL_PI / w;
     for (int32_t c = 0; c < w; c++) {
-        /* column c spans u in [c/W, (c+1)/W]: phi from pi(1 - 2(c+1)/W) up to pi(1 - 2c/W) */
-        double p0 = ENVL_PI * (1.0 - 2.0 * (c + 1.0) / w), p1 = ENVL_PI * (1.0 - 2.0 * c / w);
-        t->sx[c] = sin(p1) - sin(p0);
-        t->sy[c] = cos(p0) - cos(p1);
+        double p0, p1;
+        column_factors(w, c, &p0, &p1, &t->sx[c], &t->sy[c]);
         t->ccos[c] = m->col_cos[c];
         t->csin[c] = m->col_sin[c];
         for (int32_t j = 0; j < sub; j++) {
@@ -94,22 +118,15 @@ static envl_result make_tables(const envl_envmap *m, irradiance_tables *t)
         }
     }
     for (int32_t r = 0; r < h; r++) {
-        double t1 = ENVL_PI * (0.5 - (double)r / h), t0 = ENVL_PI * (0.5 - (r + 1.0) / h);
-        t->ri[r] = 0.5 * ((t1 - t0) + sin(t1) * cos(t1) - sin(t0) * cos(t0));
-        t->rz[r] = dphi * 0.5 * (sin(t1) * sin(t1) - sin(t0) * sin(t0));
+        double t0, t1, dw;
+        row_factors(w, h, r, &t0, &t1, &t->ri[r], &t->rz[r], &dw, &t->rho[r]);
         t->t0[r] = t0;
         t->t1[r] = t1;
         t->s0[r] = sin(t0);
         t->c0[r] = cos(t0);
         t->s1[r] = sin(t1);
         t->c1[r] = cos(t1);
-        /* Over the pixel, n.d moves from its centre value by at most the angle from the centre
-         * to a corner: half the diagonal, the width taken at the row's widest latitude. */
-        double widest = fmax(cos(t0), cos(t1));
-        if (t0 < 0 && t1 > 0)
-            widest = 1.0;
-        double dt = t1 - t0, dw = dphi * widest;
-        t->rho[r] = 0.5 * sqrt(dt * dt + dw * dw) * 1.0001 + 1e-12;
+        double dt = t1 - t0;
         t->wide[r] = dw > dt ? fmin(SUB_MAX, fmax(1, ceil(dt * 180 / ENVL_PI / SUB_DEGREES))) : 0;
     }
     return ENVL_OK;
@@ -215,21 +232,15 @@ double envl__pixel_cosine(int32_t w, int32_t h, int32_t c, int32_t r, const doub
     return acc * (p1 - p0) / sub;
 }
 
-void envl__pixel_cosines(int32_t w, int32_t h, int32_t c, int32_t r, int32_t count,
+void envl__pixel_cosines(const envl_envmap *m, int32_t c, int32_t r, int32_t count,
                          const double *normals, double *out)
 {
-    /* the pixel's D = integral of d dw (top of the file) and its angular radius, as
-     * make_tables has them */
-    double p0 = ENVL_PI * (1.0 - 2.0 * (c + 1.0) / w), p1 = ENVL_PI * (1.0 - 2.0 * c / w);
-    double t1 = ENVL_PI * (0.5 - (double)r / h), t0 = ENVL_PI * (0.5 - (r + 1.0) / h);
-    double I = 0.5 * ((t1 - t0) + sin(t1) * cos(t1) - sin(t0) * cos(t0));
-    double sx = sin(p1) - sin(p0), sy = cos(p0) - cos(p1);
-    double rz = 2.0 * ENVL_PI / w * 0.5 * (sin(t1) * sin(t1) - sin(t0) * sin(t0));
-    double widest = t0 < 0 && t1 > 0 ? 1.0 : fmax(cos(t0), cos(t1));
-    double dt = t1 - t0, dw = 2.0 * ENVL_PI / w * widest;
-    double rho = 0.5 * sqrt(dt * dt + dw * dw) * 1.0001 + 1e-12;
-    double tc = ENVL_PI * (0.5 - (r + 0.5) / h), pc = ENVL_PI * (1.0 - 2.0 * (c + 0.5) / w);
-    double d[3] = {cos(tc) * cos(pc), cos(tc) * sin(pc), sin(tc)};
+    /* the pixel's D and angular radius as make_tables has them, its centre as the map's */
+    int32_t w = m->width, h = m->height;
+    double p0, p1, sx, sy, t0, t1, I, rz, dw, rho;
+    column_factors(w, c, &p0, &p1, &sx, &sy);
+    row_factors(w, h, r, &t0, &t1, &I, &rz, &dw, &rho);
+    double d[3] = {m->row_cos[r] * m->col_cos[c], m->row_cos[r] * m->col_sin[c], m->row_sin[r]};
     for (int32_t i = 0; i < count; i++) {
         const double *n = normals + 3 * i;
         double centre = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];

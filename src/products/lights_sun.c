@@ -187,7 +187,7 @@ envl_result envl__add_residual_irradiance(const envl_envmap *m, const envl_light
         const float *px = m->px + 3 * ((size_t)q->r * m->width + q->c);
         double dl[3] = {q->rgb[0] - (double)px[0], q->rgb[1] - (double)px[1],
                         q->rgb[2] - (double)px[2]};
-        envl__pixel_cosines(m->width, m->height, q->c, q->r, ENVL_ERROR_NORMALS, normals, f);
+        envl__pixel_cosines(m, q->c, q->r, ENVL_ERROR_NORMALS, normals, f);
         for (int32_t j = 0; j < ENVL_ERROR_NORMALS; j++)
             for (int k = 0; k < 3; k++)
                 approx[3 * j + k] += dl[k] * f[j];
