@@ -191,6 +191,10 @@ has soft.inc "#declare EnvLight_Shadows = 2"
 run "$ENVLIGHT" pov - $S --shadows hard -o hard.inc
 has hard.inc "#declare EnvLight_Shadows = 1"
 hasnt hard.inc "EnvLight_Area_Size"
+# the header's reason names the shadows asked for, not the default's
+has hard.inc "^// recipe: dome: .* a dome of lights with hard (--shadows hard) shadows"
+hasnt hard.inc "^// recipe: .*soft shadows"
+has default.inc "^// recipe: dome: .* a dome of lights with soft shadows"
 run "$ENVLIGHT" pov - $S --recipe sh --shadows soft -o shsoft.inc
 has shsoft.inc "#declare EnvLight_Shadows = 2"
 hasnt shsoft.inc "EnvLight_Area_Size"

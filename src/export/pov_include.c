@@ -141,7 +141,9 @@ static envl_result plan_recipe(const envl_pov_options *o, pov_plan *p)
         (method_set || count_set || p->ambient_set || p->order_set))
         p->recipe = POV_RECIPE_CUSTOM;
     if (p->recipe == POV_RECIPE_AUTO)
-        p->recipe = pov_recipe_pick(p->scene, p->shadows != SHADOW_NONE, p->why, sizeof p->why);
+        p->recipe = pov_recipe_pick(p->scene,
+                                    p->shadows == SHADOW_NONE ? 0 : p->shadows == SHADOW_HARD ? 1 : 2,
+                                    p->why, sizeof p->why);
     else
         snprintf(p->why, sizeof p->why, "%s",
                  p->recipe == POV_RECIPE_CUSTOM ? "the options given" : "--recipe");

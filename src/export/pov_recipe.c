@@ -60,9 +60,10 @@ int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size)
         return POV_RECIPE_DOME;
     }
     snprintf(why, size, "%s: an ambient term cannot be shadowed, so the sky becomes a dome of "
-             "lights with soft shadows (its suns, the rest by variance), and radiosity carries "
+             "lights with %s shadows (its suns, the rest by variance), and radiosity carries "
              "the bounces between surfaces%s",
              scene ? "objects of the scene shadow others" : "no --scene given, shadows assumed",
+             shadows == 1 ? "hard (--shadows hard)" : "soft",
              scene && scene->radiosity ? " (the scene's radiosity block, if later, wins)" : "");
     return POV_RECIPE_DOME;
 }

@@ -30,8 +30,8 @@ enum {
  * (envl_pov_recipe_name and envl_pov_recipe_from_name are the public forms). */
 const char *pov_recipe_name(int recipe);
 
-/* The recipe for a scene (NULL: none given) and the shadows asked for (0: shadowless lights);
- * `why` receives one sentence. */
+/* The recipe for a scene (NULL: none given) and the shadows asked for (0: shadowless lights,
+ * 1: hard, 2: soft or not asked); `why` receives one sentence. */
 int pov_recipe_pick(const pov_scene *scene, int shadows, char *why, size_t size);
 
 /* Whether a dome's lights need radiosity for the bounces: the scene has more than one object
