@@ -10,18 +10,18 @@ for k in "EnvLight_Generated_Inc_Temp" "#declare EnvLight_Count" "EnvLight_Colou
          "EnvLight_Place_Lights()" '#include "envlight.inc"' "POV-Ray vector <x, z, y>"; do
   has default.inc "$k"
 done
-# the default with no scene: a dome of 32 or 64 lights (the suns apart, the sky by variance,
+# the default with no scene: a dome of 48 or 64 lights (the suns apart, the sky by variance,
 # the ground half cut apart: no ground is known) with soft shadows (each light a grid of
 # lights shaped as its region: EnvLight_Area_* arrays), no ambient (the lights take the whole
 # sky), radiosity with no sky for the bounces, nothing else; the header says which recipe and
 # why
 has default.inc "^// recipe: dome: no --scene given, shadows assumed"
 has default.inc "^//   bounces: radiosity with no sky in it (envlight.inc's EnvLight_Bounce_Settings())"
-has default.inc "^//   dome of \(32\|64\) lights: the smallest of 32, 64 whose diffuse error is within 1.0 %"
-has default.inc "^// \(32\|64\) lights by variance; ambient none; shadows soft"
+has default.inc "^//   dome of \(48\|64\) lights: the smallest of 48, 64 whose diffuse error is within 1.0 %"
+has default.inc "^// \(48\|64\) lights by variance; ambient none; shadows soft"
 has default.inc "^// dome: 1 sun (each a light of its own size), [0-9]* cells of the sky by variance, [0-9]* of the ground half"
 has default.inc "^//   soft shadows: each light a grid of up to [2-4] x [2-4] parallel lights"
-has default.inc "^#declare EnvLight_Area_Size = array\[\(32\|64\)\]"
+has default.inc "^#declare EnvLight_Area_Size = array\[\(48\|64\)\]"
 has default.inc "^#declare EnvLight_Area_Axis1 = array"
 has default.inc "^// skipped: an ambient (the lights take the whole sky, radiosity the bounces); the sky image"
 has default.inc "^// in-scene error to expect (scene benchmark, not this map): "

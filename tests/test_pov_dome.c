@@ -190,6 +190,10 @@ static void test_dome_sky(void)
                 power[k] += lights[j].l.rgb[k];
             CHECK(lights[j].samples >= 1 && lights[j].samples <= POV_AREA_MAX_SAMPLES);
             CHECK(lights[j].side == (j < n - below ? POV_SIDE_UP : POV_SIDE_DOWN));
+            if (lights[j].samples == 1) /* a point: its region's resultant, r_grid = 1 */
+                for (int k = 0; k < 3; k++)
+                    CHECK_NEAR(lights[j].colour[k], lights[j].l.rgb[k] * lights[j].resultant[k],
+                               1e-15 * lights[j].l.rgb[k]);
         }
         for (int k = 0; k < 3; k++)
             CHECK_NEAR(power[k], whole->info.power[k], 1e-6 * whole->info.power[k]);

@@ -22,8 +22,9 @@
  * region's mean resultant (P_c = rgb_c, its power), r_grid = mean(s_k) . l: exact for every
  * normal that sees the whole region, and the clamped cosines of the grid follow the region
  * past a normal's horizon (unoccluded diffuse error 0.6 % with 32 lights on lebombo, where
- * points of the region's power are 2.5 %). A point (a sun, a region too small for a grid)
- * keeps its rgb.
+ * points of the region's power are 2.5 %). A point (a sun, a region too small for a grid, or
+ * shrunk to nothing at the horizon) is the n = 1 case: rgb_c x r_c, exact for the normals that
+ * see its whole region.
  */
 #include "pov_light.h"
 #include "envmap_impl.h"
@@ -185,9 +186,11 @@ void pov_area_samples(pov_light *lights, int32_t count)
                 p->axis[k][c] *= s;
         }
         keep_side(p);
-        if (norm3(p->axis[0]) < POV_AREA_MIN_WIDTH) {
+        if (norm3(p->axis[0]) < POV_AREA_MIN_WIDTH) { /* a point along l: r_grid = 1 */
             p->samples = 1;
             memset(p->axis, 0, sizeof p->axis);
+            for (int c = 0; c < 3; c++)
+                p->colour[c] = p->l.rgb[c] * p->resultant[c];
             continue;
         }
         double grid = 0; /* r_grid: the grid's mean direction along l */

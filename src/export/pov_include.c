@@ -403,7 +403,7 @@ static envl_result compute(pov_plan *p, int32_t threads, pov_work *w)
     envl_result r = compute_maps(p, threads, w);
     if (r)
         return r;
-    static const int ambient_counts[] = {64, 128, 256}, bounce_counts[] = {32, 64};
+    static const int ambient_counts[] = {64, 128, 256}, bounce_counts[] = {48, 64};
     const int *counts = p->bounce ? bounce_counts : ambient_counts;
     double bound = p->bounce ? POV_DOME_BOUNCE_ERROR : POV_DOME_ERROR;
     int tries = !p->dome_auto_count ? 1 : p->bounce ? 2 : 3;

@@ -15,9 +15,10 @@
 #define POV_DOME_ERROR 0.005
 /* The dome under radiosity: its lights are also what each radiosity sample gathers, so their
  * number sets the cost. Variance cut (whose regions follow the sky's spread, not its energy:
- * 0.75-1.3 % unoccluded error with 32 lights where median cut has 2.1-3.9 %), 32 lights, or 64
- * where 32 leave more than POV_DOME_BOUNCE_ERROR: the scene benchmark's choice
- * (docs/scene_bench_pov.md). */
+ * 0.75-1.3 % unoccluded error with 32 lights where median cut has 2.1-3.9 %), 48 lights, or 64
+ * where 48 leave more than POV_DOME_BOUNCE_ERROR: the scene benchmark's choice
+ * (docs/pov_scenes.md: 48 against 32 brought an object in a corner from 3.4 % to 2.2-3.0 %,
+ * the plane and the banding down, at 1.2-1.5x the light sources; 64 at 1.5-1.8x). */
 #define POV_DOME_BOUNCE_ERROR 0.01
 /* ENVL_POV_EXPOSURE_AUTO: the value a white surface facing up shows (sRGB ~0.8 in an 8-bit
  * image). */

@@ -149,7 +149,7 @@ static void text_recipe(FILE *f, const pov_plan *p, const pov_work *w)
               "it reached (occluded like the lights)\n", f);
     if (p->dome_auto_count && w->s.count)
         fprintf(f, "//   dome of %d lights: the smallest of %s whose diffuse error is within "
-                "%.1f %%\n", (int)w->s.count, p->bounce ? "32, 64" : "64, 128, 256",
+                "%.1f %%\n", (int)w->s.count, p->bounce ? "48, 64" : "64, 128, 256",
                 100 * (p->bounce ? POV_DOME_BOUNCE_ERROR : POV_DOME_ERROR));
     if (scene) {
         fprintf(f, "// scene: %d object%s (%d casting shadows)%s%s%s%s", scene->objects,
