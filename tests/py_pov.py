@@ -661,17 +661,16 @@ def test_dome_occlusion(kind):
     """A black sphere resting on a white plane (albedo 1; --ground 0: a black world below the
     horizon, so nothing bounces and the plane's irradiance at p is exactly
     E(p) = sum over the upper hemisphere of L(d) V(p, d) d_y dw, V: the ray misses the
-    sphere), seen from above. The default include (no --scene: a dome of 32 or 64
-    variance-cut lights with hard shadows, and a radiosity pass that finds nothing to bounce
-    here: a black sphere, a black sky) must show
+    sphere), seen from above. The default include (no --scene: a dome of 48 or 64
+    variance-cut regions, each a grid of lights, and a radiosity pass that finds nothing to
+    bounce here: a black sphere, a black sky) must show
       1. per pixel, its own prediction sum_j rgb_j V(p, d_j) max(0, d_j . y) / pi (the
          include's declared lights; V computed here): within half the RGBE step + 1e-5
          relative (pixels where a light ray grazes the sphere within 1e-6 are left out);
       2. against the exact E(p) / pi from the map's pixels (relative RMS of luminance over
          the plane's pixels): below the old default include's (fit 4 + SH ambient, which
          cannot be shadowed); and a dome of 64 lights below 2 % (the POV-Ray goal for a
-         matte surface in a scene). The default's 32 lights draw a coarser shadow: 2.8 % on
-         rooitou_park (docs/pov_scenes.md)."""
+         matte surface in a scene; the default's regions are fewer, docs/pov_scenes.md)."""
     d = tmpdir("dome_occlusion_" + kind)
     src, exact_path, width = map_for(kind, d)
     px, dirs_c, dw = map_directions(exact_path, width)

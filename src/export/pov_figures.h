@@ -5,9 +5,9 @@
 #define ENVL_POV_FIGURES_H
 
 #define POV_FIGURE_DOME \
-    "scenes (a), (b) on 15 maps: objects 1.7 % median, 3.6 % worst; plane 1.3 % median, 2.9 % " \
-    "worst; banding 0.35 % median, 0.47 % worst; a user's still life, room and CSG scene: worst " \
-    "object 4.3 % median, 24.5 % worst; 13-26x less POV-Ray CPU than the reference (scene bench " \
+    "scenes (a), (b) on 15 maps: objects 1.6 % median, 3.4 % worst; plane 1.2 % median, 2.9 % " \
+    "worst; banding 0.34 % median, 0.44 % worst; a user's still life, room and CSG scene: worst " \
+    "object 4.1 % median, 24.6 % worst; 11-18x less POV-Ray CPU than the reference (scene bench " \
     "of 2026-11-29)"
 #define POV_FIGURE_SH \
     "scenes (a), (b) on 15 maps: objects 19.4 % median, 94.9 % worst; plane 11.0 % median, 43.4 " \
