@@ -403,10 +403,13 @@ static envl_result compute(pov_plan *p, int32_t threads, pov_work *w)
     envl_result r = compute_maps(p, threads, w);
     if (r)
         return r;
-    static const int ambient_counts[] = {64, 128, 256}, bounce_counts[] = {48, 64};
+    static const int ambient_counts[] = POV_DOME_COUNTS_AMBIENT,
+                     bounce_counts[] = POV_DOME_COUNTS_BOUNCE;
     const int *counts = p->bounce ? bounce_counts : ambient_counts;
     double bound = p->bounce ? POV_DOME_BOUNCE_ERROR : POV_DOME_ERROR;
-    int tries = !p->dome_auto_count ? 1 : p->bounce ? 2 : 3;
+    int tries = !p->dome_auto_count ? 1
+                : p->bounce        ? (int)(sizeof bounce_counts / sizeof *bounce_counts)
+                                   : (int)(sizeof ambient_counts / sizeof *ambient_counts);
     for (int t = 0; t < tries; t++) {
         if ((r = compute_try(p, p->dome_auto_count ? counts[t] : p->lo.count, threads, w)))
             return r;

@@ -17,9 +17,13 @@
  * number sets the cost. Variance cut (whose regions follow the sky's spread, not its energy:
  * 0.75-1.3 % unoccluded error with 32 lights where median cut has 2.1-3.9 %), 48 lights, or 64
  * where 48 leave more than POV_DOME_BOUNCE_ERROR: the scene benchmark's choice
- * (docs/pov_scenes.md: 48 against 32 brought an object in a corner from 3.4 % to 2.2-3.0 %,
- * the plane and the banding down, at 1.2-1.5x the light sources; 64 at 1.5-1.8x). */
+ * (docs/pov_scenes.md: scene (b)'s object in a corner on four maps 2.1-3.4 % with 32, 2.1-3.0 %
+ * with 48, the plane and the banding down, at 1.2-1.5x the light sources; 64 at 1.5-1.8x). */
 #define POV_DOME_BOUNCE_ERROR 0.01
+/* The dome's sizes tried in turn when -n is not given (compute, pov_include.c; the header says
+ * which, pov_text.c): under radiosity, and with an ambient for the bounces. */
+#define POV_DOME_COUNTS_BOUNCE {48, 64}
+#define POV_DOME_COUNTS_AMBIENT {64, 128, 256}
 /* ENVL_POV_EXPOSURE_AUTO: the value a white surface facing up shows (sRGB ~0.8 in an 8-bit
  * image). */
 #define POV_AUTO_WHITE 0.6

@@ -147,10 +147,17 @@ static void text_recipe(FILE *f, const pov_plan *p, const pov_work *w)
         fputs("//   bounces: radiosity with no sky in it (envlight.inc's "
               "EnvLight_Bounce_Settings()),\n//   the lights' light gathered from the surfaces "
               "it reached (occluded like the lights)\n", f);
-    if (p->dome_auto_count && w->s.count)
-        fprintf(f, "//   dome of %d lights: the smallest of %s whose diffuse error is within "
-                "%.1f %%\n", (int)w->s.count, p->bounce ? "48, 64" : "64, 128, 256",
+    if (p->dome_auto_count && w->s.count) {
+        static const int bounce[] = POV_DOME_COUNTS_BOUNCE, ambient[] = POV_DOME_COUNTS_AMBIENT;
+        const int *tried = p->bounce ? bounce : ambient;
+        int n = p->bounce ? (int)(sizeof bounce / sizeof *bounce)
+                          : (int)(sizeof ambient / sizeof *ambient);
+        fprintf(f, "//   dome of %d lights: the smallest of ", (int)w->s.count);
+        for (int k = 0; k < n; k++)
+            fprintf(f, "%s%d", k ? ", " : "", tried[k]);
+        fprintf(f, " whose diffuse error is within %.1f %%\n",
                 100 * (p->bounce ? POV_DOME_BOUNCE_ERROR : POV_DOME_ERROR));
+    }
     if (scene) {
         fprintf(f, "// scene: %d object%s (%d casting shadows)%s%s%s%s", scene->objects,
                 scene->objects == 1 ? "" : "s", scene->casters,
