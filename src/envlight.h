@@ -854,7 +854,7 @@ ENVL_API envl_result envl_preview_write(envl_envmap *map, const envl_preview_opt
                                              see recipe_is_set) */
 #define ENVL_POV_RECIPE_SH 2              /* 4 fitted lights + the SH ambient (exact where
                                              nothing is occluded) */
-#define ENVL_POV_RECIPE_DOME 3            /* 32 or 64 variance-cut lights (the fewer within
+#define ENVL_POV_RECIPE_DOME 3            /* 48 or 64 variance-cut lights (the fewer within
                                              1 % diffuse error) with shadows, + radiosity with
                                              no sky for the bounces when there are several
                                              objects */

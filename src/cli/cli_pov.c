@@ -44,7 +44,7 @@ static int pov_parse(int argc, char **argv, cli_common *c, pov_args *a)
                    .choices = "auto|dome|dome-ambient|sh|image-radiosity",
                    .lookup = envl_pov_recipe_from_name,
                    .help = "auto (default: from the scene, see the header's reasons), dome\n"
-                           "(32 or 64 variance-cut lights of the sky, by their error, with\n"
+                           "(48 or 64 variance-cut lights of the sky, by their error, with\n"
                            "shadows + radiosity with no sky for the bounces), dome-ambient\n"
                            "(median-cut lights, 64-256 by their error, + the ground's bounce\n"
                            "as an ambient, no radiosity), sh (4 fitted lights + SH ambient:\n"
@@ -53,7 +53,7 @@ static int pov_parse(int argc, char **argv, cli_common *c, pov_args *a)
                            "alone: custom"),
         CLI_OPTION("-n|--count", "N", CLI_INT, .min = 1, .max = 1 << 16, .value = &o->count,
                    .takes = "a number of lights, 1..65536",
-                   .help = "lights (custom default 4; dome 32-64; dome-ambient 64-256)"),
+                   .help = "lights (custom default 4; dome 48-64; dome-ambient 64-256)"),
         /* sun: the suns alone (the rest is a residual map, which an include carries only as
          * the image-radiosity recipe's sky): not a light set for POV-Ray on its own */
         CLI_OPTION("--method", "M", CLI_CHOICE, .value = &o->method,
