@@ -368,6 +368,14 @@ ENVL_API const double *envl_lights_remainder(const envl_lights *lights, int32_t 
 /* The residual environment (same size as the map), RGB floats owned by the lights object;
  * NULL (and an error message) for a fit or sun lights computed with skip_residual. */
 ENVL_API const float *envl_lights_residual(const envl_lights *lights);
+/* The residual environment as a map of its own (within ABI 5), area-resampled to `width` wide (each
+ * pixel the solid-angle weighted mean over its footprint: the integral of L dw kept; height in
+ * proportion); 0 or at least the map's width: the map's size, a copy. `map` is the map the
+ * lights were computed from. The sun method's residual is made from the map and the suns'
+ * pixels (it needs no kept residual and, resampled, costs no full-size copy); the others' from
+ * their kept residual (ENVL_ERR_ARGUMENT when skipped). Release with envl_envmap_free. */
+ENVL_API envl_result envl_lights_residual_map(const envl_envmap *map, const envl_lights *lights,
+                                             int32_t width, envl_envmap **out);
 /* The delta light that stands for `light` over the residual map (ABI 5): direction =
  * take_direction, rgb = light->rgb (1 - take_solid_angle / 4 pi). A disc lamp of the light's
  * take_angle (a Blender sun) takes that rgb as its irradiance at normal incidence. */

@@ -686,6 +686,39 @@ def test_sun_lights_through_the_shim():
         assert err == pytest.approx(s["diffuse_error"], rel=2e-4) and err < 1e-3
 
 
+def test_residual_map():
+    """LightsResult.residual_map(width): the residual area-resampled in the library, the same
+    floats as resampling the full residual (Envmap.to_layout of it, the same resampler), for the
+    sun method without a kept residual (made from the map and the suns' pixels) and for a fit;
+    its power that of the residual (the integral of L dw kept) to float rounding; full size
+    without a width; a closed map, a skipped fit residual and a bad width refused."""
+    with envlight.sky() as env:
+        for method, keep in (("sun", False), ("fit", True)):
+            with env.lights(method=method, residual=True) as full, \
+                    env.lights(method=method, residual=keep) as res:
+                want_full = full.residual
+                with envlight.from_pixels(want_full, layout="latlong") as r:
+                    want = r.to_layout("latlong", 256)
+                with res.residual_map(256) as small:
+                    got = small.pixels()
+                    assert got.shape == (128, 256, 3)
+                    assert np.array_equal(got, want), method
+                    assert np.allclose(small.info()["power"], power_of(want_full),
+                                       rtol=1e-5, atol=0)
+                with res.residual_map() as same:
+                    assert np.array_equal(same.pixels(), want_full)
+                with pytest.raises(envlight.ArgumentError, match="width"):
+                    res.residual_map(0)
+        with env.lights(method="fit", residual=False) as res:
+            with pytest.raises(envlight.Error, match="no residual was kept"):
+                res.residual_map(256)
+    with envlight.sky(width=256) as env:
+        res = env.lights(method="sun", residual=False)
+    with pytest.raises(ValueError, match="Envmap is closed"):
+        res.residual_map(64)
+    res.close()
+
+
 # ---- the POV-Ray include (envl_pov_include_write) -------------------------------------------
 
 POVRAY = shutil.which("povray")

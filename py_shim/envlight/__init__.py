@@ -686,7 +686,7 @@ class Envmap(_Handle):
             _check(lib.envl_lights_compute(m, byref(o), byref(h)))
             # the residual has the map's size (the lights object does not export it)
             size = lib.envl_envmap_width(m), lib.envl_envmap_height(m)
-        return LightsResult(h, *size, kept=not o.skip_residual, source=self._source)
+        return LightsResult(h, *size, kept=not o.skip_residual, source=self._source, envmap=self)
 
     def gltf(self, path, size=256, mips=None, lights="sun", n=None, measure=True):
         """Writes a glTF 2.0 file (.glb or .gltf), as `envlight gltf`: the suns (lights: 'sun',
@@ -1078,10 +1078,11 @@ class LightsResult(_Handle):
     """Lights, their summary, the fit remainder and the residual environment."""
     _free = "envl_lights_free"
 
-    def __init__(self, handle, width, height, kept=True, source=None):
+    def __init__(self, handle, width, height, kept=True, source=None, envmap=None):
         super().__init__(handle)
         self._wh = (width, height)
         self._kept = kept
+        self._envmap = envmap  # the Envmap they were computed from (residual_map reads it)
         self._source = source  # the map's file (bytes) or None: save_residual never replaces it
         s = _lib.LightsSummary()
         _check(lib.envl_lights_get_summary(handle, byref(s)))
@@ -1140,6 +1141,21 @@ class LightsResult(_Handle):
                     raise Error(6, "ENVL_ERR_MEMORY", "envl_lights_residual: out of memory")
                 self._residual = _image(p, *self._wh)
         return self._residual
+
+    def residual_map(self, width=None):
+        """The residual environment as an Envmap of its own, area-resampled to `width` wide
+        (the integral of L dw kept per pixel; None or at least the map's width: full size, a
+        copy), made in the library without a numpy copy: the sun method's from the map (still
+        open) and the suns' pixels (lights(residual=False) will do), the others' from their
+        kept residual."""
+        f = "LightsResult.residual_map"
+        w = 0 if width is None else A.integer(width, f + ": width", 1, A.INT32_MAX)
+        if self._envmap is None:
+            raise ArgumentError(f + ": these lights were not computed by Envmap.lights")
+        g = c_void_p()
+        with self._envmap._use() as m, self._use() as h:
+            _check(lib.envl_lights_residual_map(m, h, w, byref(g)))
+        return Envmap(g)
 
     def irradiance(self, normals):
         """Irradiance the lights (+ remainder) predict for (N, 3) normals -> (N, 3)."""

@@ -478,6 +478,7 @@ FUNCTIONS = {
     "envl_lights_get_summary": (_R, [_lts, POINTER(LightsSummary)]),
     "envl_lights_remainder": (_pd, [_lts, POINTER(c_int32)]),
     "envl_lights_residual": (_pf, [_lts]),
+    "envl_lights_residual_map": (_R, [_map, _lts, c_int32, POINTER(_map)]),
     "envl_lights_irradiance": (_R, [_lts, c_int32, _pd, _pd]),
     "envl_light_over_residual": (None, [POINTER(Light), _pd, _pd]),
     "envl_window_name": (c_char_p, [c_int32]),

@@ -263,6 +263,30 @@ envl_result envl__lights_residual_map(const envl_envmap *m, const envl_lights *l
     return envl__envmap_adopt(px, m->width, m->height, &lo, "", out);
 }
 
+envl_result envl_lights_residual_map(const envl_envmap *m, const envl_lights *ls, int32_t width,
+                                     envl_envmap **out)
+{
+    if (!out)
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: no place for the residual map");
+    *out = NULL;
+    if (!m || !ls)
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: no map or no lights");
+    if (width < 0)
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: residual width %d (0: the map's)",
+                          (int)width);
+    if (ls->width != m->width || ls->height != m->height)
+        return envl__fail(ENVL_ERR_ARGUMENT, "lights: not the lights of this map");
+    if (width == 0 || width >= m->width)
+        return envl__lights_residual_map(m, ls, m->threads, out);
+    if (ls->summary.method == ENVL_METHOD_SUN) /* the map with the suns' pixels patched */
+        return envl__envmap_resampled_patched(m->px, m->width, m->height, ls->patch, ls->npatch,
+                                              width, m->threads, out);
+    const float *kept = envl_lights_residual(ls);
+    if (!kept)
+        return ls->residual_skipped ? ENVL_ERR_ARGUMENT : ENVL_ERR_MEMORY; /* it said why */
+    return envl__envmap_resampled(kept, m->width, m->height, width, m->threads, out);
+}
+
 const float *envl_lights_residual(const envl_lights *ls)
 {
     if (!ls)
