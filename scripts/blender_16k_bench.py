@@ -12,7 +12,7 @@ image had been read. With --baseline-zip OTHER.zip (another add-on, e.g. main's)
 add-ons run alternately on each image, the ratio of their seconds in the table.
 
   scripts/blender_16k_bench.py [--blender CMD] [--zip ZIP] [--baseline-zip ZIP] [--runs N]
-                               [--sizes W ...] [--map MAP] [--format exr|hdr] [--work DIR]
+                               [--sizes W ...] [--engines E ...] [--map MAP] [--format exr|hdr] [--work DIR]
                                [--docs DIR]
 
 Memory is in MiB and, for what the add-on adds, also in copies of the image as Blender holds
@@ -46,6 +46,8 @@ def parse_args(argv):
     p.add_argument("--zip", help="the add-on zip (default: made from this tree and build/)")
     p.add_argument("--baseline-zip", help="another add-on zip run alternately on each image")
     p.add_argument("--sizes", type=int, nargs="+", default=[1024, 4096, 8192, 16384])
+    p.add_argument("--engines", nargs="+", default=["BLENDER_EEVEE_NEXT", "CYCLES"],
+                   help="render engines, each a scene of its own (default: EEVEE-Next, Cycles)")
     p.add_argument("--runs", type=int, default=1,
                    help="runs of each add-on on each image, alternating (default 1)")
     p.add_argument("--map", default=os.path.join(DATA, "latlong_hdri", "rooitou_park_1k.hdr"))
@@ -66,11 +68,11 @@ def image_of_width(args, w):
     return out
 
 
-def run(args, zip_path, image, tag):
-    folder = os.path.join(args.work, "run_%s_%s" % (tag, os.path.basename(image)))
+def run(args, zip_path, image, tag, engine):
+    folder = os.path.join(args.work, "run_%s_%s_%s" % (tag, engine, os.path.basename(image)))
     shutil.rmtree(folder, ignore_errors=True)
     os.makedirs(folder)
-    spec = {"zip": zip_path, "image": image, "file_read": True,
+    spec = {"zip": zip_path, "image": image, "file_read": True, "engine": engine,
             "out": os.path.join(folder, "result.json")}
     with open(os.path.join(folder, "spec.json"), "w") as f:
         json.dump(spec, f)
@@ -137,16 +139,17 @@ def main(argv):
                         "--build-dir", os.path.join(ROOT, "build"), "-o", zip_path],
                        check=True, capture_output=True)
     results = []
-    for w in args.sizes:
-        image = image_of_width(args, w)
-        pairs = []
-        for k in range(args.runs):  # alternating: both add-ons see the same load, on average
-            base = run(args, args.baseline_zip, image, "baseline%d" % k) \
-                if args.baseline_zip else None
-            pairs.append((base, run(args, zip_path, image, "addon%d" % k)))
-        results.append(pairs)
-        print("blender_16k_bench: %d done (load %.2f)" % (w, os.getloadavg()[0]),
-              file=sys.stderr)
+    for engine in args.engines:
+        for w in args.sizes:
+            image = image_of_width(args, w)
+            pairs = []
+            for k in range(args.runs):  # alternating: both add-ons see the same load
+                base = run(args, args.baseline_zip, image, "baseline%d" % k, engine) \
+                    if args.baseline_zip else None
+                pairs.append((base, run(args, zip_path, image, "addon%d" % k, engine)))
+            results.append((engine, pairs))
+            print("blender_16k_bench: %s %d done (load %.2f)"
+                  % (engine, w, os.getloadavg()[0]), file=sys.stderr)
     load1 = os.getloadavg()
     lines = ["# Create Lights on large world images in Blender", "",
              "Written by `scripts/blender_16k_bench.py` (do not edit by hand; run it again to "
@@ -157,7 +160,7 @@ def main(argv):
              "- load average at start / end: %s / %s" % (
                  " ".join("%.2f" % v for v in load0), " ".join("%.2f" % v for v in load1)),
              "- machine: %s; Blender %s (background), envlight %s" % (
-                 machine(), results[0][0][1]["blender"], results[0][0][1]["envlight"]),
+                 machine(), results[0][1][0][1]["blender"], results[0][1][0][1]["envlight"]),
              "- image: %s resampled by `envlight convert --size W` (float .%s)"
              % (os.path.basename(args.map), args.format), "",
              "Memory in MiB of resident memory (VmRSS / VmHWM); in brackets as copies of the "
@@ -174,20 +177,20 @@ def main(argv):
              "0.6-0.75 its results; then the lamps, images and nodes in Blender). *First "
              "progress*: seconds from the button's start to its first progress call; then the "
              "first calls as value@seconds.", "",
-             "| image | add-on | Blender's own | read | file | button | bar at the peak | "
-             "first progress | progress |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    for pairs in results:
+             "| engine | image | add-on | Blender's own | read | file | button | "
+             "bar at the peak | first progress | progress |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for engine, pairs in results:
         news = [n for _, n in pairs]
         if pairs[0][0]:
-            lines.append(row("baseline", [b for b, _ in pairs]))
-            lines.append(row("this", news, [n["button"]["seconds"] / b["button"]["seconds"]
-                                            for b, n in pairs]))
+            lines.append("| %s %s" % (engine, row("baseline", [b for b, _ in pairs])))
+            lines.append("| %s %s" % (engine, row("this", news, [
+                n["button"]["seconds"] / b["button"]["seconds"] for b, n in pairs])))
         else:
-            lines.append(row("this", news))
-    lines += ["", "Recipes: " + "; ".join("%d: %s, %d lamps" % (
-        p[0][1]["size"][0], p[0][1]["button"]["recipe"], p[0][1]["button"]["lamps"])
-        for p in results)]
+            lines.append("| %s %s" % (engine, row("this", news)))
+    lines += ["", "Recipes: " + "; ".join("%s %d: %s, %d lamps" % (
+        e, p[0][1]["size"][0], p[0][1]["button"]["recipe"], p[0][1]["button"]["lamps"])
+        for e, p in results)]
     text = "\n".join(lines) + "\n"
     print(text)
     if args.docs:

@@ -2,7 +2,8 @@
 
     blender -b --factory-startup --python scripts/blender_16k_run.py -- SPEC.json
 
-SPEC (JSON): {"zip": the add-on zip to install, "image": the world's image (a file),
+SPEC (JSON): {"zip": the add-on zip to install, "image": the world's image (a file), "engine":
+  the scene's render engine (default: the factory startup's),
   "file_read": also time the library reading the image's file itself (envlight.load),
   "out": RESULT.json}
 
@@ -76,6 +77,9 @@ def main():
         world, tex = world_with_image("Bench World", spec["image"])
         return world, tex, tuple(tex.image.size)  # Blender decodes the file here
     (world, tex, size), res["image_load"] = phase(load)
+    if spec.get("engine"):  # the scene's engine: what Create Lights computes depends on it
+        bpy.context.scene.render.engine = spec["engine"]
+    res["engine"] = bpy.context.scene.render.engine
     res["size"] = list(size)
     res["is_float"] = tex.image.is_float
     res["rss_image"], _ = memory()  # Blender's own footprint with the image

@@ -156,6 +156,7 @@ def world_state(world):
     out = {"nodes": len(tree.nodes), "tagged_nodes": sum(1 for n in tree.nodes if n.get("envlight")),
            "user_value": "UserValue" in tree.nodes, "active_outputs": active,
            "images": [i.name for i in bpy.data.images],
+           "image_sizes": {i.name: list(i.size) for i in bpy.data.images},
            "sampling": [world.cycles.sampling_method, world.cycles.sample_map_resolution],
            # EEVEE-Next's (4.2+) world sun extraction threshold; None: no such property (3.4)
            "sun_threshold": getattr(world, "sun_threshold", None),
@@ -399,6 +400,13 @@ def main():
     add_objects(scene, spec.get("objects", []))
     if spec.get("engine"):
         scene.render.engine = spec["engine"]
+    if spec.get("lighting_width"):  # a small map takes the path of one wider than this
+        core.LIGHTING_WIDTH = spec["lighting_width"]
+    if spec.get("probe_resolution"):  # EEVEE's world probe (4.2+) or cube map (3.x)
+        if hasattr(world, "probe_resolution"):
+            world.probe_resolution = spec["probe_resolution"]
+        else:
+            scene.eevee.gi_cubemap_resolution = spec["probe_resolution"]
     s = world.envlight
     for k, v in spec.get("settings", {}).items():
         setattr(s, k, v)
@@ -424,9 +432,21 @@ def main():
     result["world_state_before"] = world_state(world)
     runs = []
     for i in range(spec.get("runs", 1)):
+        if spec.get("trace_python"):
+            # the most memory Python (numpy, ctypes) holds at once during the button: not the
+            # library's malloc nor Blender's images (tracemalloc counts Python's allocators)
+            import tracemalloc
+            tracemalloc.start()
+            traced0 = tracemalloc.get_traced_memory()[0]
         t = time.perf_counter()
         rc = bpy.ops.envlight.create_lights()
-        runs.append({"rc": list(rc), "seconds": time.perf_counter() - t, "lamps": lamps(),
+        seconds = time.perf_counter() - t
+        traced = None
+        if spec.get("trace_python"):
+            traced = tracemalloc.get_traced_memory()[1] - traced0
+            tracemalloc.stop()
+        runs.append({"rc": list(rc), "seconds": seconds, "lamps": lamps(),
+                     "python_peak": traced,
                      "world": world_state(world),
                      "panel": {"count": s.result_count, "error_percent": s.result_error,
                                "seconds": s.result_seconds, "power": list(s.result_power),

@@ -362,6 +362,47 @@ def repair_warnings(what, stats):
 READ_PROGRESS = ((0.02, 0.1), (0.1, 0.2))
 #: where the bar is once the suns are found (from 0.2; the fits then move it to 0.6)
 SUN_PROGRESS = 0.35
+# The world image that lights (the residual, the ground's bounce) is made no wider than the
+# rays that see it resolve, and at most this where only diffuse rays see it: Cycles' fitted
+# lamps (camera and glossy rays see the map, or the map less the suns, at full size). EEVEE
+# reads it through its world probe (4.2+: world.probe_resolution, 1024 by default; 3.x: a cube
+# of scene.eevee.gi_cubemap_resolution faces): at least 4 x that. Cycles' sun-residual pick
+# (camera_only), whose glossy and transmission rays see it: as wide as the sharpest surface
+# resolves, a GGX lobe of alpha = roughness^2 spreading a reflection over about alpha radians
+# and a pixel 2 pi / W wide, W >= 4 pi / alpha keeps the pixels under half the lobe (roughness
+# 0.2: 314; 0.05: 5027; a mirror: the map's own width). Area-resampled, the integral of L dw
+# kept pixel by pixel: the irradiance moves by about (pi / W)^2, 6e-7 at 4096. A 16K map's
+# residual is then 96 MiB, not 1.5 GiB (docs/blender_16k.md).
+LIGHTING_WIDTH = 4096
+NO_CAP = 2 ** 31 - 1
+
+
+def lighting_width(scene, plan):
+    """-> (the widest lighting image the scene can use, why) (LIGHTING_WIDTH above)."""
+    if plan.engine in scene_reader.EEVEE_ENGINES:
+        probe = getattr(scene.world, "probe_resolution", None)  # EEVEE-Next
+        if probe is None:
+            probe = getattr(getattr(scene, "eevee", None), "gi_cubemap_resolution", None)
+        try:
+            probe = int(probe)
+        except (TypeError, ValueError):
+            probe = 0
+        return (max(LIGHTING_WIDTH, 4 * probe),
+                "EEVEE reads it through its world probe of %d: 4 x that" % probe)
+    if not plan.camera_only:
+        return LIGHTING_WIDTH, "only diffuse rays see it"
+    r = plan.min_roughness
+    if r is None:
+        return LIGHTING_WIDTH, "no surface with a roughness: no glossy ray resolves it"
+    if r <= 0.0:
+        return NO_CAP, "a mirror-sharp surface (roughness 0) sees it"
+    return (max(LIGHTING_WIDTH, int(math.ceil(4.0 * math.pi / (r * r)))),
+            "the sharpest surface, roughness %.2f, resolves 4 pi / roughness^2" % r)
+
+
+def resampled(pkg, m, width):
+    """The map `m` area-resampled to `width` wide, a new Envmap (m stays open)."""
+    return pkg.from_pixels(m.to_layout("latlong", width), layout="latlong")
 
 
 def read_source(pkg, world, step=None):
@@ -862,16 +903,26 @@ def build_world(world, mode, original_socket, residual_image, sh_coeffs, mapping
     return out, disable_sun_extraction(world) if eevee else None
 
 
-def pixels_to_image(residual, name):
-    """A lat-long map (numpy, row 0 at the top) as a float Blender image made in memory and
-    packed as OpenEXR by Blender (the .blend carries it; no file, and no OpenEXR in the
-    add-on's library)."""
+def pixels_to_image(residual, name, rows=256):
+    """A lat-long map (numpy, row 0 at the top; or an Envmap, copied `rows` rows at a time and
+    closed before Blender copies the buffer, so that the map and Blender's image are not held
+    at once) as a float Blender image made in memory and packed as OpenEXR by Blender (the
+    .blend carries it; no file, and no OpenEXR in the add-on's library)."""
     import numpy as np
-    h, w = residual.shape[:2]
+    if isinstance(residual, np.ndarray):
+        h, w = residual.shape[:2]
+    else:
+        h, w = residual.height, residual.width
+    rgba = np.ones((h, w, 4), dtype=np.float32)
+    if isinstance(residual, np.ndarray):
+        rgba[..., :3] = residual[::-1]
+    else:
+        with residual:
+            for r in range(0, h, rows):
+                end = min(h, r + rows)
+                rgba[h - end:h - r, :, :3] = residual.pixels(r, end)[::-1]
     img = bpy.data.images.new(name, w, h, alpha=False, float_buffer=True)
     img[TAG] = True
-    rgba = np.ones((h, w, 4), dtype=np.float32)
-    rgba[..., :3] = residual[::-1]
     img.pixels.foreach_set(rgba.ravel())
     del rgba  # before pack() encodes the image: not both at once
     img.file_format = "OPEN_EXR"
@@ -1082,26 +1133,33 @@ def create_lights(context, settings, progress=None, force=False):
         # (ground_edge.py; an SH world cannot hold a band a few degrees high)
         least, most = ground_edge.depression_range(*plan.ground_edge)
         if most > 0:
-            plan.ground_band = ground_edge.band(np, env.height, env.width, *plan.ground_edge,
+            lit_w = min(env.width, lighting_width(scene, plan)[0])
+            lit_h = max(1, int(math.floor(lit_w * env.height / env.width + 0.5)))  # llround
+            plan.ground_band = ground_edge.band(np, lit_h, lit_w, *plan.ground_edge,
                                                 rot=[list(r) for r in rot])
             plan.reasons.append(
                 "the ground ends: below the horizon the world keeps the map down to where "
                 "the objects see the ground begin (%.1f-%.1f degrees)"
                 % (math.degrees(least), math.degrees(most)))
     sun_lights, glossy_pixels, sun_summary = [], None, None
-    with env:
+    # glossy rays see the map less the suns (a full-size image) only in these worlds (below)
+    glossy_hdr = (mode != "SH" or plan.glossy_hdr) and not plan.camera_only
+    width, width_why = lighting_width(scene, plan)
+    try:  # env is the map, then (over the lighting width) what lights at that width
         power = env.info()["power"]
         rest = env
         if plan.suns:
             # the suns first, as lamps of their own size (sharp shadows, exact highlights):
-            # the rest of the plan works on the map less exactly what they took
+            # the rest of the plan works on the map less exactly what they took, made in the
+            # library at the lighting width (no full-size copy of it unless glossy rays see it)
             with pkg.progress(lambda f, stage: step(0.2 + (SUN_PROGRESS - 0.2) * f)), \
-                    env.lights(MAX_SUNS, method="sun") as sres:
+                    env.lights(MAX_SUNS, method="sun", residual=glossy_hdr) as sres:
                 sun_lights = list(sres.lights)
                 sun_summary = dict(sres.summary)
                 if sun_lights:
-                    glossy_pixels = sres.residual
-                    rest = pkg.from_pixels(glossy_pixels, layout="latlong")
+                    if glossy_hdr:
+                        glossy_pixels = sres.residual
+                    rest = sres.residual_map(width if env.width > width else None)
         if plan.count == 0 and plan.recipe == "sun-residual":
             share = sun_share(sun_summary)
             if share < SUN_SHARE_MIN and not force:
@@ -1126,6 +1184,8 @@ def create_lights(context, settings, progress=None, force=False):
             px = env.pixels()
             rows = [env.solid_angle(r) for r in range(px.shape[0])]
             sun_lights, glossy_pixels = exact_discs.take(np, px, rows, directions)
+            del px
+            rest = pkg.from_pixels(glossy_pixels, layout="latlong")
             lum = lambda c: sum(w * v for w, v in zip(LUMINANCE, c))  # noqa: E731
             taken = sum(lum(l.rgb) for l in sun_lights) / max(lum(power), 1e-30)
             plan.reasons = [r for r in plan.reasons if "the suns as lamps" not in r]
@@ -1137,18 +1197,35 @@ def create_lights(context, settings, progress=None, force=False):
             plan.suns = False
             sun_summary = dict(sun_summary, **exact_figures(pkg, env, sun_lights,
                                                             glossy_pixels))
+            if not glossy_hdr:
+                glossy_pixels = None
+        if env.width > width:
+            # from here on what lights, at the lighting width: the full map is needed no further
+            plan.reasons.append(
+                "the world's lighting image at %d wide, area-resampled from the map's %d "
+                "(%s; the camera sees the map)" % (width, env.width, width_why))
+            if rest is not env and rest.width > width:
+                with rest:
+                    rest = resampled(pkg, rest, width)
+            keep = rest is env or (plan.ground_albedo is not None and plan.camera_only)
+            lit = resampled(pkg, env, width) if keep else rest
+            if rest is env:
+                rest = lit
+            env.close()
+            env = lit
         if plan.count == 0:
             # the suns alone: every other ray sees the map less them, exactly
             lights, summary = [], sun_summary
-            residual = glossy_pixels if glossy_pixels is not None else env.pixels()
-            if rest is not env:
-                rest.close()
+            # the library's map itself: pixels_to_image copies it into Blender's buffer by rows
+            residual = rest if rest is not env else env.pixels()
         else:
             if rest is not env and not (plan.ground_albedo is not None and plan.camera_only):
                 env.close()  # the fit needs only the map less the suns: one copy fewer
             lights, summary, residual, sh_coeffs = fit_rest(
                 pkg, env, rest, plan, method, order, strength, step,
                 SUN_PROGRESS if plan.suns else 0.2)
+    finally:
+        env.close()
     if plan.suns and sun_lights:
         plan.reasons.append("%d sun%s as lamps of %s own size (%s degrees)" % (
             len(sun_lights), "s" if len(sun_lights) > 1 else "",
@@ -1193,7 +1270,6 @@ def create_lights(context, settings, progress=None, force=False):
     # glossy rays see the map (less the suns, which their lamps draw) in the residual and
     # lights-only worlds and in an SH world for glossy surfaces: the fitted lamps' light is in
     # it, so those lamps light no glossy reflection (Cycles: the lamp's glossy visibility off)
-    glossy_hdr = (mode != "SH" or plan.glossy_hdr) and not plan.camera_only
     suns = create_suns(scene, sun_lights, rot, strength, plan.shadows, glossy=True,
                        name="EnvLight Sun")
     n_suns = len(suns) if plan.suns else 0
@@ -1206,7 +1282,9 @@ def create_lights(context, settings, progress=None, force=False):
         glossy_image = pixels_to_image(glossy_pixels, "EnvLight Glossy")
     glossy_pixels = None
     residual_image = pixels_to_image(residual, "EnvLight Residual") \
-        if mode == "RESIDUAL" else None
+        if mode == "RESIDUAL" and residual is not None else None
+    if residual is not None and not isinstance(residual, np.ndarray):
+        residual.close()
     residual = None
     notes = []
     if world.use_nodes and world.node_tree:

@@ -75,6 +75,7 @@ class Plan:
         self.ground_edge = None        # (ground box lo, hi, the objects' centre): ground_edge.py
         self.ground_band = None        # core: the map's pixels beyond the ground's edge
         self.glossy = False
+        self.min_roughness = None      # the sharpest surface's roughness (None: no BSDF has one)
         self.glossy_hdr = False        # glossy rays see the map itself (SH world)
         self.suns = True               # the suns split off first as lamps of their own
         self.camera_only = False       # only camera rays see the map (EEVEE: no ray split)
@@ -336,6 +337,7 @@ def read_scene(scene, volume_probe=False, dome=0):
             if r is not None:
                 roughs.append(r)
     p.glossy = bool(gloss)
+    p.min_roughness = min(roughs) if roughs else None
     casters = [o.name for o in rest if _casts_shadow(o)]
     if casters:
         p.shadows = "SOFT"
