@@ -39,8 +39,9 @@ import blender_addon_check as check  # noqa: E402  (its helpers; it runs nothing
 
 #: UI scale for the screenshots (bigger text reads better by OCR)
 UI_SCALE = 1.5
-#: redraws (0.2 s apart) before a screenshot: one showed the panels still sliding into place
-SETTLE = 5
+#: redraws (0.1 s apart) before a screenshot: until two in a row leave the screen as it was
+#: (Blender slides panels to their new places over a few draws), at most
+SETTLE_MAX = 50
 
 
 def properties_area():
@@ -79,11 +80,26 @@ def shot(win, area, path, fbdir):
     """The Properties editor as shown, saved as `path` and its OCR copy: the X screen as Xvfb
     holds it (`fbdir`: Blender 4.3's own screenshot reads back black under Xvfb here), the
     window at the screen's top left, cut to the editor."""
-    for _ in range(SETTLE):   # Blender slides panels to their new places over a few draws
+    # the World tab drawn afresh (another tab, then World again): its panels laid out whole,
+    # not grown from their last sizes (a box that had grown kept its old height here, its
+    # last lines cut off under the next panel)
+    space = area.spaces.active
+    for tab in ("SCENE", "WORLD"):
+        space.context = tab
+        with bpy.context.temp_override(window=win, screen=win.screen, area=area):
+            bpy.ops.wm.redraw_timer(type="DRAW_WIN_SWAP", iterations=1)
+    screen, same = None, 0
+    for _ in range(SETTLE_MAX):   # Blender slides panels to their new places over a few draws
         with bpy.context.temp_override(window=win, screen=win.screen, area=area):
             bpy.ops.wm.redraw_timer(type="DRAW_WIN_SWAP", iterations=2)
-        time.sleep(0.2)
-    screen = read_xwd(os.path.join(fbdir, "Xvfb_screen0"))
+        time.sleep(0.1)
+        now = read_xwd(os.path.join(fbdir, "Xvfb_screen0"))
+        same = same + 1 if screen is not None and np.array_equal(now, screen) else 0
+        screen = now
+        if same == 2:
+            break
+    else:
+        print("blender_panel_check: the screen still changed after %d redraws" % SETTLE_MAX)
     top = win.height - (area.y + area.height)
     rgb = screen[top:top + area.height, area.x:area.x + area.width][::-1]   # rows bottom-up
     h, w = rgb.shape[:2]

@@ -176,6 +176,16 @@ def test_create_lamps_anyway_is_unbiased(panel):
     assert np.allclose(total, power, rtol=1e-4), (total, power)
 
 
+def test_the_panel_shows_its_last_line(panel):
+    """The result box is drawn whole in every screenshot: the last line of its message (the
+    last line the panel draws) is read, not hidden under the next panel's header (4.3's
+    mirror-ball shot once showed the box cut before it, its panels still sliding into place)."""
+    for step, st in panel["steps"].items():
+        if st["message"]:
+            last = " ".join(st["message"].split("\n")[-1].split()[-5:])
+            check_seen(panel, step, last)
+
+
 def test_a_mirror_ball_on_equirectangular_is_warned_about(panel):
     st = panel["steps"]["ball"]
     assert any("is 256 x 256, not 2:1, on an Equirectangular projection" in w
