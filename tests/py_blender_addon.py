@@ -502,6 +502,23 @@ def test_the_lighting_world_at_the_lighting_width(addon_zip, case):
     assert np.allclose(total, power, rtol=1e-5), (run["plan"]["recipe"], total, power)
 
 
+def test_an_sh_world_is_fitted_at_the_lighting_width(addon_zip):
+    """Over the lighting width (made 256 for a 1K map), an SH world and its lamps are fitted to
+    the map area-resampled to it, and the plan says so; no residual image is made."""
+    path = os.path.join(DATA, "latlong_hdri", "rooitou_park_1k.hdr")
+    if not os.path.exists(path):
+        pytest.skip("SKIP: %s absent" % path)
+    res, _ = run_blender("lighting_width_sh", {
+        "hdr": path, "engine": "CYCLES", "lighting_width": 256, "objects": [MATTE_OBJ],
+        "settings": dict(FIT_WITH_SUNS, world_mode="SH")}, addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["FINISHED"], run
+    assert "EnvLight Residual" not in run["world"]["image_sizes"]
+    assert "the lamps and the SH world fitted to the map area-resampled from 1024 to 256 wide " \
+        "(the same light: the integral of L dw kept pixel by pixel)" in run["plan"]["reasons"], \
+        run["plan"]["reasons"]
+
+
 # ---- SH world and lights only -------------------------------------------------------------------
 
 def test_sh_world_evaluates_the_remainder(addon_zip, spot_hdr):

@@ -1203,7 +1203,11 @@ def create_lights(context, settings, progress=None, force=False):
             # from here on what lights, at the lighting width: the full map is needed no further
             plan.reasons.append(
                 "the world's lighting image at %d wide, area-resampled from the map's %d "
-                "(%s; the camera sees the map)" % (width, env.width, width_why))
+                "(%s; the camera sees the map)" % (width, env.width, width_why)
+                if mode == "RESIDUAL" else
+                "the lamps%s fitted to the map area-resampled from %d to %d wide (the same "
+                "light: the integral of L dw kept pixel by pixel)"
+                % (" and the SH world" if mode == "SH" else "", env.width, width))
             if rest is not env and rest.width > width:
                 with rest:
                     rest = resampled(pkg, rest, width)
