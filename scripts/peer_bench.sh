@@ -230,8 +230,11 @@ for i in "${!labels[@]}"; do
     [ -z "$PROBULATOR" ] || measure sh "$label" Probulator "" "$run" "$PROBULATOR" "$f" SHL2
     fi
     for n in 32 128; do
-      want "irr$n" || continue  # also envlight's SH irradiance (cmft's is SH of order 4, unwindowed)
-      VARIANTS=("--irradiance-method sh --irradiance-order 4")
+      want "irr$n" || continue
+      # also envlight's faster methods, what the default's accuracy costs: SH of order 4 (cmft's
+      # is SH of order 4, unwindowed) and 8, and the exact sum over the map area-averaged to 256
+      VARIANTS=("--irradiance-method sh --irradiance-order 4" "--irradiance-method sh --irradiance-order 8"
+        "--irradiance-method resampled")
       envlight_task "irr$n" "$label" "$run" "$last" prefilter "$f" -o maps --irradiance \
         --layout cube --irradiance-size "$n" --format pfm -q
       VARIANTS=()
