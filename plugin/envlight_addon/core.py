@@ -986,14 +986,17 @@ def fit_rest(pkg, env, rest, plan, method, order, strength, step, start=0.2):
 
 
 def band_pixels(plan, rest, used):
-    """Over a ground whose edge is known (plan.ground_band, ground_edge.py): (the band, the
-    map's pixels there less what `used`, the map as the ground leaves it, has there), else
-    None. Only the band's rows are copied out of the library."""
+    """Over a ground whose edge is known (plan.ground_band: the world's turn, ground_edge.py):
+    (the band at `rest`'s size, the map's pixels there less what `used`, the map as the ground
+    leaves it, has there), else None. Only the band's rows are copied out of the library."""
+    import numpy as np
     if plan.ground_band is None or used is rest:
         return None
-    first, mask = plan.ground_band
+    band = ground_edge.band(np, rest.height, rest.width, *plan.ground_edge,
+                            rot=plan.ground_band)
+    first, mask = band
     end = first + mask.shape[0]
-    return plan.ground_band, rest.pixels(first, end)[mask] - used.pixels(first, end)[mask]
+    return band, rest.pixels(first, end)[mask] - used.pixels(first, end)[mask]
 
 
 def exact_figures(pkg, env, lamps, residual):
@@ -1133,10 +1136,8 @@ def create_lights(context, settings, progress=None, force=False):
         # (ground_edge.py; an SH world cannot hold a band a few degrees high)
         least, most = ground_edge.depression_range(*plan.ground_edge)
         if most > 0:
-            lit_w = min(env.width, lighting_width(scene, plan)[0])
-            lit_h = max(1, int(math.floor(lit_w * env.height / env.width + 0.5)))  # llround
-            plan.ground_band = ground_edge.band(np, lit_h, lit_w, *plan.ground_edge,
-                                                rot=[list(r) for r in rot])
+            # the band itself is made at the size of the map that lights (band_pixels)
+            plan.ground_band = [list(r) for r in rot]
             plan.reasons.append(
                 "the ground ends: below the horizon the world keeps the map down to where "
                 "the objects see the ground begin (%.1f-%.1f degrees)"

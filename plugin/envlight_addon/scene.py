@@ -73,7 +73,8 @@ class Plan:
         self.ground_albedo = None      # None: no ground treatment
         self.ground_object = None
         self.ground_edge = None        # (ground box lo, hi, the objects' centre): ground_edge.py
-        self.ground_band = None        # core: the map's pixels beyond the ground's edge
+        self.ground_band = None        # core: the world's turn, when the map's pixels beyond
+                                       # the ground's edge go back in the world (band_pixels)
         self.glossy = False
         self.min_roughness = None      # the sharpest surface's roughness (None: no BSDF has one)
         self.glossy_hdr = False        # glossy rays see the map itself (SH world)
