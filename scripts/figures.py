@@ -16,6 +16,8 @@ Blocks:
   methods            "Which method for which job": each method's error range over every map
                      (the built-in sky and each ../shared/data/latlong_hdri/*.hdr present)
   pov                the POV-Ray include's in-scene figures, from docs/scene_bench_pov.json
+  pov-path-traced    the include and the bench's POV-Ray reference against Cycles, from
+                     docs/pov_path_traced.json (scripts/pov_path_traced.py)
   gltf               the glTF file's diffuse error over the same maps, with its suns as
                      lights and with --lights none
   transcript-NAME    a command's output as the README shows it: the block's first line
@@ -260,7 +262,38 @@ def pov_figure(bench, option):
     speed = [r["speedup"] for r in runs if r["scene"] == "a" and r.get("speedup")]
     if speed:
         parts.append("%.0f-%.0fx less POV-Ray CPU than the reference" % (min(speed), max(speed)))
-    return "; ".join(parts) + " (scene bench of %s)" % bench["date"][:10]
+    # rows merged from a later run carry their own date (as the Blender bench's do)
+    date = max(r.get("date", bench["date"])[:10] for r in runs)
+    return "; ".join(parts) + " (scene bench of %s)" % date
+
+
+POV_PATH_TRACED_JSON = os.path.join("docs", "pov_path_traced.json")
+
+
+def pov_path_traced_bounds(pt):
+    """(lowest, highest) bias of the picked include against Cycles over every map and object
+    of docs/pov_path_traced.json, and the same of the scene bench's POV-Ray reference."""
+    picked, ref = [], []
+    for m in pt["maps"].values():
+        for scene in m.values():
+            for o in scene["objects"].values():
+                picked.append(o["picked_bias"])
+                ref.append(o["reference_bias"])
+    return (min(picked), max(picked)), (min(ref), max(ref))
+
+
+def pov_path_traced_text(pt):
+    """The README's sentence on the POV-Ray include against a path tracer."""
+    (p0, p1), (r0, r1) = pov_path_traced_bounds(pt)
+    worst = max(((o["reference_bias"], name, s) for name, m in pt["maps"].items()
+                 for s, scene in m.items() for o in scene["objects"].values()))
+    return ("Against Cycles path tracing of the same scenes (a) and (b) "
+            "([docs/pov_path_traced.md](docs/pov_path_traced.md), %d maps, %s), the default "
+            "include is %+.1f to %+.1f %% off on average over each object and the plane; the "
+            "POV-Ray reference the figures above are measured against is itself %+.1f to "
+            "%+.1f %% off (%s's scene (%s)), and that is in them." % (
+                len(pt["maps"]), pt["date"], 100 * p0, 100 * p1, 100 * r0, 100 * r1,
+                worst[1], worst[2]))
 
 
 def c_string(text, indent):
@@ -276,7 +309,16 @@ def c_string(text, indent):
     return (" \\\n" + indent).join('"%s"' % x.replace('"', '\\"') for x in lines)
 
 
-def pov_header_text(bench):
+def pov_path_traced_header(pt):
+    """The header's sentence on the default include against Cycles (docs/pov_path_traced.json)."""
+    (p0, p1), (r0, r1) = pov_path_traced_bounds(pt)
+    return ("against Cycles path tracing of scenes (a), (b) on %d maps: %+.1f to %+.1f %% on "
+            "average per object and plane; the reference of the figure above is itself %+.1f to "
+            "%+.1f %% off, and that is in it (docs/pov_path_traced.md, %s)" % (
+                len(pt["maps"]), 100 * p0, 100 * p1, 100 * r0, 100 * r1, pt["date"]))
+
+
+def pov_header_text(bench, pt=None):
     out = ["/* The in-scene error each POV-Ray recipe's header quotes (pov_recipe.c): written by",
            " * scripts/figures.py --write from %s (scripts/scene_bench.py --host pov)," % POV_JSON,
            " * checked against it by the test py_figures. Do not edit by hand. */",
@@ -287,6 +329,12 @@ def pov_header_text(bench):
             out.append("#define POV_FIGURE_%s NULL /* not in the scene bench */" % name)
         else:
             out.append("#define POV_FIGURE_%s \\\n    %s" % (name, c_string(fig, "    ")))
+    if pt is None:
+        out.append("#define POV_FIGURE_DOME_PATH_TRACED NULL /* not measured */")
+    else:
+        out.append("/* from %s (scripts/pov_path_traced.py) */" % POV_PATH_TRACED_JSON)
+        out.append("#define POV_FIGURE_DOME_PATH_TRACED \\\n    %s" %
+                   c_string(pov_path_traced_header(pt), "    "))
     out += ["", "#endif"]
     return "\n".join(out) + "\n"
 
@@ -325,7 +373,9 @@ def blender_figures_text(bench):
 def host_files():
     """[(path, text as generated)] of the hosts' figure files whose bench JSON is present."""
     out = []
-    for js, path, make in ((POV_JSON, POV_HEADER, pov_header_text),
+    with open(os.path.join(ROOT, POV_PATH_TRACED_JSON)) as f:
+        pt = json.load(f)
+    for js, path, make in ((POV_JSON, POV_HEADER, lambda b: pov_header_text(b, pt)),
                            (BLENDER_JSON, BLENDER_FIGURES, blender_figures_text)):
         with open(os.path.join(ROOT, js)) as f:
             out.append((path, make(json.load(f))))
@@ -412,6 +462,9 @@ def render(readme, envlight, data, tmp, results, skipped):
                 body = ["In the scene benchmark ([docs/scene_bench_pov.md](docs/scene_bench_pov.md)"
                         ", [docs/pov_scenes.md](docs/pov_scenes.md)), the default include: %s." %
                         pov_figure(json.load(f), "default")]
+        elif name == "pov-path-traced":
+            with open(os.path.join(ROOT, POV_PATH_TRACED_JSON)) as f:
+                body = [pov_path_traced_text(json.load(f))]
         elif name.startswith("transcript-"):
             body = transcript(envlight, spec, data, tmp)
             if body is None:

@@ -37,7 +37,9 @@ from a fourth pass, the residual as SKY_LIGHTS median-cut lights lighting the hi
 A finish that also reflects shows the sky in its reflection, so the reference gives it no
 highlights from lights (the include's header says to set its specular to 0).
 Validated on a lone white sphere against the exact E(n) / pi (VALIDATION_TOLERANCE). Its own
-noise (--floor): the same reference with FINE_RADIOSITY and FINE_BOUNCE_LIGHTS.
+noise (--floor): the same reference with FINE_RADIOSITY and FINE_BOUNCE_LIGHTS. Its bias where
+objects occlude one another (which the lone sphere cannot show): scripts/pov_path_traced.py
+renders scenes a and b again in Cycles (docs/pov_path_traced.md).
 
 Measures: POV-Ray CPU seconds (user + system of the process, all threads: RUSAGE_CHILDREN) and
 wall seconds; per object (a class of the scene), error = sqrt(mean((Y - Yref)^2)) / mean(Yref)
@@ -232,7 +234,7 @@ def default_maps(data_dir):
             maps.append((os.path.basename(f).rsplit(".", 1)[0], f))
         else:
             print("SKIP: %s absent" % f)
-    for b in ("city", "interior", "studio", "sunrise"):
+    for b in ("city", "courtyard", "forest", "interior", "night", "studio", "sunrise", "sunset"):
         f = "/usr/share/blender/datafiles/studiolights/world/%s.exr" % b
         if os.path.exists(f):
             maps.append(("blender_" + b, f))

@@ -91,3 +91,8 @@ const char *pov_recipe_expected_error(int recipe)
         return NULL;
     }
 }
+
+const char *pov_recipe_path_traced(int recipe)
+{
+    return recipe == POV_RECIPE_DOME ? POV_FIGURE_DOME_PATH_TRACED : NULL;
+}

@@ -42,4 +42,8 @@ int pov_recipe_bounces(const pov_scene *scene);
  * for the include's header), or NULL when the recipe was not measured. */
 const char *pov_recipe_expected_error(int recipe);
 
+/* The default dome's figure against Cycles path tracing (pov_figures.h, from
+ * docs/pov_path_traced.json), NULL for another recipe: not measured there. */
+const char *pov_recipe_path_traced(int recipe);
+
 #endif

@@ -209,6 +209,9 @@ static void text_recipe(FILE *f, const pov_plan *p, const pov_work *w)
                                : pov_recipe_expected_error(p->recipe);
     fprintf(f, "// in-scene error to expect (scene benchmark, not this map): %s\n",
             expected ? expected : "not measured for this recipe");
+    const char *traced = expected ? pov_recipe_path_traced(p->recipe) : NULL;
+    if (traced)
+        fprintf(f, "//   %s\n", traced);
 }
 
 /* The ground plane, the error and the seconds; the frames and units. */
