@@ -5,11 +5,11 @@ import os
 import sys
 
 
-def exit_on_help(doc, path):
-    """--help or -h (after "--" under Blender, or as usual under python3): prints the usage and
-    `doc`, and ends the process with status 0."""
+def exit_on_help(doc, path, args="SPEC.json"):
+    """--help or -h (after "--" under Blender, or as usual under python3): prints the usage (the
+    script's arguments after "--": `args`) and `doc`, and ends the process with status 0."""
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
     if {"-h", "--help"} & set(argv):
-        print("usage: blender -b --factory-startup --python %s -- SPEC.json\n\n%s"
-              % ("scripts/" + os.path.basename(path), doc))
+        print("usage: blender -b --factory-startup --python %s -- %s\n\n%s"
+              % ("scripts/" + os.path.basename(path), args, doc))
         sys.exit(0)

@@ -25,11 +25,17 @@ import os
 import re
 import sys
 
-import bpy
-import mathutils
-import numpy as np
-
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_help import exit_on_help  # noqa: E402
+
+if __name__ == "__main__":
+    exit_on_help(__doc__, __file__, "--pov FILE --map HDR --out NPY [--samples N] [--seed S] "
+                 "[--size W H] [--ids]")
+
+import bpy  # noqa: E402
+import mathutils  # noqa: E402
+import numpy as np  # noqa: E402
+
 from blender_scene import node_material, run_main, world_with_image  # noqa: E402
 
 
