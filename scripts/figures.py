@@ -318,7 +318,7 @@ def pov_path_traced_header(pt):
                 len(pt["maps"]), 100 * p0, 100 * p1, 100 * r0, 100 * r1, pt["date"]))
 
 
-def pov_header_text(bench, pt=None):
+def pov_header_text(bench, pt):
     out = ["/* The in-scene error each POV-Ray recipe's header quotes (pov_recipe.c): written by",
            " * scripts/figures.py --write from %s (scripts/scene_bench.py --host pov)," % POV_JSON,
            " * checked against it by the test py_figures. Do not edit by hand. */",
@@ -329,12 +329,9 @@ def pov_header_text(bench, pt=None):
             out.append("#define POV_FIGURE_%s NULL /* not in the scene bench */" % name)
         else:
             out.append("#define POV_FIGURE_%s \\\n    %s" % (name, c_string(fig, "    ")))
-    if pt is None:
-        out.append("#define POV_FIGURE_DOME_PATH_TRACED NULL /* not measured */")
-    else:
-        out.append("/* from %s (scripts/pov_path_traced.py) */" % POV_PATH_TRACED_JSON)
-        out.append("#define POV_FIGURE_DOME_PATH_TRACED \\\n    %s" %
-                   c_string(pov_path_traced_header(pt), "    "))
+    out.append("/* from %s (scripts/pov_path_traced.py) */" % POV_PATH_TRACED_JSON)
+    out.append("#define POV_FIGURE_DOME_PATH_TRACED \\\n    %s" %
+               c_string(pov_path_traced_header(pt), "    "))
     out += ["", "#endif"]
     return "\n".join(out) + "\n"
 
