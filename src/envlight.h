@@ -933,7 +933,7 @@ typedef struct envl_pov_options {
                                  the include's path without ".inc" + "_sky.hdr", or, for a map
                                  read from a lat-long .hdr (without apply_exposure), that file
                                  itself; the include names it by its absolute path */
-    double scene_radius;      /* lights are placed at 2 R from the scene centre; default 100 */
+    double scene_radius;      /* lights are placed at 2000 R from the scene centre; default 100 */
     double exposure;          /* the default of EnvLight_Exposure, which scales everything
                                  envlight adds: > 0, or ENVL_POV_EXPOSURE_AUTO; default 0: not
                                  declared (envlight.inc's 1: the map's radiometry) */

@@ -90,7 +90,7 @@ static int pov_parse(int argc, char **argv, cli_common *c, pov_args *a)
                    .help = "the sky shows the residual (what the lights did not take)"),
         CLI_OPTION("--scene-radius", "R", CLI_REAL, .min = 1e-300, .max = 1e12,
                    .value = &o->scene_radius, .takes = "a positive number",
-                   .help = "lights are placed at 2 R from the scene centre (default 100)"),
+                   .help = "lights are placed at 2000 R from the scene centre (default 100)"),
         CLI_OPTION("--exposure", "E", CLI_TEXT, .value = &exposure,
                    .takes = "auto or a positive number",
                    .help = "auto or a number: the default of EnvLight_Exposure, which scales\n"
