@@ -12,7 +12,9 @@ from it:
           the bench, less their edge pixels);
   error = relative RMS of Y - Y_cycles over them, with Cycles' own noise taken out in
           quadrature (the noise of the mean of two renders of different seeds: (c1 - c2)^2 / 4
-          per pixel) and that noise stated.
+          per pixel) and that noise stated. The report gives it as the range one standard
+          deviation of that estimate leaves (error_range): where Cycles' noise is larger than
+          the error, Cycles cannot tell an RMS error of 0.5 % from one of 2 %.
 A glossy object's highlights are POV-Ray's own (its finish's specular, from light sources: the
 reference's bright lights give them too), which Cycles' Lambertian surface has not: the glossy
 sphere of scene (a) is left out.
@@ -81,6 +83,15 @@ def compare(img, c1, c2, mask):
             float(math.sqrt(noise2) / mean))
 
 
+def error_range(r, key):
+    """(low, high) of an error with the noise taken out, one standard deviation apart: the
+    estimate e^2 = mean(d^2) - mean(n^2) over N pixels of independent noise of variance s^2
+    (relative to the mean) has a standard deviation of about 2 s^2 / sqrt(N) (each mean of
+    squares of a Gaussian: var(x^2) = 2 s^4, and d^2 holds the noise once more)."""
+    e2, u = r[key] ** 2, 2 * r["noise"] ** 2 / math.sqrt(r["pixels"])
+    return math.sqrt(max(0.0, e2 - u)), math.sqrt(e2 + u)
+
+
 def run_map(name, d, blender, samples, log):
     """The map's scenes against Cycles; its files (the id pass, Cycles' renders) go in
     d/path_traced, the bench run's own files are only read."""
@@ -130,7 +141,9 @@ def report(result):
              result["date"], result["command"], result["blender"], result["samples"],
              result["load_average"]),
          "", "Cells: bias % (mean over the object against Cycles), in brackets the relative "
-         "RMS error % with Cycles' noise taken out. `reference`: the scene bench's POV-Ray "
+         "RMS error % with Cycles' noise taken out, as the range one standard deviation of that "
+         "estimate leaves (where Cycles' noise is above the error, a wide range: the bias is "
+         "the measure there). `reference`: the scene bench's POV-Ray "
          "reference (its radiosity and lights, no highlights); `picked`: what `envlight pov "
          "--scene` picks (the scene bench's default row).", ""]
     for scene in SCENES:
@@ -147,9 +160,10 @@ def report(result):
             cells = []
             for o in objs:
                 r = ob[o]
-                cells.append("%+.2f (%.2f)" % (100 * r["reference_bias"],
-                                               100 * r["reference_error"]))
-                cells.append("%+.2f (%.2f)" % (100 * r["picked_bias"], 100 * r["picked_error"]))
+                for who in ("reference", "picked"):
+                    lo, hi = error_range(r, who + "_error")
+                    cells.append("%+.2f (%.1f-%.1f)" % (100 * r[who + "_bias"], 100 * lo,
+                                                        100 * hi))
             L.append("| %s | %s | %.2f | %.1f |" % (
                 m, " | ".join(cells), 100 * max(r["noise"] for r in ob.values()),
                 100 * min(r["id_agreement"] for r in ob.values())))

@@ -5,9 +5,9 @@
 #define ENVL_POV_FIGURES_H
 
 #define POV_FIGURE_DOME \
-    "scenes (a), (b) on 26 maps: objects 1.5 % median, 9.3 % worst; plane 1.2 % median, 2.9 % " \
+    "scenes (a), (b) on 26 maps: objects 1.3 % median, 3.1 % worst; plane 1.2 % median, 3.1 % " \
     "worst; banding 0.31 % median, 0.44 % worst; a user's still life, room and CSG scene: worst " \
-    "object 4.1 % median, 24.6 % worst; 11-18x less POV-Ray CPU than the reference (scene bench " \
+    "object 4.1 % median, 24.6 % worst; 9-20x less POV-Ray CPU than the reference (scene bench " \
     "of 2026-11-30)"
 #define POV_FIGURE_SH \
     "scenes (a), (b) on 15 maps: objects 19.4 % median, 94.9 % worst; plane 11.0 % median, 43.4 " \
@@ -19,8 +19,8 @@
 #define POV_FIGURE_DOME_AMBIENT NULL /* not in the scene bench */
 /* from docs/pov_path_traced.json (scripts/pov_path_traced.py) */
 #define POV_FIGURE_DOME_PATH_TRACED \
-    "against Cycles path tracing of scenes (a), (b) on 26 maps: -0.9 to +0.5 % on average per " \
-    "object and plane; the reference of the figure above is itself -0.6 to +7.4 % off, and that " \
+    "against Cycles path tracing of scenes (a), (b) on 26 maps: -0.9 to +0.4 % on average per " \
+    "object and plane; the reference of the figure above is itself -0.4 to +1.2 % off, and that " \
     "is in it (docs/pov_path_traced.md, 2026-11-30)"
 
 #endif
