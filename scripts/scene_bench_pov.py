@@ -487,10 +487,10 @@ def horizon_lights(d, px, dw, name, n):
 def reference_lighting(d, px, dw, lights, bounce_lights, radiosity, sky):
     """The reference's lighting texts, in passes whose images add up: {"radiosity": the bright
     pixels as bounce_lights median-cut lights (horizon_lights) + the residual as a sphere only
-    radiosity sees, under radiosity; "minus": the bounce lights alone; "plus": the bright pixels as `lights`
-    median-cut lights alone (+ with `sky` the whole map on a backdrop radiosity does not see)}:
-    the reference = radiosity - minus + plus. Also the bright pixels' share of the power and
-    their number."""
+    radiosity sees, under radiosity; "minus": the bounce lights alone; "plus": the bright
+    pixels as `lights` median-cut lights alone (+ with `sky` the whole map on a backdrop
+    radiosity does not see)}: the reference = radiosity - minus + plus. Also the bright
+    pixels' share of the power and their number."""
     y = P.lum(px)
     bright = y > BRIGHT_FACTOR * (y * dw).sum() / (4 * math.pi)
     share = float((y * dw * bright).sum() / (y * dw).sum())
