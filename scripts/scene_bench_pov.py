@@ -478,9 +478,7 @@ def horizon_lights(d, px, dw, name, n):
         P.envlight("pov", pfm, "--method", "median", "-n", str(k), "--ambient", "none",
                    "--shadows", "hard", "--no-place", "-o", inc, "--quiet", cwd=d)
         scale_lights(d, pfm, inc, k)
-        # each generated include guards itself by the one name: undone to read the second
-        text += ('#ifdef (EnvLight_Generated_Inc_Temp) #undef EnvLight_Generated_Inc_Temp #end\n'
-                 '#include "%s"\nEnvLight_Place_Lights()\n' % inc)
+        text += '#include "%s"\nEnvLight_Place_Lights()\n' % inc
     return text
 
 

@@ -5,7 +5,7 @@
 
 S="--sky-width 128"
 run "$ENVLIGHT" pov - $S -o default.inc
-for k in "EnvLight_Generated_Inc_Temp" "#declare EnvLight_Count" "EnvLight_Colour" \
+for k in "^#ifndef (EnvLight_Inc_[0-9a-f]\{16\})$" "#declare EnvLight_Count" "EnvLight_Colour" \
          "#declare EnvLight_Shadows = 2" "diffuse error" \
          "EnvLight_Place_Lights()" '#include "envlight.inc"' "POV-Ray vector <x, z, y>"; do
   has default.inc "$k"

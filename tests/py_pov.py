@@ -925,3 +925,38 @@ def test_light_below_the_horizon_stays_under_the_floor(height, elevation):
             assert np.all(np.abs(y - want) <= 0.01 * want)
         else:
             assert np.all(y == 0)
+
+
+# A white plate seen from above, lit by the generated includes named.
+TWO_INCLUDES_SCENE = """#version 3.7;
+global_settings { assumed_gamma 1 ambient_light 0 }
+camera { orthographic location <0, 5, 0> look_at <0, 0, 0> right <2, 0, 0> up <0, 0, 2> }
+%s
+box { <-5, -1, -5>, <5, 0, 5> pigment { rgb 1 } finish { ambient 0 diffuse 1 emission 0 } }
+"""
+
+
+def test_each_generated_include_is_read_once():
+    """Each generated include guards itself by its own name (a hash of its text): two
+    different includes in one scene both place their lights (the plate reads A + B, within the
+    sum of the RGBE steps), and the same include twice places them once (the plate reads A,
+    bit for bit). One name for every include skipped the second include, so A + B read A."""
+    d = tmpdir("two_includes")
+    for name, n in (("a.inc", "4"), ("b.inc", "8")):
+        envlight("pov", "-", "--sky-width", "64", "--method", "median", "-n", n, "--ambient",
+                 "none", "--shadows", "hard", "-o", name, "--quiet", cwd=d)
+    guards = {re.search(r"^#ifndef \((EnvLight_Inc_[0-9a-f]{16})\)$",
+                        open(os.path.join(d, f)).read(), re.M).group(1)
+              for f in ("a.inc", "b.inc")}
+    assert len(guards) == 2, guards
+    images = {}
+    for key, names in (("a", "a"), ("b", "b"), ("ab", "ab"), ("aa", "aa")):
+        render(TWO_INCLUDES_SCENE % "".join('#include "%s.inc"\n' % k for k in names), d,
+               size=8)
+        images[key] = read_hdr_steps(os.path.join(d, "out.hdr"))
+    (a, sa), (b, sb), (ab, sab) = images["a"], images["b"], images["ab"]
+    print("plate: a %.4f, b %.4f, a then b %.4f, a twice %.4f" % tuple(
+        lum(images[k][0]).mean() for k in ("a", "b", "ab", "aa")))
+    assert lum(a).min() > 0 and lum(b).min() > 0
+    assert np.all(np.abs(ab - (a + b)) <= (sa + sb + sab)[..., None])
+    assert np.array_equal(images["aa"][0], a)

@@ -252,11 +252,37 @@ static void text_error(FILE *f, const pov_plan *p, const pov_work *w)
               "frame.\n", f);
 }
 
+/* The include's guard: POV_GUARD and 16 hex digits of a 64-bit FNV-1a hash of its text (as
+ * written with the hole), filled in by pov_text_build. Including the same file twice reads it
+ * once (its lights are not placed twice); two different includes are both read (one name for
+ * every include skipped the second, and its lights were lost without a word). */
+#define POV_GUARD "EnvLight_Inc_"
+#define POV_GUARD_HOLE "################"
+
+/* FNV-1a, 64 bits (Fowler, Noll, Vo; offset basis and prime from its reference,
+ * http://www.isthe.com/chongo/tech/comp/fnv/). */
+static uint64_t fnv1a64(const char *s, size_t n)
+{
+    uint64_t h = 14695981039346656037ull;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ (unsigned char)s[i]) * 1099511628211ull;
+    return h;
+}
+
+static void fill_guard(char *text, size_t size)
+{
+    char hex[17];
+    snprintf(hex, sizeof hex, "%016llx", (unsigned long long)fnv1a64(text, size));
+    for (char *at = strstr(text, POV_GUARD POV_GUARD_HOLE); at;
+         at = strstr(at, POV_GUARD POV_GUARD_HOLE))
+        memcpy(at += strlen(POV_GUARD), hex, 16);
+}
+
 /* The declarations about the source, the ground and the scene. */
 static void text_scene(FILE *f, const pov_plan *p, const pov_work *w)
 {
-    fputs("#ifndef (EnvLight_Generated_Inc_Temp)\n"
-          "#declare EnvLight_Generated_Inc_Temp = 1;\n", f);
+    fputs("#ifndef (" POV_GUARD POV_GUARD_HOLE ")\n"
+          "#declare " POV_GUARD POV_GUARD_HOLE " = 1;\n", f);
     fputs("#declare EnvLight_Source = ", f);
     pov_string(f, p->source);
     fprintf(f, ";\n#declare EnvLight_Rotate = %.9g; // degrees about canonical +Z (POV-Ray +Y)\n",
@@ -444,5 +470,6 @@ envl_result pov_text_build(const pov_plan *p, const pov_work *w, char **text, si
         *text = NULL;
         return envl__fail(ENVL_ERR_MEMORY, "pov: out of memory");
     }
+    fill_guard(*text, *size);
     return ENVL_OK;
 }
