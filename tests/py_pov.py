@@ -937,18 +937,19 @@ box { <-5, -1, -5>, <5, 0, 5> pigment { rgb 1 } finish { ambient 0 diffuse 1 emi
 
 
 def test_each_generated_include_is_read_once():
-    """Each generated include guards itself by its own name (a hash of its text): two
-    different includes in one scene both place their lights (the plate reads A + B, within the
-    sum of the RGBE steps), and the same include twice places them once (the plate reads A,
-    bit for bit). One name for every include skipped the second include, so A + B read A."""
+    """Each generated include guards itself by its own name (a hash of what it declares and
+    places, its seconds apart): two different includes in one scene both place their lights
+    (the plate reads A + B, within the sum of the RGBE steps), and the same include twice
+    places them once (the plate reads A, bit for bit); the same command run again names its
+    include alike. One name for every include skipped the second include, so A + B read A."""
     d = tmpdir("two_includes")
-    for name, n in (("a.inc", "4"), ("b.inc", "8")):
+    for name, n in (("a.inc", "4"), ("b.inc", "8"), ("a_again.inc", "4")):
         envlight("pov", "-", "--sky-width", "64", "--method", "median", "-n", n, "--ambient",
                  "none", "--shadows", "hard", "-o", name, "--quiet", cwd=d)
-    guards = {re.search(r"^#ifndef \((EnvLight_Inc_[0-9a-f]{16})\)$",
+    guards = [re.search(r"^#ifndef \((EnvLight_Inc_[0-9a-f]{16})\)$",
                         open(os.path.join(d, f)).read(), re.M).group(1)
-              for f in ("a.inc", "b.inc")}
-    assert len(guards) == 2, guards
+              for f in ("a.inc", "b.inc", "a_again.inc")]
+    assert guards[0] != guards[1] and guards[2] == guards[0], guards
     images = {}
     for key, names in (("a", "a"), ("b", "b"), ("ab", "ab"), ("aa", "aa")):
         render(TWO_INCLUDES_SCENE % "".join('#include "%s.inc"\n' % k for k in names), d,

@@ -252,18 +252,20 @@ static void text_error(FILE *f, const pov_plan *p, const pov_work *w)
               "frame.\n", f);
 }
 
-/* The include's guard: POV_GUARD and 16 hex digits of a 64-bit FNV-1a hash of its text (as
- * written with the hole), filled in by pov_text_build. Including the same file twice reads it
- * once (its lights are not placed twice); two different includes are both read (one name for
- * every include skipped the second, and its lights were lost without a word). */
+/* The include's guard: POV_GUARD and 16 hex digits of a 64-bit FNV-1a hash of what it declares
+ * and places (the text after the guard, but the line of its seconds: the header's command and
+ * timing change from run to run, the lighting does not), filled in by pov_text_build.
+ * Including the same lighting twice reads it once (its lights are not placed twice); two
+ * different includes are both read (one name for every include skipped the second, and its
+ * lights were lost without a word). */
 #define POV_GUARD "EnvLight_Inc_"
 #define POV_GUARD_HOLE "################"
+#define POV_SECONDS_LINE "\n#declare EnvLight_Seconds = "
 
-/* FNV-1a, 64 bits (Fowler, Noll, Vo; offset basis and prime from its reference,
- * http://www.isthe.com/chongo/tech/comp/fnv/). */
-static uint64_t fnv1a64(const char *s, size_t n)
+/* FNV-1a, 64 bits, continued from h (Fowler, Noll, Vo; offset basis 14695981039346656037 and
+ * prime 1099511628211 from its reference, http://www.isthe.com/chongo/tech/comp/fnv/). */
+static uint64_t fnv1a64(uint64_t h, const char *s, size_t n)
 {
-    uint64_t h = 14695981039346656037ull;
     for (size_t i = 0; i < n; i++)
         h = (h ^ (unsigned char)s[i]) * 1099511628211ull;
     return h;
@@ -271,10 +273,21 @@ static uint64_t fnv1a64(const char *s, size_t n)
 
 static void fill_guard(char *text, size_t size)
 {
+    char *body = strstr(text, POV_GUARD POV_GUARD_HOLE), *end = text + size;
+    if (!body)
+        return;
+    const char *skip = strstr(body, POV_SECONDS_LINE);
+    const char *resume = skip ? strchr(skip + 1, '\n') : NULL;
+    uint64_t h = 14695981039346656037ull;
+    if (resume) {
+        h = fnv1a64(h, body, (size_t)(skip - body));
+        h = fnv1a64(h, resume, (size_t)(end - resume));
+    } else {
+        h = fnv1a64(h, body, (size_t)(end - body));
+    }
     char hex[17];
-    snprintf(hex, sizeof hex, "%016llx", (unsigned long long)fnv1a64(text, size));
-    for (char *at = strstr(text, POV_GUARD POV_GUARD_HOLE); at;
-         at = strstr(at, POV_GUARD POV_GUARD_HOLE))
+    snprintf(hex, sizeof hex, "%016llx", (unsigned long long)h);
+    for (char *at = body; at; at = strstr(at, POV_GUARD POV_GUARD_HOLE))
         memcpy(at += strlen(POV_GUARD), hex, 16);
 }
 
