@@ -4,8 +4,10 @@ error with that noise taken out.
 
 The scene bench (scripts/scene_bench.py --host pov) scores the picked include against a POV-Ray
 reference whose bounce is radiosity at count 800: a noisy estimate. This script renders that
-reference again for scenes (a) and (b) of a bench run with the radiosity's count one less (799:
-another set of directions, so another draw of its noise; same lights, same bias) and states,
+reference again for scenes (a) and (b) of a bench run with the radiosity's count one less (799;
+same lights, same bias: another draw of its noise. POV-Ray takes each sample's directions from
+a table at a running index, in the order the render threads make the samples: the same settings
+twice already draw afresh, as much as another count or pool, docs/pov_scenes.md) and states,
 per object (the bench's id masks less the pixels on a sun's shadow edge, as the bench scores):
   twin  = relative RMS of Y_twin - Y_ref (luminance, relative to the reference's mean), and the
           twin's bias (mean Y_twin / mean Y_ref - 1: near 0 when the two differ by noise only);
@@ -43,7 +45,7 @@ TWIN_COUNT = S.REFERENCE_RADIOSITY["count"] - 1
 
 
 def run_map(name, d, log):
-    """{scene: {object: figures}, scene + "_cpu_seconds": the twin's CPU} for one map."""
+    """{scene: {"objects": {object: figures}, "cpu_seconds": the twin's}} for one map."""
     import numpy as np
     images = np.load(os.path.join(d, "images.npz"))
     work = os.path.join(d, "twin")
