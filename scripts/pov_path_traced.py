@@ -39,6 +39,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 import scene_bench_pov as S  # noqa: E402
+from scene_bench import write_atomic  # noqa: E402
 
 SCENES = ("a", "b")
 SIZE = S.IMAGE
@@ -214,14 +215,9 @@ def main():
     text = json.dumps(result, indent=1) + "\n"
     for path in ([args.json] if args.json else []) + (
             [os.path.join(args.docs, "pov_path_traced.json")] if args.docs else []):
-        with open(path + ".tmp", "w") as f:
-            f.write(text)
-        os.replace(path + ".tmp", path)
+        write_atomic(path, text)
     if args.docs:
-        md = os.path.join(args.docs, "pov_path_traced.md")
-        with open(md + ".tmp", "w") as f:
-            f.write(report(result))
-        os.replace(md + ".tmp", md)
+        write_atomic(os.path.join(args.docs, "pov_path_traced.md"), report(result))
 
 
 if __name__ == "__main__":

@@ -39,6 +39,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 import scene_bench_pov as S  # noqa: E402
+from scene_bench import write_atomic  # noqa: E402
 
 SCENES = ("a", "b")
 TWIN_COUNT = S.REFERENCE_RADIOSITY["count"] - 1
@@ -113,8 +114,7 @@ def report(result):
                 100 * max((ob[o]["twin_bias"] for o in objs), key=abs)))
 
         def med(o, key):
-            vals = sorted(ob[o][key] for _, ob in rows)
-            return 100 * vals[len(vals) // 2]
+            return 100 * S._median(ob[o][key] for _, ob in rows)
         L += ["", "Median over the %d maps: %s." % (len(rows), "; ".join(
             "%s noise %.2f %%, error %.2f %%, net %.2f %%" % (o, med(o, "noise"),
                                                              med(o, "error"), med(o, "net"))
@@ -163,18 +163,13 @@ def main():
     text = json.dumps(result, indent=1) + "\n"
     for path in ([args.json] if args.json else []) + (
             [os.path.join(args.docs, "pov_reference_twin.json")] if args.docs else []):
-        with open(path + ".tmp", "w") as f:
-            f.write(text)
-        os.replace(path + ".tmp", path)
+        write_atomic(path, text)
     if args.docs:
         write_report(result, args.docs)
 
 
 def write_report(result, docs):
-    md = os.path.join(docs, "pov_reference_twin.md")
-    with open(md + ".tmp", "w") as f:
-        f.write(report(result))
-    os.replace(md + ".tmp", md)
+    write_atomic(os.path.join(docs, "pov_reference_twin.md"), report(result))
 
 
 if __name__ == "__main__":

@@ -271,20 +271,14 @@ static uint64_t fnv1a64(uint64_t h, const char *s, size_t n)
     return h;
 }
 
+/* text_scene writes the guard and the seconds' line into every include. */
 static void fill_guard(char *text, size_t size)
 {
     char *body = strstr(text, POV_GUARD POV_GUARD_HOLE), *end = text + size;
-    if (!body)
-        return;
     const char *skip = strstr(body, POV_SECONDS_LINE);
-    const char *resume = skip ? strchr(skip + 1, '\n') : NULL;
-    uint64_t h = 14695981039346656037ull;
-    if (resume) {
-        h = fnv1a64(h, body, (size_t)(skip - body));
-        h = fnv1a64(h, resume, (size_t)(end - resume));
-    } else {
-        h = fnv1a64(h, body, (size_t)(end - body));
-    }
+    const char *resume = strchr(skip + 1, '\n');
+    uint64_t h = fnv1a64(14695981039346656037ull, body, (size_t)(skip - body));
+    h = fnv1a64(h, resume, (size_t)(end - resume));
     char hex[17];
     snprintf(hex, sizeof hex, "%016llx", (unsigned long long)h);
     for (char *at = body; at; at = strstr(at, POV_GUARD POV_GUARD_HOLE))
