@@ -459,7 +459,7 @@ def main():
                      # the plan Create Lights made from the scene (or the panel)
                      "plan": {k: (core.last_result or {}).get(k) for k in (
                          "recipe", "reasons", "skipped", "ground_object", "ground_albedo",
-                         "ground_edge")},
+                         "ground_edge", "expected")},
                      "probes": probes(),
                      "raytracing": raytracing_state(scene),
                      "panel_recipe": s.result_recipe,

@@ -27,8 +27,9 @@ Blocks:
                      last line)
 Host figures: src/export/pov_figures.h (the in-scene error the POV-Ray include's header quotes
 per recipe) and plugin/envlight_addon/figures.py (the Blender panel's), made from the scene
-benchmarks' JSON (docs/scene_bench_pov.json, docs/scene_bench_blender.json): --write writes
-them, --check fails when one is not what its JSON gives.
+benchmarks' JSON (docs/scene_bench_pov.json, docs/scene_bench_blender.json and, for legacy
+EEVEE, docs/blender34/scene_bench_blender.json): --write writes them, --check fails when one is
+not what its JSON gives.
 Errors are deterministic for a build (identical at any thread count), so --check compares them
 exactly as printed; a map absent from the data folder is skipped with a `SKIP:` line, and then
 the methods block is checked only for ranges that hold every present map's figure.
@@ -218,6 +219,9 @@ def figures_md(results, load0, load1, seconds, cmd):
 POV_JSON = os.path.join("docs", "scene_bench_pov.json")
 POV_HEADER = os.path.join("src", "export", "pov_figures.h")
 BLENDER_JSON = os.path.join("docs", "scene_bench_blender.json")
+# the same bench in Blender 3.4, legacy EEVEE (scripts/scene_bench.py --host blender --docs
+# docs/blender34 with ENVL_BLENDER a 3.4 under Xvfb)
+BLENDER_LEGACY_JSON = os.path.join("docs", "blender34", "scene_bench_blender.json")
 BLENDER_FIGURES = os.path.join("plugin", "envlight_addon", "figures.py")
 # pov_recipe.c's recipes and the scene bench's option that measures each as picked
 POV_RECIPES = (("DOME", "default"), ("SH", "sh"), ("IMAGE_RADIOSITY", "image-radiosity"),
@@ -336,9 +340,10 @@ def pov_header_text(bench, pt):
     return "\n".join(out) + "\n"
 
 
-def blender_figures_text(bench):
-    """plugin/envlight_addon/figures.py: per recipe the add-on picks, the median and worst over
-    the scenes and maps where it picked it of the converged error (floor) against Cycles."""
+def blender_errors(bench):
+    """-> ({recipe: (median, worst)}, dates): per recipe the add-on picked in a Blender scene
+    bench, the median and worst over the scenes and maps where it picked it of the converged
+    error (floor) against Cycles."""
     by, dates = {}, set()
     for r in bench["runs"]:
         # fitted-eevee: Read Scene with EEVEE Dome 0, what EEVEE picks without the dome
@@ -349,21 +354,36 @@ def blender_figures_text(bench):
             by.setdefault(key, []).append(r["floor"])
             # rows merged from a later run carry their own date (scene_bench_merge)
             dates.add(r.get("date", bench["date"])[:10])
+    return {k: (median(v), max(v)) for k, v in by.items() if k != "unchanged"}, dates
+
+
+def blender_figures_text(bench, legacy):
+    """plugin/envlight_addon/figures.py: EXPECTED_ERROR from the Blender 4.3 bench (`bench`),
+    EXPECTED_ERROR_LEGACY from the legacy EEVEE one (`legacy`, Blender 3.4: its EEVEE rows;
+    the panel quotes those in legacy EEVEE)."""
+    errors, dates = blender_errors(bench)
+    old, old_dates = blender_errors(legacy)
+    old = {k: v for k, v in old.items() if k.startswith("eevee")}
     lines = ['"""The in-scene error the panel quotes per recipe: written by scripts/figures.py '
              '--write from',
-             "%s (scripts/scene_bench.py --host blender, %s), checked against it by" %
-             (BLENDER_JSON, ", ".join(sorted(dates)) or bench["date"][:10]),
-             "the test py_figures. Do not edit by hand: the median and worst, over the scenes "
-             "and maps where",
-             "the add-on picked the recipe, of the converged error against Cycles path tracing "
-             '(relative RMS)."""',
-             "", "BENCH_DATE = %r" % (max(dates) if dates else bench["date"][:10]), "",
-             "EXPECTED_ERROR = {"]
-    for key in sorted(by):
-        if key == "unchanged":
-            continue
-        lines.append("    %r: (%.4f, %.4f)," % (key, median(by[key]), max(by[key])))
-    lines.append("}")
+             "%s (scripts/scene_bench.py --host blender, %s; %s) and" %
+             (BLENDER_JSON, ", ".join(sorted(dates)) or bench["date"][:10],
+              bench.get("host_version", "Blender ?")),
+             "%s (legacy EEVEE, %s, %s), checked against them by the test" %
+             (BLENDER_LEGACY_JSON, legacy.get("host_version", "Blender ?"),
+              ", ".join(sorted(old_dates)) or legacy["date"][:10]),
+             "py_figures. Do not edit by hand: the median and worst, over the scenes and maps "
+             "where the add-on",
+             "picked the recipe, of the converged error against Cycles path tracing (relative "
+             'RMS)."""',
+             "", "BENCH_DATE = %r" % (max(dates) if dates else bench["date"][:10]),
+             "BENCH_DATE_LEGACY = %r" % (max(old_dates) if old_dates else legacy["date"][:10]),
+             ""]
+    for name, figs in (("EXPECTED_ERROR", errors), ("EXPECTED_ERROR_LEGACY", old)):
+        lines.append("%s = {" % name)
+        for key in sorted(figs):
+            lines.append("    %r: (%.4f, %.4f)," % (key, figs[key][0], figs[key][1]))
+        lines.append("}")
     return "\n".join(lines) + "\n"
 
 
@@ -372,8 +392,11 @@ def host_files():
     out = []
     with open(os.path.join(ROOT, POV_PATH_TRACED_JSON)) as f:
         pt = json.load(f)
+    with open(os.path.join(ROOT, BLENDER_LEGACY_JSON)) as f:
+        legacy = json.load(f)
     for js, path, make in ((POV_JSON, POV_HEADER, lambda b: pov_header_text(b, pt)),
-                           (BLENDER_JSON, BLENDER_FIGURES, blender_figures_text)):
+                           (BLENDER_JSON, BLENDER_FIGURES,
+                            lambda b: blender_figures_text(b, legacy))):
         with open(os.path.join(ROOT, js)) as f:
             out.append((path, make(json.load(f))))
     return out

@@ -167,8 +167,9 @@ def report(result, out_dir, host, module=None):
             L += ["Notes: " + " ".join(result["notes"]), ""]
         L += module.report_lines(result, target_check(result, module))
         if not hasattr(module, "figures"):   # a host with its own figures names them itself
-            L += ["", "![grid](%s_scene_grid.png)" % host, "",
-                  getattr(module, "GRID_CAPTION", GRID_CAPTION), "",
+            caption = module.grid_caption(result) if hasattr(module, "grid_caption") else \
+                getattr(module, "GRID_CAPTION", GRID_CAPTION)
+            L += ["", "![grid](%s_scene_grid.png)" % host, "", caption, "",
                   "![error against time](%s_scene_error_time.png)" % host, ""]
         write_atomic(os.path.join(out_dir, "scene_bench_%s.md" % host), "\n".join(L))
         return
@@ -318,9 +319,11 @@ GRID_CAPTION = ("Rows: maps; columns: reference (a), picked (a), reference (b), 
 
 def grid(images, result, out_dir, host, cols=GRID_COLUMNS):
     """oiiotool mosaic: per map the images of `cols` (default: reference (a), picked (a),
-    reference (b), picked (b))."""
+    reference (b), picked (b)) that some map has."""
     import numpy as np
     import envlight as E
+    # the columns some map has (a run without a recipe of `cols` draws no blank column of it)
+    cols = [k for k in cols if any(k in images.get(m, {}) for m in result["maps"])]
     d = tempfile.mkdtemp(prefix="scene_bench_grid")
     tiles, rows = [], 0
     blank = None

@@ -122,6 +122,18 @@ GRID_CAPTION = ("Rows: maps; columns: (a) the Cycles reference, EEVEE-Next's pic
                 "with ray tracing), EEVEE with the fitted lamps (EEVEE Dome 0); (b) the "
                 "reference, the pick; (c) the reference, the pick, the fitted lamps; one "
                 "exposure per map, luminance, sRGB.")
+GRID_CAPTION_LEGACY = ("Rows: maps; columns: the Cycles reference and legacy EEVEE's pick (the "
+                       "fitted lamps) on (a), (b) and (c); one exposure per map, luminance, "
+                       "sRGB.")
+
+
+def grid_caption(result):
+    """The grid's caption for the run's Blender: legacy EEVEE's pick in 3.x has no dome, and
+    its columns are the reference and the pick (the grid leaves out those no map has)."""
+    legacy = result.get("host_version", "").startswith("Blender 3.")
+    return GRID_CAPTION_LEGACY if legacy else GRID_CAPTION
+
+
 EEVEE_ENGINE = "BLENDER_EEVEE_NEXT"   # Blender 4.2+; legacy EEVEE ("BLENDER_EEVEE") in 3.x
 QUICK_RECIPES = ["hdr", "picked"]
 
