@@ -446,7 +446,7 @@ def main():
             traced = tracemalloc.get_traced_memory()[1] - traced0
             tracemalloc.stop()
         runs.append({"rc": list(rc), "seconds": seconds, "lamps": lamps(),
-                     "python_peak": traced,
+                     "engine": scene.render.engine, "python_peak": traced,
                      "world": world_state(world),
                      "panel": {"count": s.result_count, "error_percent": s.result_error,
                                "seconds": s.result_seconds, "power": list(s.result_power),

@@ -168,7 +168,9 @@ def test_create_lamps_anyway_is_unbiased(panel):
     check_not_seen(panel, "anyway", "sun extraction")
     # one item with its "; " kept (it used to become two orphan lines)
     assert any("; the world is the map less exactly them" in r for r in st["reasons"])
-    total = base.lamps_power({"lamps": lamps}) + np.array(st["world"]["residual_image"]["power"])
+    # Create Lamps Anyway is Cycles' (the step's engine): the lamps' strength is their light
+    total = base.lamps_power({"lamps": lamps, "engine": "CYCLES"}) + \
+        np.array(st["world"]["residual_image"]["power"])
     with envlight.load(COURTYARD) as env:
         power = np.array(env.info()["power"])
     # Blender's EXR decode and the library's agree on half floats; the add-on set the 1188

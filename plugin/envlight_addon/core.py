@@ -611,6 +611,16 @@ def _collection(scene):
     return coll
 
 
+def legacy_eevee_sun_gain(angle):
+    """Legacy EEVEE (Blender 3.x) lights a surface facing a sun lamp of angular diameter
+    `angle` with (3 + cos angle) / 4 of its strength (measured in Blender 3.4.1: a diffuse
+    plane under one sun overhead and at 30 degrees' elevation, angles 30-150 degrees: 0.967,
+    0.875, 0.750, 0.625, 0.533 of a point sun's light, the formula to 3 decimals), where
+    EEVEE-Next and Cycles 4.x give the strength itself at any angle (the irradiance at normal
+    incidence, as create_suns sets it). A legacy lamp gets 4 / (3 + cos angle) of it."""
+    return 4.0 / (3.0 + math.cos(angle))
+
+
 def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLight Light",
                 shadow_resolution=None, over_residual=False):
     """Sun lamps in the EnvLight collection: energy * color = strength * rgb * (1 - w / 4 pi)
@@ -646,6 +656,8 @@ def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLig
         if shadow_resolution and hasattr(data, "shadow_maximum_resolution"):
             data.shadow_maximum_resolution = shadow_resolution
         data.angle = angle if shadows == "SOFT" else 0.0
+        if scene.render.engine == "BLENDER_EEVEE":   # legacy EEVEE (3.x)
+            data.energy = energy * legacy_eevee_sun_gain(data.angle)
         cast = shadows != "NONE"
         if hasattr(data, "use_shadow"):
             data.use_shadow = cast
@@ -1281,6 +1293,13 @@ def create_lights(context, settings, progress=None, force=False):
     suns += create_suns(scene, lights, rot, strength, plan.shadows, glossy=not glossy_hdr,
                         shadow_resolution=eevee_dome.shadow_resolution(scene)
                         if plan.dome else None, over_residual=mode == "RESIDUAL")
+    gains = [legacy_eevee_sun_gain(o.data.angle) for o in suns]
+    if scene.render.engine == "BLENDER_EEVEE" and max(gains, default=1.0) >= 1.005:
+        # said where it changes a lamp by half a percent or more (a sun of 11.5 degrees)
+        plan.reasons.append(
+            "legacy EEVEE: each lamp's strength x 4 / (3 + cos angle) (x%.2f-%.2f here): legacy "
+            "EEVEE lights a surface facing a sun of that angle with (3 + cos angle) / 4 of its "
+            "strength, where EEVEE-Next and Cycles 4 give all of it" % (min(gains), max(gains)))
     # each map freed once Blender holds its image: at 16K each is 1.5 GB (docs/blender_16k.md)
     glossy_image = None
     if glossy_pixels is not None and glossy_hdr:
