@@ -230,6 +230,32 @@ static void print_target_width(const envl_level *l, const envl_products *p, int3
 }
 
 /* The table of what was written: the products, their errors and seconds. */
+/* Whether the folder `dir` exists or its parent does (errno set when not): checked before the
+ * products are computed (seconds of work), so that a folder that cannot be made is said at
+ * once. The folder itself is made only after them: a failed run leaves nothing behind. */
+static int folder_can_be_made(const char *dir)
+{
+    struct stat st;
+    char parent[4096];
+    size_t n = strlen(dir);
+    if (stat(dir, &st) == 0 || n >= sizeof parent)
+        return 1; /* there, or a name mkdir will judge */
+    memcpy(parent, dir, n + 1);
+    while (n > 1 && parent[n - 1] == '/')
+        parent[--n] = '\0';
+    char *slash = strrchr(parent, '/');
+    if (!slash)
+        return 1; /* in the working folder */
+    slash[slash == parent ? 1 : 0] = '\0';
+    if (stat(parent, &st) != 0)
+        return 0;
+    if (!S_ISDIR(st.st_mode)) {
+        errno = ENOTDIR;
+        return 0;
+    }
+    return 1;
+}
+
 static int print_summary(const envl_envmap *map, const envl_products *p, const char *dir,
                          const envl_export_options *eo)
 {
@@ -415,6 +441,11 @@ int cli_prefilter(int argc, char **argv)
     q.measure = measure;
     q.prefilter.half = eo.format && !strcmp(eo.format, "ktx2"); /* measured as written */
 
+    if (!folder_can_be_made(dir)) {
+        cli_error("%s: cannot create the directory: %s", dir, strerror(errno));
+        free(list);
+        return CLI_FAIL;
+    }
     envl_envmap *map;
     if (cli_load(file, &c, &map)) {
         free(list);
