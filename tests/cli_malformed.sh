@@ -163,6 +163,13 @@ bad dir.json "cannot replace: Is a directory" "lights -o onto a folder" -- \
   "$ENVLIGHT" lights s.hdr -o dir.json --quiet
 bad /nonexistent-envl/pre "cannot create the directory" "prefilter into a missing folder" -- \
   "$ENVLIGHT" prefilter s.hdr -o /nonexistent-envl/pre --size 32 --quiet
+# said before the map is read and the products computed (seconds of work): with a missing
+# input too, the folder is what it names
+bad /nonexistent-envl/pre "cannot create the directory: No such file or directory" \
+  "prefilter into a missing folder, before reading" -- \
+  "$ENVLIGHT" prefilter no-such-map.hdr -o /nonexistent-envl/pre --size 32 --quiet
+bad s.hdr/pre "cannot create the directory: Not a directory" "prefilter under a regular file" -- \
+  "$ENVLIGHT" prefilter s.hdr -o s.hdr/pre --size 32 --quiet
 bad s.hdr/irradiance.exr ".*cannot create a file there: Not a directory" "prefilter into a regular file" -- \
   "$ENVLIGHT" prefilter s.hdr -o s.hdr --size 32 --quiet
 [ ! -e l.json ] || fail "lights wrote l.json although its residual failed"

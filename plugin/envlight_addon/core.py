@@ -1293,8 +1293,9 @@ def create_lights(context, settings, progress=None, force=False):
     suns += create_suns(scene, lights, rot, strength, plan.shadows, glossy=not glossy_hdr,
                         shadow_resolution=eevee_dome.shadow_resolution(scene)
                         if plan.dome else None, over_residual=mode == "RESIDUAL")
-    gains = [legacy_eevee_sun_gain(o.data.angle) for o in suns]
-    if scene.render.engine == "BLENDER_EEVEE" and max(gains, default=1.0) >= 1.005:
+    gains = [legacy_eevee_sun_gain(o.data.angle) for o in suns] \
+        if scene.render.engine == "BLENDER_EEVEE" else []
+    if max(gains, default=1.0) >= 1.005:
         # said where it changes a lamp by half a percent or more (a sun of 11.5 degrees)
         plan.reasons.append(
             "legacy EEVEE: each lamp's strength x 4 / (3 + cos angle) (x%.2f-%.2f here): legacy "

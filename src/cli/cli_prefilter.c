@@ -229,7 +229,6 @@ static void print_target_width(const envl_level *l, const envl_products *p, int3
            (int)w.widths_tried, (int)w.directions_read, w.seconds_spent);
 }
 
-/* The table of what was written: the products, their errors and seconds. */
 /* Whether the folder `dir` exists or its parent does (errno set when not): checked before the
  * products are computed (seconds of work), so that a folder that cannot be made is said at
  * once. The folder itself is made only after them: a failed run leaves nothing behind. */
@@ -256,6 +255,7 @@ static int folder_can_be_made(const char *dir)
     return 1;
 }
 
+/* The table of what was written: the products, their errors and seconds. */
 static int print_summary(const envl_envmap *map, const envl_products *p, const char *dir,
                          const envl_export_options *eo)
 {
