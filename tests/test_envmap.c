@@ -280,6 +280,29 @@ static void test_resample_patched(void)
     free(copy);
 }
 
+/* Down by a whole factor with no turn, each output pixel is the mean of its input pixels summed
+ * in order in double (the overlap loop's weights are all 1 there: resample.c's whole-pixel
+ * path gives its floats), bit for bit; the seam's last column is the last span's. */
+static void test_resample_whole_pixels(void)
+{
+    const int w = 200, h = 100, f = 4;
+    float *px = malloc(sizeof(float) * w * h * 3), *out = NULL;
+    random_pixels(px, (size_t)w * h * 3, 4242u, 100000);
+    CHECK_OK(envl__latlong_resample(px, w, h, w / f, h, 0, &out));
+    int differ = 0;
+    for (int r = 0; out && r < h; r++)
+        for (int c = 0; c < w / f; c++)
+            for (int ch = 0; ch < 3; ch++) {
+                double acc = 0;
+                for (int j = 0; j < f; j++)
+                    acc += 1.0 * px[3 * ((size_t)r * w + c * f + j) + ch];
+                differ += out[3 * ((size_t)r * (w / f) + c) + ch] != (float)(acc / f);
+            }
+    CHECK(out && differ == 0);
+    free(out);
+    free(px);
+}
+
 /* The map's statistics (power, maxima, brightest pixel: rows in parallel, combined in row order)
  * are those of one plain pass, bit for bit, at 1 and 3 threads; the parallel look for NaN,
  * Inf and negative values finds one value of each at the far ends of the map. */
@@ -447,6 +470,7 @@ int main(void)
     test_spot();
     test_resample_power();
     test_resample_patched();
+    test_resample_whole_pixels();
     test_stats_threads();
     test_sun_residual_view();
     test_sanitise();
