@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 build=${1:-build}
 shift || true
 
-packages=(build-essential cmake pkg-config libopenexr-dev libpng-dev clang python3 python3-numpy python3-pytest python3-venv povray blender blender-data gnuplot-nox openimageio-tools valgrind xvfb xauth chromium tesseract-ocr)
+packages=(build-essential cmake pkg-config libopenexr-dev libpng-dev clang python3 python3-numpy python3-pytest python3-venv povray povray-includes blender blender-data gnuplot-nox openimageio-tools valgrind xvfb xauth chromium tesseract-ocr)
 missing=()
 for p in "${packages[@]}"; do
   dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")

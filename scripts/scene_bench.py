@@ -416,6 +416,9 @@ def main(argv=None):
     bad = [s for s in scenes if s not in host.SCENES]
     if bad:
         sys.exit("--scenes: %s unknown (known: %s)" % (",".join(bad), ",".join(host.SCENES)))
+    cannot = getattr(host, "check_scenes", lambda scenes: None)(scenes)
+    if cannot:
+        sys.exit(cannot)
     if args.recipes:
         recipes = [r for r in args.recipes.split(",") if r]
         bad = [r for r in recipes if r not in host.RECIPES]

@@ -221,6 +221,21 @@ def setup(envlight, library, tmp):
     return lines[0].strip() if lines else "POV-Ray (unknown version)"
 
 
+#: where Debian's POV-Ray 3.7 finds its standard includes (its povray.ini's Library_Path)
+POV_STANDARD_INCLUDES = "/usr/share/povray-3.7/include"
+
+
+def check_scenes(scenes):
+    """Why some of these scenes cannot render here, or None: csg_sky.pov includes colors.inc,
+    one of POV-Ray's standard includes (Debian's povray-includes, which scripts/build.sh
+    installs): said before any map is rendered, not after the first map's other scenes."""
+    if "csg" in scenes and not os.path.exists(os.path.join(POV_STANDARD_INCLUDES, "colors.inc")):
+        return ("scene_bench: the csg scene includes colors.inc, which is not in %s (POV-Ray's "
+                "standard includes: Debian's povray-includes, installed by scripts/build.sh)"
+                % POV_STANDARD_INCLUDES)
+    return None
+
+
 # ---- the maps ----
 
 def default_maps(data_dir):

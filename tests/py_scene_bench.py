@@ -186,3 +186,29 @@ def test_pov_scene_in_cycles(scene):
         if obj != S.SCENES[scene]["floor"]:
             assert mirrored < 0.9, (obj, mirrored)
     assert differ <= 5, differ
+
+
+def test_csg_scene_needs_the_standard_includes(tmp_path, monkeypatch):
+    """The csg scene includes colors.inc: without POV-Ray's standard includes (Debian's
+    povray-includes) the bench says so and which package, before rendering anything (it
+    crashed after the first map's other scenes); with them, or without the csg scene, it says
+    nothing. The includes themselves are what scripts/build.sh installs."""
+    sys.path.insert(0, os.path.join(SOURCE, "scripts"))
+    import scene_bench_pov as S
+    assert os.path.exists(os.path.join(S.POV_STANDARD_INCLUDES, "colors.inc")), \
+        "POV-Ray's standard includes missing: scripts/build.sh installs povray-includes"
+    assert S.check_scenes(["a", "b", "still", "interior", "csg", "x"]) is None
+    monkeypatch.setattr(S, "POV_STANDARD_INCLUDES", str(tmp_path))
+    said = S.check_scenes(["a", "csg"])
+    assert said and "colors.inc" in said and "povray-includes" in said
+    assert S.check_scenes(["a", "b", "still", "interior", "x"]) is None
+    r = subprocess.run([sys.executable, "-c",
+                        "import sys; sys.argv[1:] = %r; sys.path.insert(0, %r); "
+                        "import scene_bench_pov as S; S.POV_STANDARD_INCLUDES = %r; "
+                        "import scene_bench; scene_bench.main()"
+                        % (["--host", "pov", "--scenes", "csg", "--map", "-",
+                            "--tmp", str(tmp_path / "run")],
+                           os.path.join(SOURCE, "scripts"), str(tmp_path))],
+                       capture_output=True, text=True, cwd=SOURCE, timeout=120)
+    assert r.returncode != 0 and "povray-includes" in r.stderr
+    assert not os.path.exists(tmp_path / "run" / "sky"), "rendered before saying it"
