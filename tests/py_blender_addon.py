@@ -211,15 +211,23 @@ def strongest(run):
     return max(suns(run), key=lambda l: l["energy"] * sum(l["color"]))
 
 
-def legacy_gain(run, l):
-    """The gain a lamp of `run` got for legacy EEVEE: 4 / (3 + cos angle) there (legacy EEVEE
-    lights with (3 + cos angle) / 4 of a sun's strength: test_legacy_eevee_sun_gain), else 1."""
-    return 4.0 / (3.0 + math.cos(l["angle"])) if run["engine"] == "BLENDER_EEVEE" else 1.0
+def engine_gain(run, l):
+    """The gain a lamp of `run` got for its engine (core.sun_gain): legacy EEVEE (before 4.2)
+    lights with (3 + cos angle) / 4 of a sun's strength, so 4 / (3 + cos angle)
+    (test_legacy_eevee_sun_gain); Cycles before 4.0 with 2 c / (1 + c), c = cos(angle / 2),
+    so (1 + c) / (2 c), the angle taken at 170 degrees at most (test_cycles_sun_gain); else
+    1."""
+    if run["engine"] == "BLENDER_EEVEE" and BLENDER_VERSION < "4.2":
+        return 4.0 / (3.0 + math.cos(l["angle"]))
+    if run["engine"] == "CYCLES" and BLENDER_VERSION < "4.0":
+        c = math.cos(0.5 * min(l["angle"], math.radians(170.0)))
+        return (1.0 + c) / (2.0 * c)
+    return 1.0
 
 
 def lamp_irradiance(run, l):
-    """A lamp's irradiance at normal incidence, colour * energy, its legacy_gain taken out."""
-    return np.array(l["color"]) * l["energy"] / legacy_gain(run, l)
+    """A lamp's irradiance at normal incidence, colour * energy, its engine_gain taken out."""
+    return np.array(l["color"]) * l["energy"] / engine_gain(run, l)
 
 
 def lamps_power(run):
@@ -806,7 +814,7 @@ def test_sh_world_over_a_ground(addon_zip, spot_hdr):
     c = np.asarray(run["sh"]["sh_coeffs"])
     k = {0: 0.282095 * math.pi, 2: 0.488603 * 2 * math.pi / 3, 6: 0.315392 * math.pi / 2}
     e_sh = sum(v * c[i] for i, v in k.items())
-    e_lamps = sum(np.array(l["color"]) * l["energy"] * max(l["direction"][2], 0) for l in suns)
+    e_lamps = sum(lamp_irradiance(run, l) * max(l["direction"][2], 0) for l in suns)
     px, _ = rgbe_decode(res, path)
     with envlight.from_pixels(px, layout="latlong") as env, env.sky_hemisphere() as sky:
         exact = np.array(sky.irradiance([(0.0, 0.0, 1.0)]))[0]
@@ -869,11 +877,12 @@ def test_reads_an_eevee_scene(addon_zip, spot_hdr):
     assert len(suns) >= 2 and all(l["visible_glossy"] in (True, None) for l in suns)
 
 
-LEGACY_SUN_SCRIPT = r"""
+SUN_PLANE_SCRIPT = r"""
 import bpy, json, math, os, sys
 import numpy as np
-sys.path.insert(0, os.path.join(sys.argv[-2], "plugin"))
-from envlight_addon.core import legacy_eevee_sun_gain
+sys.path.insert(0, os.path.join(sys.argv[-3], "plugin"))
+from envlight_addon.core import sun_gain
+engine = sys.argv[-2]
 sc = bpy.context.scene
 for o in list(bpy.data.objects):
     bpy.data.objects.remove(o)
@@ -897,8 +906,16 @@ cam_obj = bpy.data.objects.new("cam", cam)
 sc.collection.objects.link(cam_obj)
 cam_obj.location = (0.0, 0.0, 10.0)
 sc.camera = cam_obj
-sc.render.engine = "BLENDER_EEVEE"
-sc.eevee.taa_render_samples = 1
+sc.render.engine = engine
+if engine == "CYCLES":
+    sc.cycles.device = "CPU"
+    sc.cycles.samples = 256
+    sc.cycles.use_denoising = False
+    sc.cycles.max_bounces = 0
+    if hasattr(sc.cycles, "use_adaptive_sampling"):
+        sc.cycles.use_adaptive_sampling = False
+else:
+    sc.eevee.taa_render_samples = 1
 sc.render.resolution_x = sc.render.resolution_y = 16
 sc.world = bpy.data.worlds.new("black")
 sc.world.color = (0.0, 0.0, 0.0)
@@ -910,7 +927,7 @@ for elevation in (90, 60):
     for degrees in (0, 30, 60, 90, 120, 150):
         for gain in (False, True):
             sun.angle = math.radians(degrees)
-            sun.energy = legacy_eevee_sun_gain(sun.angle) if gain else 1.0
+            sun.energy = sun_gain(sc, sun.angle) if gain else 1.0
             bpy.ops.render.render()
             bpy.data.images["Render Result"].save_render(exr)
             img = bpy.data.images.load(exr)
@@ -921,27 +938,35 @@ with open(os.path.join(sys.argv[-1], "plane.json"), "w") as f:
 """
 
 
+def sun_plane(tmp_path, engine, xvfb):
+    """The SUN_PLANE_SCRIPT's plane (a diffuse plane seen from above, one sun without shadow,
+    overhead and at 60 degrees' elevation, angles 0-150 degrees, each with and without the
+    add-on's core.sun_gain for this engine and Blender) -> {"elevation degrees gain": mean}."""
+    script = tmp_path / "sun_plane.py"
+    script.write_text(SUN_PLANE_SCRIPT)
+    cmd = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python",
+           str(script), "--", SRC, engine, str(tmp_path)]
+    if xvfb:
+        cmd = [XVFB_RUN, "-a", "-s", "-screen 0 640x480x24"] + cmd
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, (p.stdout + p.stderr)[-3000:]
+    with open(tmp_path / "plane.json") as f:
+        return json.load(f)
+
+
 @pytest.mark.skipif(BLENDER_VERSION >= "4.2", reason="SKIP: legacy EEVEE is Blender 3.x's")
 def test_legacy_eevee_sun_gain(tmp_path):
     """Legacy EEVEE lights a diffuse plane facing a sun lamp of angle theta with (3 + cos
     theta) / 4 of its strength, where a uniform disc wholly above the plane's horizon gives
     the plane what a point sun of the same strength gives (Cycles 4 and EEVEE-Next do). With
-    the add-on's gain (core.legacy_eevee_sun_gain) the plane reads a point sun's light within
-    0.2 % (the formula was fitted to 3 decimals; measured 1.0000: an unshadowed disc is
-    shaded in closed form), overhead for theta 30-150 degrees and at 60 degrees' elevation
-    for theta 30 and 60 (the disc still above the horizon); without it 3-47 % less (the test
-    can tell)."""
+    the add-on's gain (core.sun_gain: legacy_eevee_sun_gain) the plane reads a point sun's
+    light within 0.2 % (the formula was fitted to 3 decimals; measured 1.0000: an unshadowed
+    disc is shaded in closed form), overhead for theta 30-150 degrees and at 60 degrees'
+    elevation for theta 30 and 60 (the disc still above the horizon); without it 3-47 % less
+    (the test can tell)."""
     if not XVFB_RUN:
         pytest.skip("SKIP: legacy EEVEE renders only with an X server (Debian's xvfb)")
-    script = tmp_path / "legacy_sun.py"
-    script.write_text(LEGACY_SUN_SCRIPT)
-    p = subprocess.run([XVFB_RUN, "-a", "-s", "-screen 0 640x480x24", BLENDER, "-b",
-                        "--factory-startup", "--python-exit-code", "1", "--python", str(script),
-                        "--", SRC,
-                        str(tmp_path)], capture_output=True, text=True, timeout=600)
-    assert p.returncode == 0, (p.stdout + p.stderr)[-3000:]
-    with open(tmp_path / "plane.json") as f:
-        plane = json.load(f)
+    plane = sun_plane(tmp_path, "BLENDER_EEVEE", xvfb=True)
     for elevation, angles in ((90, (30, 60, 90, 120, 150)), (60, (30, 60))):
         point = plane["%d 0 0" % elevation]
         assert plane["%d 0 1" % elevation] == pytest.approx(point, rel=1e-6)
@@ -952,6 +977,33 @@ def test_legacy_eevee_sun_gain(tmp_path):
                 elevation, degrees, plain, gained))
             assert gained == pytest.approx(1.0, abs=0.002), (elevation, degrees, gained)
             assert plain < 0.98, (elevation, degrees, plain)
+
+
+def test_cycles_sun_gain(tmp_path):
+    """Cycles before 4.0 lights a diffuse plane that sees a sun lamp's whole disc with
+    2 c / (1 + c) of a point sun's light, c = cos(theta / 2) (it samples the disc of radius
+    tan(theta / 2) uniformly, radiance 1 / cos^3 across it: core.cycles3_sun_gain's
+    derivation); Cycles 4 with all of it. With the add-on's gain (core.sun_gain, 1 in Cycles 4)
+    the plane reads a point sun's light within 0.3 % (a margin for the renders' noise: 256
+    samples of 256 pixels, the lamp's cosine spread 0.26-1 at 150 degrees; measured within
+    0.01 %), overhead for theta 30-150 degrees and at 60 degrees' elevation for 30 and 60;
+    without it, in Cycles 3.x, 2 c / (1 + c) within 0.3 % (0.98-0.41: the test can tell), in
+    Cycles 4 within 0.3 % of 1."""
+    plane = sun_plane(tmp_path, "CYCLES", xvfb=False)
+    cycles3 = BLENDER_VERSION < "4.0"
+    for elevation, angles in ((90, (30, 60, 90, 120, 150)), (60, (30, 60))):
+        point = plane["%d 0 0" % elevation]
+        assert plane["%d 0 1" % elevation] == pytest.approx(point, rel=1e-6)
+        for degrees in angles:
+            plain = plane["%d %d 0" % (elevation, degrees)] / point
+            gained = plane["%d %d 1" % (elevation, degrees)] / point
+            c = math.cos(math.radians(degrees) / 2)
+            print("Blender %s, elevation %d, angle %d: %.4f without the gain, %.4f with it "
+                  "(2 c / (1 + c) = %.4f)" % (BLENDER_VERSION, elevation, degrees, plain,
+                                               gained, 2 * c / (1 + c)))
+            assert gained == pytest.approx(1.0, abs=0.003), (elevation, degrees, gained)
+            want = 2 * c / (1 + c) if cycles3 else 1.0
+            assert plain == pytest.approx(want, abs=0.003), (elevation, degrees, plain, want)
 
 
 def over_ground_less_suns(px, albedo, edge=None, with_band=False):
@@ -1040,7 +1092,7 @@ def test_eevee_fits_its_lamps_with_an_order_1_remainder(addon_zip):
     assert ("EEVEE: the lamps fitted with an order-1 SH remainder (EEVEE's world diffuse light "
             "is an order-1 SH)") in plan["reasons"]
     if run["engine"] == "BLENDER_EEVEE":   # legacy EEVEE's gain on the lamps, said
-        gains = [legacy_gain(run, l) for l in suns(run)]
+        gains = [engine_gain(run, l) for l in suns(run)]
         assert max(gains) >= 1.005, gains
         assert ("legacy EEVEE: each lamp's strength x 4 / (3 + cos angle) (x%.2f-%.2f here): "
                 "legacy EEVEE lights a surface facing a sun of that angle with (3 + cos angle) "

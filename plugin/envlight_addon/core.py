@@ -621,6 +621,35 @@ def legacy_eevee_sun_gain(angle):
     return 4.0 / (3.0 + math.cos(angle))
 
 
+def cycles3_sun_gain(angle):
+    """Cycles before 4.0 lights a surface facing a sun lamp of angular diameter `angle` with
+    2 c / (1 + c) of its strength, c = cos(angle / 2): it samples a disc of radius
+    r = tan(angle / 2) at unit distance uniformly, with radiance strength / (pi r^2 cos^3)
+    along each sample (its pdf in solid angle, as eval_fac), so a normal n that sees the
+    whole disc gets strength (n.D) / (pi r^2) x the integral over the disc of 1 / sqrt(1 + rho^2)
+    = strength (n.D) 2 c / (1 + c) (the disc's odd part integrates to 0): a point sun's light
+    times 2 c / (1 + c) for every such normal (measured in Blender 3.4.1 on a diffuse plane
+    overhead, 30-150 degrees: 0.983, 0.928, 0.828, 0.667, 0.411; the formula to 3 decimals).
+    Cycles 4.x gives the strength itself. A Cycles 3.x lamp gets (1 + c) / (2 c) of it: exact
+    for the normals that see its whole disc; nearer the terminator its disc is brighter at the
+    rim (1 / cos^3) than the uniform cone it stands for. Taken at 170 degrees for wider lamps
+    (x6.2; at 180 the disc's radius is infinite and Cycles 3.x's lamp gives nothing)."""
+    c = math.cos(0.5 * min(angle, math.radians(170.0)))
+    return (1.0 + c) / (2.0 * c)
+
+
+def sun_gain(scene, angle):
+    """The factor on a sun lamp's strength that makes the render engine of `scene` (in this
+    Blender) light a surface facing it with the strength create_suns means: legacy EEVEE
+    (before 4.2) legacy_eevee_sun_gain, Cycles before 4.0 cycles3_sun_gain, else 1."""
+    engine, version = scene.render.engine, tuple(bpy.app.version)
+    if engine == "BLENDER_EEVEE" and version < (4, 2, 0):
+        return legacy_eevee_sun_gain(angle)
+    if engine == "CYCLES" and version < (4, 0, 0):
+        return cycles3_sun_gain(angle)
+    return 1.0
+
+
 def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLight Light",
                 shadow_resolution=None, over_residual=False):
     """Sun lamps in the EnvLight collection: energy * color = strength * rgb * (1 - w / 4 pi)
@@ -656,8 +685,7 @@ def create_suns(scene, lights, rot, strength, shadows, glossy=True, name="EnvLig
         if shadow_resolution and hasattr(data, "shadow_maximum_resolution"):
             data.shadow_maximum_resolution = shadow_resolution
         data.angle = angle if shadows == "SOFT" else 0.0
-        if scene.render.engine == "BLENDER_EEVEE":   # legacy EEVEE (3.x)
-            data.energy = energy * legacy_eevee_sun_gain(data.angle)
+        data.energy = energy * sun_gain(scene, data.angle)  # legacy EEVEE, Cycles 3.x
         cast = shadows != "NONE"
         if hasattr(data, "use_shadow"):
             data.use_shadow = cast
@@ -1293,14 +1321,23 @@ def create_lights(context, settings, progress=None, force=False):
     suns += create_suns(scene, lights, rot, strength, plan.shadows, glossy=not glossy_hdr,
                         shadow_resolution=eevee_dome.shadow_resolution(scene)
                         if plan.dome else None, over_residual=mode == "RESIDUAL")
-    gains = [legacy_eevee_sun_gain(o.data.angle) for o in suns] \
-        if scene.render.engine == "BLENDER_EEVEE" else []
+    gains = [sun_gain(scene, o.data.angle) for o in suns]
     if max(gains, default=1.0) >= 1.005:
-        # said where it changes a lamp by half a percent or more (a sun of 11.5 degrees)
-        plan.reasons.append(
-            "legacy EEVEE: each lamp's strength x 4 / (3 + cos angle) (x%.2f-%.2f here): legacy "
-            "EEVEE lights a surface facing a sun of that angle with (3 + cos angle) / 4 of its "
-            "strength, where EEVEE-Next and Cycles 4 give all of it" % (min(gains), max(gains)))
+        # said where it changes a lamp by half a percent or more (a sun of 11.5 degrees in
+        # legacy EEVEE, 16.1 in Cycles 3.x)
+        if scene.render.engine == "CYCLES":
+            plan.reasons.append(
+                "Cycles %d.%d: each lamp's strength x (1 + cos(angle / 2)) / (2 cos(angle / 2)) "
+                "(x%.2f-%.2f here): Cycles before 4.0 lights a surface facing a sun of that "
+                "angle with 2 cos(angle / 2) / (1 + cos(angle / 2)) of its strength, where "
+                "Cycles 4 gives all of it" % (bpy.app.version[0], bpy.app.version[1],
+                                               min(gains), max(gains)))
+        else:
+            plan.reasons.append(
+                "legacy EEVEE: each lamp's strength x 4 / (3 + cos angle) (x%.2f-%.2f here): "
+                "legacy EEVEE lights a surface facing a sun of that angle with (3 + cos angle) "
+                "/ 4 of its strength, where EEVEE-Next and Cycles 4 give all of it"
+                % (min(gains), max(gains)))
     # each map freed once Blender holds its image: at 16K each is 1.5 GB (docs/blender_16k.md)
     glossy_image = None
     if glossy_pixels is not None and glossy_hdr:
