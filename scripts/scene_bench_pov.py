@@ -951,9 +951,18 @@ def run_map(name, path, opts, log=_log):
 
 
 def save_images(d, images):
-    """The map's images for the figures, beside its work files (load_images reads them)."""
-    arrays = {"|".join(k): v for k, v in images.items() if isinstance(v, np.ndarray)}
-    np.savez(os.path.join(d, "images.npz"), **arrays)
+    """The map's images for the figures, beside its work files (load_images reads them): this
+    run's over those an earlier run of other scenes or options saved there, which stay (a run
+    of the user scenes alone kept no image of (a), (b) or (x) before, and the figures drawn
+    from the merged JSON lost their rows)."""
+    f = os.path.join(d, "images.npz")
+    arrays = {}
+    if os.path.exists(f):
+        with np.load(f) as z:
+            arrays = {k: z[k] for k in z.files}
+    arrays.update({"|".join(k): v for k, v in images.items() if isinstance(v, np.ndarray)})
+    np.savez(f + ".tmp.npz", **arrays)
+    os.replace(f + ".tmp.npz", f)
 
 
 def load_images(name, opts):

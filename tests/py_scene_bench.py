@@ -212,3 +212,25 @@ def test_csg_scene_needs_the_standard_includes(tmp_path, monkeypatch):
                        capture_output=True, text=True, cwd=SOURCE, timeout=120)
     assert r.returncode != 0 and "povray-includes" in r.stderr
     assert not os.path.exists(tmp_path / "run" / "sky"), "rendered before saying it"
+
+
+def test_a_run_of_other_scenes_keeps_the_images(tmp_path):
+    """A map's images.npz gathers its runs: a run of the user scenes alone keeps the images an
+    earlier run of (a) and (b) saved there (the figures of the merged JSON are drawn from them:
+    overwritten, their rows were lost), and a run of the same scene replaces its images."""
+    sys.path.insert(0, os.path.join(SOURCE, "scripts"))
+    import numpy as np
+    import scene_bench_pov as S
+    S.setup(ENVLIGHT, LIBRARY, str(tmp_path))
+    d = tmp_path / "map"
+    d.mkdir()
+    a, b, still, again = (np.full((2, 3, 3), v, np.float32) for v in (1, 2, 3, 4))
+    S.save_images(str(d), {("reference", "a"): a, ("picked", "b"): b, ("header", "a"): "text"})
+    S.save_images(str(d), {("reference", "still"): still})
+    got = S.load_images("map", dict(tmp=str(tmp_path)))
+    assert set(got) == {("reference", "a"), ("picked", "b"), ("reference", "still")}
+    assert (got[("reference", "a")] == 1).all() and (got[("reference", "still")] == 3).all()
+    S.save_images(str(d), {("reference", "a"): again})
+    got = S.load_images("map", dict(tmp=str(tmp_path)))
+    assert (got[("reference", "a")] == 4).all() and (got[("picked", "b")] == 2).all()
+    assert not [f for f in os.listdir(d) if f != "images.npz"], "a temporary left behind"
