@@ -758,6 +758,61 @@ def test_cycles_render_matches_the_hdr_world(addon_zip, mode):
     assert err < bound, (err, bound, diffuse_error, noise, noise_approx)
 
 
+def sphere_mean(path):
+    """Mean luminance over a render_sphere render's sphere (alpha 1)."""
+    a = np.load(path + ".npy").astype(np.float64)
+    m = a[..., 3] > 0.999
+    return float((a[..., :3][m] @ np.array([0.2126, 0.7152, 0.0722])).mean())
+
+
+def test_cycles_keeps_the_light_of_infinite_pixels(addon_zip):
+    """A half-float EXR whose brightest patch overflowed to +Inf (as a sun's core does in a DWAB
+    EXR), packed: Cycles renders a packed or generated image's +Inf and NaN pixels black
+    (measured in 3.4 and 4.3: a world with such a patch lights a plane as one without it; from
+    the file, OpenImageIO reads half +Inf as 65504), while the library reads +Inf as the
+    image's largest finite value (1000 here). The Cycles pick, whose suns hold under half of
+    the light here, left the plain world before, and the render lost the patch; Create Lights
+    now takes the suns as lamps and the world as the map less them, and says why. The sphere's
+    render after it is brighter than the plain world's by the patch's light (the patch, read as
+    1000, holds about a fifth of the map's light; required +10 to +60 %, the renders' noise
+    under 1 %). File-backed, the pick leaves the plain world as before."""
+    path = os.path.join(TMP, "inf_sun.exr")
+    subprocess.run(["oiiotool", "--pattern", "constant:color=1,0.9,0.8", "128x64", "3",
+                    "--box:color=1e6,1e6,1e6:fill=1", "60,8,61,9",
+                    "--box:color=1000,900,800:fill=1", "20,40,20,40", "-d", "half", "-o", path],
+                   check=True)
+    with envlight.load(path) as env:
+        info = env.info()
+        patch = sum(np.array(env.direction(c, r)) for c in (60, 61) for r in (8, 9))
+    patch /= np.linalg.norm(patch)
+    assert info["nonfinite_pixels"] == 4 and info["infinity_value"] == 1000.0, info
+    folder = os.path.join(TMP, "cycles_inf")
+    os.makedirs(folder, exist_ok=True)
+    before, after = os.path.join(folder, "before.exr"), os.path.join(folder, "after.exr")
+    res, _ = run_blender("cycles_inf", {
+        "hdr": path, "pack": True, "engine": "CYCLES", "user_lamp": False,
+        "reference_render": before,
+        "render_after": after, "render": {"samples": 64, "size": 48, "bounces": 1}}, addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["FINISHED"], run.get("report")
+    assert run["plan"]["recipe"] == "sun-residual"
+    assert any("which Cycles renders black" in r and "read as 1000" in r
+               for r in run["plan"]["reasons"]), run["plan"]["reasons"]
+    assert "EnvLight Residual" in run["world"]["labels"]
+    lamps = suns(run)
+    assert any(angle_deg(l["direction"], patch) < 3 for l in lamps), \
+        [l["direction"] for l in lamps]
+    gain = sphere_mean(after) / sphere_mean(before)
+    print("the sphere after Create Lights / with the plain world: %.3f" % gain)
+    assert 1.1 < gain < 1.6, gain
+    res, _ = run_blender("cycles_inf_file", {"hdr": path, "engine": "CYCLES",
+                                             "user_lamp": False}, addon_zip)
+    run = res["runs"][0]
+    assert run["rc"] == ["CANCELLED"] and not suns(run)
+    assert run["world"] == res["world_state_before"]
+    assert "suns hold" in run["panel"]["message"]
+
+
 # ---- reading the scene (issue 14) -------------------------------------------------------------
 
 GROUND_OBJ = {"kind": "plane", "name": "Floor", "size": 20, "location": [0, 0, 0],

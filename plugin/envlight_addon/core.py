@@ -1141,6 +1141,12 @@ def create_lights(context, settings, progress=None, force=False):
         # the image in the texture's lookup frame (lat-long or mirror ball), checked
         env, src = read_source(pkg, world, step)
         warnings += src.warnings
+        # Cycles renders NaN and +Inf of a packed or generated image black (Blender's own
+        # pixels), but reads a file's half-float +Inf as 65504 through OpenImageIO (measured
+        # in 3.4 and 4.3: a world image with a +Inf patch, file-backed and packed)
+        image = src.node.image
+        builtin = image.packed_file is not None or image.source not in ("FILE", "SEQUENCE",
+                                                                         "MOVIE")
         rot = mapping_matrix(src.mapping)
         mapping_node = src.mapping
         strength = src.strength
@@ -1149,6 +1155,7 @@ def create_lights(context, settings, progress=None, force=False):
         if not settings.filepath:
             raise RuntimeError("no file chosen")
         path = bpy.path.abspath(settings.filepath)
+        builtin = False
         with pkg.progress(lambda f, stage: step(0.2 * f)):
             env = pkg.load(path)
     step(0.2)
@@ -1187,7 +1194,12 @@ def create_lights(context, settings, progress=None, force=False):
     glossy_hdr = (mode != "SH" or plan.glossy_hdr) and not plan.camera_only
     width, width_why = lighting_width(scene, plan)
     try:  # env is the map, then (over the lighting width) what lights at that width
-        power = env.info()["power"]
+        info = env.info()
+        power = info["power"]
+        # +Inf pixels (a half float's overflow, as a sun's core in a DWAB EXR) became the
+        # largest finite value here; Cycles renders them black when the image is packed or
+        # generated (above)
+        infinity = info["infinity_value"] if builtin else 0.0
         rest = env
         if plan.suns:
             # the suns first, as lamps of their own size (sharp shadows, exact highlights):
@@ -1203,14 +1215,22 @@ def create_lights(context, settings, progress=None, force=False):
                     rest = sres.residual_map(width if env.width > width else None)
         if plan.count == 0 and plan.recipe == "sun-residual":
             share = sun_share(sun_summary)
-            if share < SUN_SHARE_MIN and not force:
+            if share < SUN_SHARE_MIN and infinity > 0 and not force:
+                plan.reasons.append(
+                    "the image is packed or made in Blender and has %d pixels with NaN or "
+                    "+Inf, which Cycles renders black there: the plain HDR world would lose "
+                    "their light (+Inf, a half float's overflow such as a sun's core, is read "
+                    "as %g, the image's largest finite value), so the suns as lamps and the "
+                    "world the map less them, from the map as read"
+                    % (info["nonfinite_pixels"], infinity))
+            elif share < SUN_SHARE_MIN and not force:
                 if rest is not env:
                     rest.close()
                 why = ("the map's suns hold %.0f %% of its light (under %.0f %%): the plain HDR "
                        "world is exact and, in Cycles, as fast (scene benchmark)"
                        % (100 * share, 100 * SUN_SHARE_MIN))
                 raise NothingToDo(plan, why, warnings)
-            if share < SUN_SHARE_MIN and sun_lights:
+            if share < SUN_SHARE_MIN and sun_lights and force:
                 plan.reasons.append(
                     "Create Lamps Anyway: the suns hold %.0f %% of the light (under %.0f %%, "
                     "where the scene benchmark found the plain world as fast or faster: "
