@@ -1009,6 +1009,18 @@ def sun_plane(tmp_path, engine, xvfb):
         return json.load(f)
 
 
+def plane_ratios(plane):
+    """(elevation, angle, without the gain, with it) for the discs wholly above the plane's
+    horizon (overhead 30-150 degrees, at 60 degrees' elevation 30 and 60), each over the point
+    sun's light at that elevation (whose gain is 1: checked)."""
+    for elevation, angles in ((90, (30, 60, 90, 120, 150)), (60, (30, 60))):
+        point = plane["%d 0 0" % elevation]
+        assert plane["%d 0 1" % elevation] == pytest.approx(point, rel=1e-6)
+        for degrees in angles:
+            yield (elevation, degrees, plane["%d %d 0" % (elevation, degrees)] / point,
+                   plane["%d %d 1" % (elevation, degrees)] / point)
+
+
 @pytest.mark.skipif(BLENDER_VERSION >= "4.2", reason="SKIP: legacy EEVEE is Blender 3.x's")
 def test_legacy_eevee_sun_gain(tmp_path):
     """Legacy EEVEE lights a diffuse plane facing a sun lamp of angle theta with (3 + cos
@@ -1021,17 +1033,12 @@ def test_legacy_eevee_sun_gain(tmp_path):
     (the test can tell)."""
     if not XVFB_RUN:
         pytest.skip("SKIP: legacy EEVEE renders only with an X server (Debian's xvfb)")
-    plane = sun_plane(tmp_path, "BLENDER_EEVEE", xvfb=True)
-    for elevation, angles in ((90, (30, 60, 90, 120, 150)), (60, (30, 60))):
-        point = plane["%d 0 0" % elevation]
-        assert plane["%d 0 1" % elevation] == pytest.approx(point, rel=1e-6)
-        for degrees in angles:
-            plain = plane["%d %d 0" % (elevation, degrees)] / point
-            gained = plane["%d %d 1" % (elevation, degrees)] / point
-            print("elevation %d, angle %d: %.4f without the gain, %.4f with it" % (
-                elevation, degrees, plain, gained))
-            assert gained == pytest.approx(1.0, abs=0.002), (elevation, degrees, gained)
-            assert plain < 0.98, (elevation, degrees, plain)
+    for elevation, degrees, plain, gained in plane_ratios(
+            sun_plane(tmp_path, "BLENDER_EEVEE", xvfb=True)):
+        print("elevation %d, angle %d: %.4f without the gain, %.4f with it" % (
+            elevation, degrees, plain, gained))
+        assert gained == pytest.approx(1.0, abs=0.002), (elevation, degrees, gained)
+        assert plain < 0.98, (elevation, degrees, plain)
 
 
 def test_cycles_sun_gain(tmp_path):
@@ -1044,21 +1051,16 @@ def test_cycles_sun_gain(tmp_path):
     0.01 %), overhead for theta 30-150 degrees and at 60 degrees' elevation for 30 and 60;
     without it, in Cycles 3.x, 2 c / (1 + c) within 0.3 % (0.98-0.41: the test can tell), in
     Cycles 4 within 0.3 % of 1."""
-    plane = sun_plane(tmp_path, "CYCLES", xvfb=False)
     cycles3 = BLENDER_VERSION < "4.0"
-    for elevation, angles in ((90, (30, 60, 90, 120, 150)), (60, (30, 60))):
-        point = plane["%d 0 0" % elevation]
-        assert plane["%d 0 1" % elevation] == pytest.approx(point, rel=1e-6)
-        for degrees in angles:
-            plain = plane["%d %d 0" % (elevation, degrees)] / point
-            gained = plane["%d %d 1" % (elevation, degrees)] / point
-            c = math.cos(math.radians(degrees) / 2)
-            print("Blender %s, elevation %d, angle %d: %.4f without the gain, %.4f with it "
-                  "(2 c / (1 + c) = %.4f)" % (BLENDER_VERSION, elevation, degrees, plain,
-                                               gained, 2 * c / (1 + c)))
-            assert gained == pytest.approx(1.0, abs=0.003), (elevation, degrees, gained)
-            want = 2 * c / (1 + c) if cycles3 else 1.0
-            assert plain == pytest.approx(want, abs=0.003), (elevation, degrees, plain, want)
+    for elevation, degrees, plain, gained in plane_ratios(
+            sun_plane(tmp_path, "CYCLES", xvfb=False)):
+        c = math.cos(math.radians(degrees) / 2)
+        print("Blender %s, elevation %d, angle %d: %.4f without the gain, %.4f with it "
+              "(2 c / (1 + c) = %.4f)" % (BLENDER_VERSION, elevation, degrees, plain, gained,
+                                           2 * c / (1 + c)))
+        assert gained == pytest.approx(1.0, abs=0.003), (elevation, degrees, gained)
+        want = 2 * c / (1 + c) if cycles3 else 1.0
+        assert plain == pytest.approx(want, abs=0.003), (elevation, degrees, plain, want)
 
 
 def over_ground_less_suns(px, albedo, edge=None, with_band=False):
