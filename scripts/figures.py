@@ -260,9 +260,11 @@ def pov_figure(bench, option):
     if band:
         parts.append("banding %.2f %% median, %.2f %% worst" % (100 * median(band),
                                                               100 * max(band)))
-    user = [r["error"] for r in runs if r["scene"] in USER_SCENES and r["error"] is not None]
+    user = [r for r in runs if r["scene"] in USER_SCENES and r["error"] is not None]
     if user:
-        parts.append("a user's still life, room and CSG scene: worst object %s" % mw(user))
+        n = len({r["map"] for r in user})
+        parts.append("a user's still life, room and CSG scene on %d map%s: worst object %s"
+                     % (n, "s" * (n != 1), mw([r["error"] for r in user])))
     speed = [r["speedup"] for r in runs if r["scene"] == "a" and r.get("speedup")]
     if speed:
         parts.append("%.0f-%.0fx less POV-Ray CPU than the reference" % (min(speed), max(speed)))
