@@ -282,7 +282,7 @@ static void test_resample_patched(void)
 
 /* Down by a whole factor with no turn, each output pixel is the mean of its input pixels summed
  * in order in double (the overlap loop's weights are all 1 there: resample.c's whole-pixel
- * path gives its floats), bit for bit; the seam's last column is the last span's. */
+ * path gives its floats), bit for bit. */
 static void test_resample_whole_pixels(void)
 {
     const int w = 200, h = 100, f = 4;
