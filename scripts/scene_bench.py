@@ -74,6 +74,12 @@ def parse_args(argv):
     p.add_argument("--resume", action="store_true",
                    help="with --json: keep the maps a partial --json of the same run already "
                         "holds (a run stopped part way) and run the others")
+    p.add_argument("--references-from", metavar="JSON",
+                   help="pov: take each scene's reference from JSON (a run's or the merged "
+                        "docs/scene_bench_pov.json: its CPU seconds) and its image from the "
+                        "--tmp folder a run of that map left (images.npz), rendering only the "
+                        "options; a scene without both is rendered as usual. Options "
+                        "measured on every map at the include's cost")
     p.add_argument("--tmp", default=None,
                    help="work folder (default $ENVL_TEST_TMP or /tmp/envl_scene_bench)")
     return p.parse_args(argv)
@@ -461,7 +467,11 @@ def main(argv=None):
                   maps={}, runs=[], notes=[])
     images = {}
     opts = dict(quick=args.quick, recipes=recipes, scenes=scenes, tmp=tmp, envlight=envlight,
-                library=library, floor=[m for m in args.floor.split(",") if m])
+                library=library, floor=[m for m in args.floor.split(",") if m],
+                references={})
+    if args.references_from:
+        with open(args.references_from) as f:
+            opts["references"] = json.load(f)["maps"]
     done = {}
     if args.resume and args.json and os.path.exists(args.json):
         with open(args.json) as f:

@@ -162,6 +162,9 @@ RECIPES = {
     "bounce-reuse05": ([], "", "global_settings { radiosity { maximum_reuse 0.05 } }\n", _AB),
     "bounce-c100n20": ([], "", "global_settings { radiosity { count 100 nearest_count 20 } }\n",
                        _AB),
+    # the bounce pass as deep as the reference's (recursion 6; EnvLight_Bounce_Settings: 4):
+    # the rooms' walls were dark by the bounces it stops before
+    "bounce-rec6": ([], "", "global_settings { radiosity { recursion_limit 6 } }\n", None),
     # the issue's first option: area lights of the light's angular diameter, circular orient,
     # jitter, adaptive 1 (envlight.inc's EnvLight_Light with shadows 2), on the lights as points
     "disc-area": (["--shadows", "hard"], "#declare EnvLight_Shadows = 2;\n", "", _AB),
@@ -740,7 +743,9 @@ def sun_edges(occluded, ref, masks):
     its 3 x 3 local mean over the object exceeds SUN_EDGE x the object's reference mean there
     (a step), and their neighbours. Without anti-aliasing, which of those pixels a hard edge
     darkens depends on where in them it falls (the reference's sun is a few pixels of the map,
-    the include's a light of their spread): they are left out of the errors, and counted."""
+    the include's a light of their spread): they are left out of the errors, and counted.
+    An object that would keep no pixel (a reflecting torus under a window of many sun pixels:
+    its own shadow and reflection step everywhere) keeps them all: its error is measured."""
     if occluded is None:
         return {o: np.zeros_like(m) for o, m in masks.items()}
     y, yr = P.lum(occluded), P.lum(ref)
@@ -748,6 +753,8 @@ def sun_edges(occluded, ref, masks):
     for o, m in masks.items():
         step = m & (np.abs(y - local_mean(y, m)) > SUN_EDGE * yr[m].mean())
         out[o] = m & (neighbour_range(step.astype(float), np.ones_like(m)) > 0) | step
+        if (m & ~out[o]).sum() == 0:
+            out[o] = np.zeros_like(m)
     return out
 
 
@@ -804,20 +811,27 @@ def rescore(result):
                 r["stated"] = stated
 
 
-def run_scene(name, scene, lighting, d, opts, size, log, sun_light):
-    """The reference and every option in one scene -> (reference entry, runs, images)."""
+def run_scene(name, scene, lighting, d, opts, size, log, sun_light, reused=None):
+    """The reference and every option in one scene -> (reference entry, runs, images).
+    reused: (the reference's entry, its image) an earlier run measured, not rendered again."""
     spec = SCENES[scene]
     quick = opts["quick"]
     masks = object_masks(d, scene, size)
     sun = sun_occluded(d, scene, sun_light, size)
     small = [o for o, m in masks.items() if m.sum() < (30 if quick else 200)]
     assert not small, "scene %s: id mask: too few pixels of %s" % (scene, small)
-    img_ref, t_ref, c_ref, c_rad = reference_render(
-        lighting, lambda text: render(d, scene, text, size, reference_textures(scene)))
+    images = {}
+    if reused:
+        entry, img_ref = reused
+        t_ref, c_ref = entry["seconds"], entry["cpu_seconds"]
+        c_rad = entry.get("radiosity_pass_cpu_seconds", 0.0)
+    else:
+        img_ref, t_ref, c_ref, c_rad = reference_render(
+            lighting, lambda text: render(d, scene, text, size, reference_textures(scene)))
+        entry = dict(seconds=t_ref, cpu_seconds=c_ref, radiosity_pass_cpu_seconds=c_rad)
+        images[("reference-no-highlights", scene)] = img_ref
     refs = {o: img_ref for o in masks}
-    entry = dict(seconds=t_ref, cpu_seconds=c_ref, radiosity_pass_cpu_seconds=c_rad)
-    images = {("reference-no-highlights", scene): img_ref}
-    if spec["glossy"]:
+    if spec["glossy"] and not reused:
         n = QUICK_SKY_LIGHTS if quick else SKY_LIGHTS
         coarse, _, _ = highlight_pass(d, scene, n // 4, size)
         hi, _, c_hi = highlight_pass(d, scene, n, size)
@@ -833,8 +847,9 @@ def run_scene(name, scene, lighting, d, opts, size, log, sun_light):
     edges = sun_edges(sun, img_ref, masks)
     entry["sun_edge_pixels"] = {o: int(e.sum()) for o, e in edges.items()}
     entry["pixels"] = {o: int(m.sum()) for o, m in masks.items()}
-    log("  (%s) reference: %.1f s wall, %.1f s CPU (radiosity pass %.1f s); load %.2f; sun "
-        "edges left out: %s" % (scene, t_ref, c_ref, c_rad, os.getloadavg()[0], ", ".join(
+    log("  (%s) reference%s: %.1f s wall, %.1f s CPU (radiosity pass %.1f s); load %.2f; sun "
+        "edges left out: %s" % (scene, " (an earlier run's)" if reused else "", t_ref, c_ref,
+                                 c_rad, os.getloadavg()[0], ", ".join(
             "%s %d of %d" % (o, e.sum(), masks[o].sum()) for o, e in edges.items())))
     runs = []
     images[("reference", scene)] = img_ref
@@ -909,8 +924,15 @@ def run_map(name, path, opts, log=_log):
     radiosity = QUICK_RADIOSITY if quick else REFERENCE_RADIOSITY
     lighting, bright_share, n_bright = reference_lighting(d, px, dw, lights, bounce,
                                                           radiosity, False)
-    v_err, v_bias, v_cpu = validate(d, lighting, QUICK_VALIDATION_SIZE if quick
-                                    else VALIDATION_SIZE)
+    known = opts.get("references", {}).get(name)   # --references-from: an earlier run's
+    saved = load_images(name, opts) if known else {}
+    if known:
+        v = known["reference"]
+        v_err, v_bias, v_cpu = (v["validation_error"], v["validation_bias"],
+                                v["validation_cpu_seconds"])
+    else:
+        v_err, v_bias, v_cpu = validate(d, lighting, QUICK_VALIDATION_SIZE if quick
+                                        else VALIDATION_SIZE)
     ref = dict(validation_error=v_err, validation_bias=v_bias, validation_cpu_seconds=v_cpu,
                validation_tolerance=VALIDATION_TOLERANCE,
                validated=bool(v_err <= VALIDATION_TOLERANCE), bright_pixels=n_bright,
@@ -928,7 +950,11 @@ def run_map(name, path, opts, log=_log):
         else:
             light, _, _ = reference_lighting(d, px, dw, lights, bounce, radiosity,
                                              SCENES[scene]["sky"])
-            entry, r, im = run_scene(name, scene, light, d, opts, size, log, sun_light)
+            old = known and known["reference"]["scenes"].get(scene)
+            reused = (old, saved[("reference", scene)]) \
+                if old and ("reference", scene) in saved else None
+            entry, r, im = run_scene(name, scene, light, d, opts, size, log, sun_light,
+                                     reused)
             if name in opts.get("floor", ()):
                 fine, _, _ = reference_lighting(d, px, dw, lights, FINE_BOUNCE_LIGHTS,
                                                 FINE_RADIOSITY, SCENES[scene]["sky"])

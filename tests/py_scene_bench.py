@@ -39,23 +39,31 @@ def test_help():
     assert r.returncode == 0 and "--host" in r.stdout and "--quick" in r.stdout
 
 
-def test_quick():
-    """--host pov --quick: the built-in sky in scenes a, b, still (a user's scene) and x (the
-    banding scene), the options default, dome-hard and sh: the JSON's shape, every number
-    finite, the reference validated, what --scene picks per scene, the sun's edges counted,
-    and the report and figures written."""
+@pytest.fixture(scope="module")
+def quick_pov():
+    """One --host pov --quick run: (its JSON's path, its work folder, its docs folder)."""
     os.makedirs(TMP, exist_ok=True)
     out = os.path.join(TMP, "quick.json")
     docs = os.path.join(TMP, "docs")
     for f in (out, os.path.join(docs, "scene_bench_pov.md")):
         if os.path.exists(f):
             os.unlink(f)
+    work = os.path.join(TMP, "work")
     r = subprocess.run([sys.executable, SCRIPT, "--host", "pov", "--quick", "--json", out,
                         "--docs", docs, "--envlight", ENVLIGHT, "--library", LIBRARY,
-                        "--tmp", os.path.join(TMP, "work")],
+                        "--tmp", work],
                        capture_output=True, text=True, cwd=SOURCE)
     print(r.stdout[-4000:])
     assert r.returncode == 0, r.stderr[-3000:]
+    return out, work, docs
+
+
+def test_quick(quick_pov):
+    """--host pov --quick: the built-in sky in scenes a, b, still (a user's scene) and x (the
+    banding scene), the options default, dome-hard and sh: the JSON's shape, every number
+    finite, the reference validated, what --scene picks per scene, the sun's edges counted,
+    and the report and figures written."""
+    out, _, docs = quick_pov
     res = json.load(open(out))
     assert res["host"] == "pov" and res["host_version"].startswith("POV-Ray")
     assert len(res["load_average"]) == 3
@@ -100,6 +108,40 @@ def test_quick():
     assert "## The picked include, per map" in report and "## Every option" in report
     for fig in ("grid", "banding", "users", "error_time"):
         assert os.path.getsize(os.path.join(docs, "pov_scene_%s.png" % fig)) > 1000
+
+
+def test_references_from_an_earlier_run(quick_pov, tmp_path):
+    """--references-from: each scene's reference is the earlier run's (its entry as that JSON
+    has it, its image from the work folder), not rendered again; the speedup is its CPU over
+    the option's; a scene whose image is gone is rendered as usual."""
+    import numpy as np
+    out, work, _ = quick_pov
+    old = json.load(open(out))["maps"]["sky"]["reference"]["scenes"]
+    shutil.copytree(work, tmp_path / "work")
+    f = tmp_path / "work" / "sky" / "images.npz"
+    with np.load(f) as z:
+        kept = {k: z[k] for k in z.files if k != "reference|b"}
+    np.savez(f, **kept)
+    again = tmp_path / "again.json"
+    r = subprocess.run([sys.executable, SCRIPT, "--host", "pov", "--quick", "--scenes", "a,b",
+                        "--recipes", "default", "--references-from", out, "--json",
+                        str(again), "--envlight", ENVLIGHT, "--library", LIBRARY,
+                        "--tmp", str(tmp_path / "work")],
+                       capture_output=True, text=True, cwd=SOURCE)
+    print(r.stdout[-3000:])
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "(a) reference (an earlier run's):" in r.stdout
+    assert "(b) reference:" in r.stdout and "(b) reference (an" not in r.stdout
+    res = json.load(open(again))
+    ref = res["maps"]["sky"]["reference"]
+    assert ref["scenes"]["a"] == old["a"]
+    assert ref["scenes"]["b"]["cpu_seconds"] > 0
+    rows = {r["scene"]: r for r in res["runs"]}
+    assert set(rows) == {"a", "b"} and all(r["picked"] for r in rows.values())
+    assert rows["a"]["speedup"] == pytest.approx(old["a"]["cpu_seconds"] / rows["a"]["seconds"],
+                                                 rel=1e-12)
+    for row in rows.values():
+        assert all(0 <= v < 1 for v in row["errors"].values())
 
 
 BLENDER4 = "/var/cache/envlight/trixie-root/run-blender"
@@ -234,3 +276,29 @@ def test_a_run_of_other_scenes_keeps_the_images(tmp_path):
     got = S.load_images("map", dict(tmp=str(tmp_path)))
     assert (got[("reference", "a")] == 4).all() and (got[("picked", "b")] == 2).all()
     assert not [f for f in os.listdir(d) if f != "images.npz"], "a temporary left behind"
+
+
+def test_an_object_all_on_a_suns_edge_keeps_its_pixels(tmp_path):
+    """sun_edges leaves out an object's pixels on a sun's hard shadow edge; an object whose
+    every pixel steps (Blender's interior map: the gold torus's 640 of 640) keeps them all, so
+    its error is a number (it was the mean of nothing: NaN in the run, None in the JSON)."""
+    sys.path.insert(0, os.path.join(SOURCE, "scripts"))
+    import numpy as np
+    import scene_bench_pov as S
+    S.setup(ENVLIGHT, LIBRARY, str(tmp_path))
+    h, w = 12, 24
+    torus, plane = np.zeros((h, w), bool), np.zeros((h, w), bool)
+    torus[:, :12], plane[:, 12:] = True, True
+    occluded = np.zeros((h, w, 3), np.float32)
+    occluded[::2, :12] = 1.0                      # the torus: steps on every row
+    occluded[:, 12:18] = 1.0                      # the plane: one edge at column 18
+    ref = np.ones((h, w, 3), np.float32)
+    edges = S.sun_edges(occluded, ref, {"torus": torus, "plane": plane})
+    assert not edges["torus"].any()
+    cols = np.flatnonzero(edges["plane"].any(0))
+    assert 0 < edges["plane"].sum() < plane.sum() and cols.min() >= 15 and cols.max() <= 20
+    img = ref * 1.02    # float32: 1.02 to 1e-7, the 2 % to 1e-5 of itself
+    errors, biases = S.measure(img, {"torus": ref, "plane": ref},
+                               {"torus": torus, "plane": plane}, edges)
+    assert errors["torus"] == pytest.approx(0.02, rel=1e-5)
+    assert biases["plane"] == pytest.approx(0.02, rel=1e-5)
