@@ -162,9 +162,9 @@ RECIPES = {
     "bounce-reuse05": ([], "", "global_settings { radiosity { maximum_reuse 0.05 } }\n", _AB),
     "bounce-c100n20": ([], "", "global_settings { radiosity { count 100 nearest_count 20 } }\n",
                        _AB),
-    # the bounce pass as deep as the reference's (recursion 6; EnvLight_Bounce_Settings: 4):
-    # the rooms' walls were dark by the bounces it stops before
-    "bounce-rec6": ([], "", "global_settings { radiosity { recursion_limit 6 } }\n", None),
+    # the bounce pass as it was before 2026-11-30 (EnvLight_Bounce_Settings: 6, the
+    # reference's depth; at 4 the rooms' walls were dark by the bounces it stopped before)
+    "bounce-rec4": ([], "", "global_settings { radiosity { recursion_limit 4 } }\n", None),
     # the issue's first option: area lights of the light's angular diameter, circular orient,
     # jitter, adaptive 1 (envlight.inc's EnvLight_Light with shadows 2), on the lights as points
     "disc-area": (["--shadows", "hard"], "#declare EnvLight_Shadows = 2;\n", "", _AB),
