@@ -822,7 +822,7 @@ def run_scene(name, scene, lighting, d, opts, size, log, sun_light, reused=None)
     assert not small, "scene %s: id mask: too few pixels of %s" % (scene, small)
     images = {}
     if reused:
-        entry, img_ref = reused
+        entry, img_ref = dict(reused[0]), reused[1]   # the earlier JSON's entry stays as it was
         t_ref, c_ref = entry["seconds"], entry["cpu_seconds"]
         c_rad = entry.get("radiosity_pass_cpu_seconds", 0.0)
     else:
@@ -948,11 +948,11 @@ def run_map(name, path, opts, log=_log):
         if scene == BANDING_SCENE:
             entry, r, im = run_banding(name, d, px, dw, opts, log)
         else:
-            light, _, _ = reference_lighting(d, px, dw, lights, bounce, radiosity,
-                                             SCENES[scene]["sky"])
             old = known and known["reference"]["scenes"].get(scene)
             reused = (old, saved[("reference", scene)]) \
                 if old and ("reference", scene) in saved else None
+            light = None if reused else reference_lighting(
+                d, px, dw, lights, bounce, radiosity, SCENES[scene]["sky"])[0]
             entry, r, im = run_scene(name, scene, light, d, opts, size, log, sun_light,
                                      reused)
             if name in opts.get("floor", ()):
