@@ -27,6 +27,18 @@ has default.inc "^// skipped: an ambient (the lights take the whole sky, radiosi
 has default.inc "^// in-scene error to expect (scene benchmark, not this map): "
 has default.inc "^global_settings { EnvLight_Bounce_Settings() }$"
 hasnt default.inc "#declare EnvLight_Ambient"
+# a low sun under the bounce pass: the suns on the best-lit wall over the ground's irradiance
+# E_up is above 2 (the built-in sky's sun at 5 degrees: 3.6; at its default 35 degrees: 1.1),
+# so the bounce pass reuses samples over 0.05 of the scene, declared so that a scene's own
+# declaration wins; not under a recipe without the bounce pass
+run "$ENVLIGHT" pov - --sky-width 256 --sun-elevation 5 -o low_sun.inc
+has low_sun.inc "^#ifndef (EnvLight_Bounce_Reuse) #declare EnvLight_Bounce_Reuse = 0.05; #end"
+has low_sun.inc "^//   a low sun: it lights a wall facing it 3.6x as much as the whole sky lights the ground,"
+run "$ENVLIGHT" pov - --sky-width 256 -o high_sun.inc
+has high_sun.inc "^// dome: 1 sun"
+hasnt high_sun.inc "EnvLight_Bounce_Reuse"
+run "$ENVLIGHT" pov - --sky-width 256 --sun-elevation 5 --recipe dome-ambient -o low_sun_ambient.inc
+hasnt low_sun_ambient.inc "EnvLight_Bounce_Reuse"
 hasnt default.inc "EnvLight_Sky_File"
 hasnt default.inc "^EnvLight_Sky"
 hasnt default.inc "Radiosity_Residual"

@@ -886,6 +886,52 @@ def test_sky_backdrop_unseen_by_radiosity():
     assert lum(b[~mask]).mean() > 0.1 * lum(b[mask]).mean()   # the camera does see the sky
 
 
+# A grey sphere on a floor, seen from above and aside, lit by env.inc (PRE declared first).
+LOW_SUN_SCENE = """#version 3.7;
+global_settings { assumed_gamma 1 ambient_light 0 }
+%s
+#include "env.inc"
+camera { location <0, 3, -6> look_at <0, 0.5, 0> }
+sphere { <0, 1, 0>, 1 pigment { rgb 0.8 } finish { ambient 0 diffuse 1 emission 0 } }
+plane { y, 0 pigment { rgb 0.5 } finish { ambient 0 diffuse 1 emission 0 } }
+"""
+
+
+def radiosity_samples(stderr):
+    m = re.search(r"Radiosity samples calculated:\s+(\d+)", stderr)
+    assert m, stderr[-2000:]
+    return int(m.group(1))
+
+
+def test_low_sun_bounce_reuse_reaches_povray():
+    """A low sun (the built-in sky's at 5 degrees) declares EnvLight_Bounce_Reuse 0.05, and
+    EnvLight_Bounce_Settings() hands it to POV-Ray: with one thread its radiosity is
+    deterministic, so the sample count is exact. A scene that declares 0.2 before the include
+    gets exactly the count of the include without the declaration (envlight.inc's default,
+    POV-Ray's 0.2); the low sun's 0.05 calculates more samples than that (each reused over a
+    quarter of the distance). Fails if the macro drops the value or the scene's own
+    declaration does not win."""
+    d = tmpdir("low_sun_reuse")
+    envlight("pov", "-", "--sky-width", "256", "--sun-elevation", "5", "-o", "env.inc",
+             "--quiet", cwd=d)
+    path = os.path.join(d, "env.inc")
+    text = open(path).read()
+    line = ("#ifndef (EnvLight_Bounce_Reuse) #declare EnvLight_Bounce_Reuse = 0.05; #end "
+            "// the bounce pass's maximum_reuse: a low sun\n")
+    assert line in text
+    counts = {}
+    for name, pre, inc in (("low", "", text),
+                           ("scene 0.2", "#declare EnvLight_Bounce_Reuse = 0.2;", text),
+                           ("undeclared", "", text.replace(line, ""))):
+        with open(path, "w") as f:
+            f.write(inc)
+        _, err = render(LOW_SUN_SCENE % pre, d, size=48, out="low.hdr", extra=ONE_THREAD)
+        counts[name] = radiosity_samples(err)
+    print(counts)
+    assert counts["scene 0.2"] == counts["undeclared"]
+    assert counts["low"] > counts["undeclared"]
+
+
 # A slab's underside at height H over an infinite floor, seen from below (the camera under it),
 # lit by one light whose direction is ELEVATION degrees from the horizon.
 BELOW_HORIZON_SCENE = """#version 3.7;

@@ -5,9 +5,9 @@
 #define ENVL_POV_FIGURES_H
 
 #define POV_FIGURE_DOME \
-    "scenes (a), (b) on 26 maps: objects 1.3 % median, 3.1 % worst; plane 1.2 % median, 2.7 % " \
+    "scenes (a), (b) on 26 maps: objects 1.3 % median, 3.1 % worst; plane 1.2 % median, 2.2 % " \
     "worst; banding 0.31 % median, 0.44 % worst; a user's still life, room and CSG scene on 26 " \
-    "maps: worst object 3.6 % median, 24.6 % worst; 8-24x less POV-Ray CPU than the reference " \
+    "maps: worst object 3.6 % median, 24.5 % worst; 8-22x less POV-Ray CPU than the reference " \
     "(scene bench of 2026-11-30)"
 #define POV_FIGURE_SH \
     "scenes (a), (b) on 15 maps: objects 19.4 % median, 94.9 % worst; plane 11.0 % median, 43.4 " \

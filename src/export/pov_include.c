@@ -394,6 +394,28 @@ static envl_result compute_try(const pov_plan *p, int32_t count, int32_t threads
     return ENVL_OK;
 }
 
+/* The suns' light on the best-lit vertical wall over the ground's irradiance e_up (luminance):
+ * the wall's normal (cos a, sin a, 0) at 64 azimuths a, each sun's rgb x max(0, n . d); then
+ * the bounce pass's reuse for a low sun (POV_LOW_SUN_RATIO). */
+static void low_sun(const pov_plan *p, pov_work *w, double e_up)
+{
+    w->low_sun = 0;
+    w->bounce_reuse = 0;
+    for (int k = 0; k < 64; k++) {
+        double a = 2 * ENVL_PI * k / 64, n[3] = {cos(a), sin(a), 0}, wall = 0;
+        for (int32_t i = 0; i < w->nlights; i++) {
+            const envl_light *l = &w->lights[i].l;
+            double c = n[0] * l->direction[0] + n[1] * l->direction[1];
+            if (w->lights[i].sun && c > 0)
+                wall += c * envl_luminance(l->rgb[0], l->rgb[1], l->rgb[2]);
+        }
+        if (e_up > 0 && wall / e_up > w->low_sun)
+            w->low_sun = wall / e_up;
+    }
+    if (p->bounce && w->low_sun > POV_LOW_SUN_RATIO)
+        w->bounce_reuse = POV_LOW_SUN_REUSE;
+}
+
 /* Lights and ambient; the dome's size, when not given: the smallest of its counts whose
  * diffuse error (lights + ambient against the exact integrator, unoccluded) is within the
  * recipe's bound. Then the ambient's least value, the warnings and the auto exposure. */
@@ -434,6 +456,7 @@ static envl_result compute(pov_plan *p, int32_t threads, pov_work *w)
     if (envl_irradiance_exact(w->lit, 1, up, e_up) == ENVL_OK &&
         envl_luminance(e_up[0], e_up[1], e_up[2]) > 0)
         w->exposure_auto = POV_AUTO_WHITE * ENVL_PI / envl_luminance(e_up[0], e_up[1], e_up[2]);
+    low_sun(p, w, envl_luminance(e_up[0], e_up[1], e_up[2]));
     w->seconds = envl__seconds() - t0;
     return ENVL_OK;
 }

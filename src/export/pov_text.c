@@ -147,6 +147,11 @@ static void text_recipe(FILE *f, const pov_plan *p, const pov_work *w)
         fputs("//   bounces: radiosity with no sky in it (envlight.inc's "
               "EnvLight_Bounce_Settings()),\n//   the lights' light gathered from the surfaces "
               "it reached (occluded like the lights)\n", f);
+    if (w->bounce_reuse > 0)
+        fprintf(f, "//   a low sun: it lights a wall facing it %.1fx as much as the whole sky lights "
+                   "the ground,\n//   so the bounce pass reuses its samples over %.2f of the scene "
+                   "(EnvLight_Bounce_Reuse), not\n//   POV-Ray's 0.2, which spreads the light off "
+                   "objects' sunlit sides over the floor\n", w->low_sun, w->bounce_reuse);
     if (p->dome_auto_count && w->s.count) {
         static const int bounce[] = POV_DOME_COUNTS_BOUNCE, ambient[] = POV_DOME_COUNTS_AMBIENT;
         const int *tried = p->bounce ? bounce : ambient;
@@ -309,6 +314,9 @@ static void text_scene(FILE *f, const pov_plan *p, const pov_work *w)
             p->radius);
     fprintf(f, "#ifndef (EnvLight_Shadows) #declare EnvLight_Shadows = %d; #end "
                "// 0 none, 1 hard, 2 soft\n", p->shadows);
+    if (w->bounce_reuse > 0)
+        fprintf(f, "#ifndef (EnvLight_Bounce_Reuse) #declare EnvLight_Bounce_Reuse = %.9g; #end "
+                   "// the bounce pass's maximum_reuse: a low sun\n", w->bounce_reuse);
 }
 
 /* One array of the lights' values, a line each: `put` writes light j's. */
