@@ -163,6 +163,8 @@ RECIPES = {
     "bounce-reuse20": ([], "#declare EnvLight_Bounce_Reuse = 0.2;\n", "", None),
     "bounce-reuse03": ([], "", "global_settings { radiosity { maximum_reuse 0.03 } }\n", _AB),
     "bounce-eb03": ([], "", "global_settings { radiosity { error_bound 0.3 } }\n", _AB),
+    "bounce-n10": ([], "", "global_settings { radiosity { nearest_count 10 } }\n", _AB),
+    "bounce-n20": ([], "", "global_settings { radiosity { nearest_count 20 } }\n", _AB),
     "bounce-c100n20": ([], "", "global_settings { radiosity { count 100 nearest_count 20 } }\n",
                        _AB),
     # the bounce pass as it was before 2026-11-30 (EnvLight_Bounce_Settings: 6, the
