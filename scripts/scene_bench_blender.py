@@ -11,7 +11,9 @@ Scenes (IMAGE px, perspective camera, no pixel filter: each pixel is one object'
 Object masks come from a Workbench render (flat object colours, no anti-aliasing).
 
 The reference: Cycles path tracing of the plain HDR world (the image packed, so Cycles renders
-the pixels the add-on reads), REF_SPP samples with each of two seeds, averaged; its own noise
+the pixels the add-on reads; for a map with NaN or Inf pixels, which Cycles renders black packed
+or, a DWA EXR's, from the file, the map as the library reads it, +Inf at the largest finite
+value: `envlight convert`), REF_SPP samples with each of two seeds, averaged; its own noise
 is the RMS of the two renders' difference / 2 (the mean of two has half the variance of one),
 stated per map and scene. max bounces 4, no denoiser, no adaptive sampling, 2 threads.
 
@@ -163,7 +165,9 @@ def describe(result):
     """The report's lines about the method (scene_bench.py's header)."""
     rs = result["reference_settings"]
     return [
-        "- reference: Cycles path tracing of the plain HDR world (image packed), %d samples x "
+        "- reference: Cycles path tracing of the plain HDR world (image packed; a map with NaN "
+        "or Inf pixels, which Cycles renders black, as the library reads it: its row says so), "
+        "%d samples x "
         "%d seeds averaged, max bounces %d, no denoiser; its noise per map in the table"
         % (rs["spp"], rs["seeds"], rs["max_bounces"]),
         "- recipes render %d samples with two seeds and 1 sample (the fixed cost); error = "
@@ -281,7 +285,10 @@ def report_lines(result, checks):
             " [%s]" % r["picked_as"] if r["picked"] else "")
     for m, sc, cells in table_cells(result, result["runs"], recipes, cell):
         noise = result["maps"][m]["reference"]["noise"].get(sc, 0)
-        L.append("| %s | %s | %.2f | %s |" % (m, sc, 100 * noise, " | ".join(cells)))
+        as_read = "map" in result["maps"][m]["reference"]
+        L.append("| %s | %s | %.2f | %s |" % (
+            m + (" (reference: the map as read)" if as_read else ""), sc, 100 * noise,
+            " | ".join(cells)))
     L += [""] + eevee_lines(result)
     L += ["## Goal check (picked rows)", "", "| map | met | detail |", "|---|---|---|"]
     for m in result["maps"]:
@@ -394,6 +401,22 @@ def _log(*a):
     sys.stdout.flush()
 
 
+def envlight_cli(opts):
+    envl = os.path.join(os.path.dirname(os.path.abspath(opts.get("library", "build/x"))),
+                        "envlight")
+    return opts.get("envlight", envl)
+
+
+def nonfinite_pixels(path, opts):
+    """How many pixels of the map hold NaN or Inf (`envlight info`'s count)."""
+    p = subprocess.run([envlight_cli(opts), "info", path], check=True, capture_output=True,
+                       text=True)
+    for line in p.stdout.splitlines():
+        if line.startswith("non-finite:"):
+            return int(line.split()[1])
+    return 0
+
+
 def run_map(name, path, opts, log=_log):
     """All scenes and recipes of one map -> (entry, runs, images)."""
     import numpy as np
@@ -401,14 +424,24 @@ def run_map(name, path, opts, log=_log):
     os.makedirs(tmp, exist_ok=True)
     if path == "-":   # the built-in sky as a file Blender loads
         path = os.path.join(tmp, "sky.hdr")
-        envl = os.path.join(os.path.dirname(os.path.abspath(opts.get("library", "build/x"))),
-                            "envlight")
-        subprocess.run([opts.get("envlight", envl), "convert", "-", path], check=True,
+        subprocess.run([envlight_cli(opts), "convert", "-", path], check=True,
                        capture_output=True)
     entry = dict(path=path, reference=dict(cpu_seconds={}, noise={}), scenes={})
+    reference_map = path
+    nonfinite = nonfinite_pixels(path, opts)
+    if nonfinite:
+        # Cycles renders NaN and +Inf black, whether the image is packed or (a DWA EXR's, at
+        # least) from its file, while the add-on lights with the map as the library reads it
+        # (+Inf at the largest finite value): the reference renders that map, written here
+        reference_map = os.path.join(tmp, "reference_map.exr")
+        subprocess.run([envlight_cli(opts), "convert", path, reference_map, "-q"], check=True,
+                       capture_output=True)
+        entry["reference"]["map"] = ("the map as read (%d pixels with NaN or Inf replaced as "
+                                     "`envlight info` says), not the file" % nonfinite)
     runs, images = [], {}
     for scene in opts["scenes"]:
-        spec = dict(map=path, scene=scene, recipes=opts["recipes"], zip=ZIP,
+        spec = dict(map=path, reference_map=reference_map, scene=scene, recipes=opts["recipes"],
+                    zip=ZIP,
                     image=QUICK_IMAGE if opts["quick"] else IMAGE,
                     ref_spp=QUICK_REF_SPP if opts["quick"] else REF_SPP,
                     spp=QUICK_SPP if opts["quick"] else SPP,
@@ -474,8 +507,10 @@ def reference_cache(spec, blender_version):
     if not spec.get("ref_cache"):
         return None
     h = hashlib.sha256()
-    with open(spec["map"], "rb") as f:
-        h.update(f.read())
+    for key in ("map", "reference_map"):
+        if key == "map" or spec.get(key, spec["map"]) != spec["map"]:
+            with open(spec[key], "rb") as f:
+                h.update(f.read())
     h.update(json.dumps([spec["scene"], spec["ref_spp"], list(spec["image"]),
                          blender_version]).encode())
     h.update(inspect.getsource(Bench).encode())
@@ -488,7 +523,8 @@ LUMINANCE = (0.2126, 0.7152, 0.0722)
 
 class Bench:
     """One scene of the benchmark in the running Blender (spec: the map, scene, image size,
-    output folder): its objects, their masks, the world of the map (packed), Cycles' settings,
+    output folder): its objects, their masks, the world of the map (packed; the reference's
+    the map as read where that differs), Cycles' settings,
     and the renders. Used by _in_blender and by blender_eevee_parts.py."""
 
     def __init__(self, spec):
@@ -607,6 +643,16 @@ class Bench:
         tex.image = bpy.data.images.load(spec["map"])
         tex.image.pack()
         nt.links.new(tex.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+        # the reference's world: the map as the library reads it where it differs (run_map)
+        self.reference_world = world
+        if spec.get("reference_map", spec["map"]) != spec["map"]:
+            self.reference_world = bpy.data.worlds.new("BenchReferenceWorld")
+            self.reference_world.use_nodes = True
+            rt = self.reference_world.node_tree
+            rtex = rt.nodes.new("ShaderNodeTexEnvironment")
+            rtex.image = bpy.data.images.load(spec["reference_map"])
+            rtex.image.pack()
+            rt.links.new(rtex.outputs["Color"], rt.nodes["Background"].inputs["Color"])
 
         cy.use_denoising = False
         cy.use_adaptive_sampling = False
@@ -648,7 +694,7 @@ class Bench:
         import numpy as np
         spec = self.spec
         self.scene.render.engine = "CYCLES"
-        self.scene.world = self.world
+        self.scene.world = self.reference_world
         cache = reference_cache(spec, bpy.app.version_string)
         if cache is not None and os.path.exists(cache):
             with np.load(cache) as z:

@@ -1141,12 +1141,6 @@ def create_lights(context, settings, progress=None, force=False):
         # the image in the texture's lookup frame (lat-long or mirror ball), checked
         env, src = read_source(pkg, world, step)
         warnings += src.warnings
-        # Cycles renders NaN and +Inf of a packed or generated image black (Blender's own
-        # pixels), but reads a file's half-float +Inf as 65504 through OpenImageIO (measured
-        # in 3.4 and 4.3: a world image with a +Inf patch, file-backed and packed)
-        image = src.node.image
-        builtin = image.packed_file is not None or image.source not in ("FILE", "SEQUENCE",
-                                                                         "MOVIE")
         rot = mapping_matrix(src.mapping)
         mapping_node = src.mapping
         strength = src.strength
@@ -1155,7 +1149,6 @@ def create_lights(context, settings, progress=None, force=False):
         if not settings.filepath:
             raise RuntimeError("no file chosen")
         path = bpy.path.abspath(settings.filepath)
-        builtin = False
         with pkg.progress(lambda f, stage: step(0.2 * f)):
             env = pkg.load(path)
     step(0.2)
@@ -1197,9 +1190,11 @@ def create_lights(context, settings, progress=None, force=False):
         info = env.info()
         power = info["power"]
         # +Inf pixels (a half float's overflow, as a sun's core in a DWAB EXR) became the
-        # largest finite value here; Cycles renders them black when the image is packed or
-        # generated (above)
-        infinity = info["infinity_value"] if builtin else 0.0
+        # largest finite value here. Cycles renders NaN and +Inf black when the image is packed
+        # or made in Blender, and from a DWA EXR's file too; from other half-float files it
+        # reads +Inf as 65504 (measured in 3.4 and 4.3, docs/blender_scenes.md): either way
+        # not what the library read
+        infinity = info["infinity_value"]
         rest = env
         if plan.suns:
             # the suns first, as lamps of their own size (sharp shadows, exact highlights):
@@ -1217,11 +1212,12 @@ def create_lights(context, settings, progress=None, force=False):
             share = sun_share(sun_summary)
             if share < SUN_SHARE_MIN and infinity > 0 and not force:
                 plan.reasons.append(
-                    "the image is packed or made in Blender and has %d pixels with NaN or "
-                    "+Inf, which Cycles renders black there: the plain HDR world would lose "
-                    "their light (+Inf, a half float's overflow such as a sun's core, is read "
-                    "as %g, the image's largest finite value), so the suns as lamps and the "
-                    "world the map less them, from the map as read"
+                    "the image has %d pixels with NaN or +Inf, which Cycles renders black "
+                    "(packed, made in Blender, or a DWA EXR's file) or as 65504 (other "
+                    "half-float files): the plain HDR world would lose or change their light "
+                    "(+Inf, a half float's overflow such as a sun's core, is read as %g, the "
+                    "image's largest finite value), so the suns as lamps and the world the map "
+                    "less them, from the map as read"
                     % (info["nonfinite_pixels"], infinity))
             elif share < SUN_SHARE_MIN and not force:
                 if rest is not env:
