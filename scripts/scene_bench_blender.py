@@ -417,6 +417,20 @@ def nonfinite_pixels(path, opts):
     return 0
 
 
+def reference_map_of(path, tmp, opts):
+    """(the map the reference renders, its count of NaN or Inf pixels): the map itself, or for
+    a map with such pixels, which Cycles renders black whether the image is packed or (a DWA
+    EXR's, at least) from its file, the map as the library reads it (+Inf at the largest
+    finite value, as the add-on lights with it), written into tmp by `envlight convert`."""
+    nonfinite = nonfinite_pixels(path, opts)
+    if not nonfinite:
+        return path, 0
+    out = os.path.join(tmp, "reference_map.exr")
+    subprocess.run([envlight_cli(opts), "convert", path, out, "-q"], check=True,
+                   capture_output=True)
+    return out, nonfinite
+
+
 def run_map(name, path, opts, log=_log):
     """All scenes and recipes of one map -> (entry, runs, images)."""
     import numpy as np
@@ -427,15 +441,8 @@ def run_map(name, path, opts, log=_log):
         subprocess.run([envlight_cli(opts), "convert", "-", path], check=True,
                        capture_output=True)
     entry = dict(path=path, reference=dict(cpu_seconds={}, noise={}), scenes={})
-    reference_map = path
-    nonfinite = nonfinite_pixels(path, opts)
+    reference_map, nonfinite = reference_map_of(path, tmp, opts)
     if nonfinite:
-        # Cycles renders NaN and +Inf black, whether the image is packed or (a DWA EXR's, at
-        # least) from its file, while the add-on lights with the map as the library reads it
-        # (+Inf at the largest finite value): the reference renders that map, written here
-        reference_map = os.path.join(tmp, "reference_map.exr")
-        subprocess.run([envlight_cli(opts), "convert", path, reference_map, "-q"], check=True,
-                       capture_output=True)
         entry["reference"]["map"] = ("the map as read (%d pixels with NaN or Inf replaced as "
                                      "`envlight info` says), not the file" % nonfinite)
     runs, images = [], {}

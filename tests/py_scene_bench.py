@@ -304,3 +304,38 @@ def test_an_object_all_on_a_suns_edge_keeps_its_pixels(tmp_path):
                                {"torus": torus, "plane": plane}, edges)
     assert errors["torus"] == pytest.approx(0.02, rel=1e-5)
     assert biases["plane"] == pytest.approx(0.02, rel=1e-5)
+
+
+def test_blender_reference_of_a_map_with_infinite_pixels(tmp_path):
+    """The Blender bench's reference renders a map with NaN or Inf pixels as the library reads
+    it (Cycles renders those pixels black, packed or from a DWA EXR's file): reference_map_of
+    counts them as `envlight info` does (a half EXR with a 2 x 2 +Inf patch: 4) and writes the
+    map with the patch at the image's largest finite value (1000 here), every other pixel as
+    the file has it; a map without such pixels (the built-in sky) is its own reference."""
+    if not shutil.which("oiiotool"):
+        pytest.skip("SKIP: needs oiiotool (Debian's openimageio-tools)")
+    sys.path.insert(0, os.path.join(SOURCE, "scripts"))
+    import numpy as np
+    import envlight
+    import scene_bench_blender as B
+    opts = dict(envlight=ENVLIGHT)
+    inf = str(tmp_path / "inf.exr")
+    subprocess.run(["oiiotool", "--pattern", "constant:color=1,0.9,0.8", "64x32", "3",
+                    "--box:color=1e6,1e6,1e6:fill=1", "30,8,31,9",
+                    "--box:color=1000,900,800:fill=1", "10,20,10,20", "-d", "half", "-o", inf],
+                   check=True)
+    sky = str(tmp_path / "sky.hdr")
+    subprocess.run([ENVLIGHT, "convert", "-", sky, "--sky-width", "64"], check=True)
+    assert B.reference_map_of(sky, str(tmp_path), opts) == (sky, 0)
+    out, count = B.reference_map_of(inf, str(tmp_path), opts)
+    assert count == 4 and out != inf
+    with envlight.load(inf) as m:
+        original = m.pixels()
+    with envlight.load(out) as m:
+        assert m.info()["nonfinite_pixels"] == 0
+        px = m.pixels()
+    assert px.shape == original.shape == (32, 64, 3)
+    assert (px[8:10, 30:32] == 1000).all()
+    patch = np.zeros(px.shape[:2], bool)
+    patch[8:10, 30:32] = True
+    assert (px[~patch] == original[~patch]).all()

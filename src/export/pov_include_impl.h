@@ -25,12 +25,12 @@
 #define POV_DOME_COUNTS_BOUNCE {48, 64}
 #define POV_DOME_COUNTS_AMBIENT {64, 128, 256}
 /* A low sun under the bounce pass: where the suns light the best-lit vertical wall more than
- * POV_LOW_SUN_RATIO x the ground's whole irradiance E_up (the sunlit sides of objects then
- * light the floor beside them more than the sky does), the bounce pass reuses its samples
- * over POV_LOW_SUN_REUSE of the scene's size instead of POV-Ray's 0.2, which spread that light
- * out: the plane of scenes (a), (b) 2.3-3.0 % off -> 1.6-2.1 % at 1.1-1.7x the CPU (sunrise,
- * rooitou_park; docs/pov_scenes.md). Elsewhere the denser samples only darken matte objects
- * by 0.3-0.7 %, so the default stays. */
+ * POV_LOW_SUN_RATIO x the ground's whole irradiance E_up (so the objects' sunlit sides bounce
+ * much light onto the floor beside them), the bounce pass reuses its samples over
+ * POV_LOW_SUN_REUSE of the scene's size instead of POV-Ray's 0.2, which spread that light
+ * thin: the planes of scenes (a), (b) 2.1-2.8 % off -> 1.4-2.2 % at 1.2-2.5x the POV-Ray CPU
+ * (the 3 of 26 maps where it applies, ratios 2.9-3.1; the next 1.4; docs/pov_scenes.md, "A low
+ * sun"). Elsewhere the denser samples would darken (a)'s spheres by 0.3-0.7 % for nothing. */
 #define POV_LOW_SUN_RATIO 2.0
 #define POV_LOW_SUN_REUSE 0.05
 /* ENVL_POV_EXPOSURE_AUTO: the value a white surface facing up shows (sRGB ~0.8 in an 8-bit
