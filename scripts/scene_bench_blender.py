@@ -13,7 +13,7 @@ Object masks come from a Workbench render (flat object colours, no anti-aliasing
 The reference: Cycles path tracing of the plain HDR world (the image packed, so Cycles renders
 the pixels the add-on reads; for a map with NaN or Inf pixels, which Cycles renders black packed
 or, a DWA EXR's, from the file, the map as the library reads it, +Inf at the largest finite
-value: `envlight convert`), REF_SPP samples with each of two seeds, averaged; its own noise
+value: reference_map_of), REF_SPP samples with each of two seeds, averaged; its own noise
 is the RMS of the two renders' difference / 2 (the mean of two has half the variance of one),
 stated per map and scene. max bounces 4, no denoiser, no adaptive sampling, 2 threads.
 
@@ -401,33 +401,18 @@ def _log(*a):
     sys.stdout.flush()
 
 
-def envlight_cli(opts):
-    envl = os.path.join(os.path.dirname(os.path.abspath(opts.get("library", "build/x"))),
-                        "envlight")
-    return opts.get("envlight", envl)
-
-
-def nonfinite_pixels(path, opts):
-    """How many pixels of the map hold NaN or Inf (`envlight info`'s count)."""
-    p = subprocess.run([envlight_cli(opts), "info", path], check=True, capture_output=True,
-                       text=True)
-    for line in p.stdout.splitlines():
-        if line.startswith("non-finite:"):
-            return int(line.split()[1])
-    return 0
-
-
-def reference_map_of(path, tmp, opts):
+def reference_map_of(path, tmp):
     """(the map the reference renders, its count of NaN or Inf pixels): the map itself, or for
     a map with such pixels, which Cycles renders black whether the image is packed or (a DWA
     EXR's, at least) from its file, the map as the library reads it (+Inf at the largest
-    finite value, as the add-on lights with it), written into tmp by `envlight convert`."""
-    nonfinite = nonfinite_pixels(path, opts)
-    if not nonfinite:
-        return path, 0
-    out = os.path.join(tmp, "reference_map.exr")
-    subprocess.run([envlight_cli(opts), "convert", path, out, "-q"], check=True,
-                   capture_output=True)
+    finite value, as the add-on lights with it), saved into tmp (py_shim, setup's path)."""
+    import envlight
+    with envlight.load(path) as m:
+        nonfinite = m.info()["nonfinite_pixels"]
+        if not nonfinite:
+            return path, 0
+        out = os.path.join(tmp, "reference_map.exr")
+        m.save(out)
     return out, nonfinite
 
 
@@ -438,13 +423,15 @@ def run_map(name, path, opts, log=_log):
     os.makedirs(tmp, exist_ok=True)
     if path == "-":   # the built-in sky as a file Blender loads
         path = os.path.join(tmp, "sky.hdr")
-        subprocess.run([envlight_cli(opts), "convert", "-", path], check=True,
+        envl = os.path.join(os.path.dirname(os.path.abspath(opts.get("library", "build/x"))),
+                            "envlight")
+        subprocess.run([opts.get("envlight", envl), "convert", "-", path], check=True,
                        capture_output=True)
     entry = dict(path=path, reference=dict(cpu_seconds={}, noise={}), scenes={})
-    reference_map, nonfinite = reference_map_of(path, tmp, opts)
+    reference_map, nonfinite = reference_map_of(path, tmp)
     if nonfinite:
         entry["reference"]["map"] = ("the map as read (%d pixels with NaN or Inf replaced as "
-                                     "`envlight info` says), not the file" % nonfinite)
+                                     "the library reads them), not the file" % nonfinite)
     runs, images = [], {}
     for scene in opts["scenes"]:
         spec = dict(map=path, reference_map=reference_map, scene=scene, recipes=opts["recipes"],
@@ -514,10 +501,8 @@ def reference_cache(spec, blender_version):
     if not spec.get("ref_cache"):
         return None
     h = hashlib.sha256()
-    for key in ("map", "reference_map"):
-        if key == "map" or spec.get(key, spec["map"]) != spec["map"]:
-            with open(spec[key], "rb") as f:
-                h.update(f.read())
+    with open(spec.get("reference_map", spec["map"]), "rb") as f:   # what the reference renders
+        h.update(f.read())
     h.update(json.dumps([spec["scene"], spec["ref_spp"], list(spec["image"]),
                          blender_version]).encode())
     h.update(inspect.getsource(Bench).encode())

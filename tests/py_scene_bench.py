@@ -309,7 +309,7 @@ def test_an_object_all_on_a_suns_edge_keeps_its_pixels(tmp_path):
 def test_blender_reference_of_a_map_with_infinite_pixels(tmp_path):
     """The Blender bench's reference renders a map with NaN or Inf pixels as the library reads
     it (Cycles renders those pixels black, packed or from a DWA EXR's file): reference_map_of
-    counts them as `envlight info` does (a half EXR with a 2 x 2 +Inf patch: 4) and writes the
+    counts them as the library does (a half EXR with a 2 x 2 +Inf patch: 4) and writes the
     map with the patch at the image's largest finite value (1000 here), every other pixel as
     the file has it; a map without such pixels (the built-in sky) is its own reference."""
     if not shutil.which("oiiotool"):
@@ -318,7 +318,6 @@ def test_blender_reference_of_a_map_with_infinite_pixels(tmp_path):
     import numpy as np
     import envlight
     import scene_bench_blender as B
-    opts = dict(envlight=ENVLIGHT)
     inf = str(tmp_path / "inf.exr")
     subprocess.run(["oiiotool", "--pattern", "constant:color=1,0.9,0.8", "64x32", "3",
                     "--box:color=1e6,1e6,1e6:fill=1", "30,8,31,9",
@@ -326,8 +325,8 @@ def test_blender_reference_of_a_map_with_infinite_pixels(tmp_path):
                    check=True)
     sky = str(tmp_path / "sky.hdr")
     subprocess.run([ENVLIGHT, "convert", "-", sky, "--sky-width", "64"], check=True)
-    assert B.reference_map_of(sky, str(tmp_path), opts) == (sky, 0)
-    out, count = B.reference_map_of(inf, str(tmp_path), opts)
+    assert B.reference_map_of(sky, str(tmp_path)) == (sky, 0)
+    out, count = B.reference_map_of(inf, str(tmp_path))
     assert count == 4 and out != inf
     with envlight.load(inf) as m:
         original = m.pixels()
