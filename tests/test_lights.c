@@ -493,6 +493,80 @@ static void test_region_table(void)
     free(px);
 }
 
+/* The variance cut's marginals from block sums (cut_marginals.c) against the pixels' own sums,
+ * on a map whose sides are no multiple of the block (ragged blocks at the edges), regions that
+ * wrap across the seam, and a window of the map's rows (the other rows black). Both are sums of
+ * n >= 0 terms in double, in different orders: each within n u of the sum of the terms'
+ * magnitudes (u = 2^-53), so they differ by at most 2 n u x the energy (|cos|, |sin| <= 1). */
+static void check_marginals(const envl_envmap *m, const cut_marginals *t, int x0, int x1, int y0,
+                            int y1)
+{
+    int w = x1 - x0, h = y1 - y0, W = m->width, ya = y0, yb = y1;
+    if (m->window) {
+        ya = ya < m->row0 ? m->row0 : ya;
+        yb = yb > m->row1 ? m->row1 : yb;
+    }
+    double *col = calloc(3 * (size_t)w, sizeof(double)), *row = calloc(3 * (size_t)h,
+                                                                       sizeof(double));
+    double *dc = calloc(3 * (size_t)w, sizeof(double)), *dr = calloc(3 * (size_t)h,
+                                                                     sizeof(double));
+    region r = {x0, x1, y0, y1, 0, 0};
+    envl__cut_marginals_of(m, t, &r, col, row);
+    for (int y = ya; y < yb; y++)
+        for (int x = x0; x < x1; x++) {
+            int c = x % W;
+            const float *p = m->px + 3 * ((size_t)y * W + c);
+            double d[3];
+            envl_envmap_direction(m, c, y, d);
+            double e = envl_luminance(p[0], p[1], p[2]) * envl_envmap_solid_angle(m, y);
+            double ct = sqrt(d[0] * d[0] + d[1] * d[1]);
+            double *a = dc + 3 * (x - x0), *b = dr + 3 * (y - y0);
+            a[0] += e, a[1] += e * ct, a[2] += e * d[2];
+            b[0] += e, b[1] += e * d[0] / ct, b[2] += e * d[1] / ct;
+        }
+    /* the direction's terms from the test's own trigonometry: 1e-15 of each */
+    for (int i = 0; i < 3 * w; i++)
+        CHECK(fabs(col[i] - dc[i]) <= (2.0 * h * 0x1p-53 + 1e-15) * dc[3 * (i / 3)] + 1e-300);
+    for (int j = 0; j < 3 * h; j++)
+        CHECK(fabs(row[j] - dr[j]) <= (2.0 * w * 0x1p-53 + 1e-15) * dr[3 * (j / 3)] + 1e-300);
+    free(col);
+    free(row);
+    free(dc);
+    free(dr);
+}
+
+static void test_cut_marginals(void)
+{
+    const int w = 333, h = 197; /* 5 blocks of 64 and 13 columns; 3 of 64 rows and 5 */
+    float *px = malloc(sizeof(float) * 3 * w * h);
+    uint32_t seed = 11;
+    for (int i = 0; i < 3 * w * h; i++) {
+        seed = seed * 1664525u + 1013904223u;
+        px[i] = (float)((seed >> 8) / 16777216.0 * (i % 29 == 0 ? 1e4 : 1.0));
+    }
+    envl_envmap *m = map_of(px, w, h, 0), *half = NULL;
+    CHECK_OK(envl__envmap_window(m, 70, 160, &half));
+    envl_envmap *maps[2] = {m, half};
+    for (int k = 0; k < 2; k++) {
+        cut_marginals t;
+        CHECK_OK(envl__cut_marginals_build(maps[k], &t));
+        check_marginals(maps[k], &t, 0, w, 0, h);          /* the whole map */
+        check_marginals(maps[k], &t, 64, 128, 64, 128);    /* exactly one block */
+        check_marginals(maps[k], &t, 300, 300 + w, 0, h);  /* across the seam */
+        for (int n = 0; n < 200; n++) {
+            seed = seed * 1664525u + 1013904223u;
+            int x0 = (int)(seed % w), wd = 1 + (int)((seed >> 9) % w);
+            seed = seed * 1664525u + 1013904223u;
+            int y0 = (int)(seed % h), y1 = y0 + 1 + (int)((seed >> 9) % (h - y0));
+            check_marginals(maps[k], &t, x0, x0 + wd, y0, y1);
+        }
+        envl__cut_marginals_free(&t);
+    }
+    envl_envmap_free(half);
+    envl_envmap_free(m);
+    free(px);
+}
+
 /* ---- sun: the map's suns split off exactly ---- */
 
 static int cmp_float_desc(const void *a, const void *b)
@@ -985,6 +1059,7 @@ int main(void)
     test_fit_light_size();
     test_fit_lights_alone();
     test_region_table();
+    test_cut_marginals();
     test_sun_sky();
     test_sun_none();
     test_sun_count();

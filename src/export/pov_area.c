@@ -68,7 +68,7 @@ void pov_area_shape(const envl_envmap *m, double sun_threshold, pov_light *p)
         for (int32_t x = x0; x < x1; x++) {
             int32_t c = x % w;
             const float *px = m->px + 3 * ((size_t)w * r + c);
-            double y = envl_luminance(px[0], px[1], px[2]);
+            double y = envl__lum(px[0], px[1], px[2]);
             /* a sun is its excess over the split's threshold (sun_split.c) */
             double keep = sun_threshold > 0 ? (y > sun_threshold ? 1 - sun_threshold / y : 0) : 1;
             if (!(keep > 0))

@@ -67,7 +67,7 @@ double preview_auto_exposure(const envl_envmap *map)
         double om = envl_envmap_solid_angle(map, r), rs = 0;
         for (int32_t c = 0; c < w; c++) {
             const float *p = px + 3 * ((size_t)r * w + c);
-            rs += log(1e-4 + envl_luminance(p[0], p[1], p[2]));
+            rs += log(1e-4 + envl__lum(p[0], p[1], p[2]));
         }
         s += om * rs;
         ws += om * w;

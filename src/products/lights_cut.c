@@ -113,9 +113,9 @@ static void consider_split(double le, const double ls[3], double tot_e, const do
 
 /* Splits where the larger of the halves' variances is least, over both axes. Marginals of the
  * region (per column: sum e, e cos t, e sin t; per row: sum e, e cos p, e sin p) give every
- * candidate's sums by prefix sums. Cost: one pass over the region. */
-static int split_variance(const envl_envmap *m, region *r, region *a, region *b, double *var_a,
-                          double *var_b)
+ * candidate's sums by prefix sums; the marginals from the cut's block sums (cut_marginals.c). */
+static int split_variance(const envl_envmap *m, const cut_marginals *t, region *r, region *a,
+                          region *b, double *var_a, double *var_b)
 {
     int32_t w = r->x1 - r->x0, h = r->y1 - r->y0, W = m->width;
     if (w <= 1 && h <= 1)
@@ -127,24 +127,7 @@ static int split_variance(const envl_envmap *m, region *r, region *a, region *b,
         free(row);
         return -1;
     }
-    int32_t ya = r->y0, yb = r->y1; /* a window's other rows add nothing */
-    envl__window_rows(m, &ya, &yb);
-    for (int32_t y = ya; y < yb; y++) {
-        double omega = m->row_omega[y], ct = m->row_cos[y], st = m->row_sin[y];
-        double *rw = row + 3 * (y - r->y0);
-        for (int32_t x = r->x0; x < r->x1; x++) {
-            int32_t c = x < W ? x : x - W;
-            const float *p = m->px + 3 * ((size_t)y * W + c);
-            double e = envl__lum(p[0], p[1], p[2]) * omega;
-            double *cl = col + 3 * (x - r->x0);
-            cl[0] += e;
-            cl[1] += e * ct;
-            cl[2] += e * st;
-            rw[0] += e;
-            rw[1] += e * m->col_cos[c];
-            rw[2] += e * m->col_sin[c];
-        }
-    }
+    envl__cut_marginals_of(m, t, r, col, row);
     best_split best = {INFINITY, 0, 0, -1, 0};
     double tot_e = 0, tot_s[3] = {0, 0, 0};
     for (int32_t i = 0; i < w; i++) {
@@ -195,26 +178,31 @@ static int split_variance(const envl_envmap *m, region *r, region *a, region *b,
     return 1;
 }
 
-/* Variance of a whole region (one pass). */
-static double region_variance(const envl_envmap *m, const region *r)
+/* Variance of a whole region, from its column marginals. */
+static int region_variance(const envl_envmap *m, const cut_marginals *t, const region *r,
+                           double *v)
 {
-    int32_t W = m->width;
-    double e = 0, s[3] = {0, 0, 0};
-    int32_t ya = r->y0, yb = r->y1;
-    envl__window_rows(m, &ya, &yb);
-    for (int32_t y = ya; y < yb; y++) {
-        double omega = m->row_omega[y], ct = m->row_cos[y], st = m->row_sin[y];
-        for (int32_t x = r->x0; x < r->x1; x++) {
-            int32_t c = x < W ? x : x - W;
-            const float *p = m->px + 3 * ((size_t)y * W + c);
-            double v = envl__lum(p[0], p[1], p[2]) * omega;
-            e += v;
-            s[0] += v * ct * m->col_cos[c];
-            s[1] += v * ct * m->col_sin[c];
-            s[2] += v * st;
-        }
+    int32_t w = r->x1 - r->x0, h = r->y1 - r->y0, W = m->width;
+    double *col = calloc((size_t)w * 3, sizeof(double)), *row = calloc((size_t)h * 3,
+                                                                        sizeof(double));
+    if (!col || !row) {
+        free(col);
+        free(row);
+        return -1;
     }
-    return variance_of(e, s);
+    envl__cut_marginals_of(m, t, r, col, row);
+    double e = 0, s[3] = {0, 0, 0};
+    for (int32_t i = 0; i < w; i++) {
+        int32_t c = r->x0 + i < W ? r->x0 + i : r->x0 + i - W;
+        e += col[3 * i];
+        s[0] += m->col_cos[c] * col[3 * i + 1];
+        s[1] += m->col_sin[c] * col[3 * i + 1];
+        s[2] += col[3 * i + 2];
+    }
+    free(col);
+    free(row);
+    *v = variance_of(e, s);
+    return 0;
 }
 
 typedef struct level_job {
@@ -246,6 +234,7 @@ envl_result envl__cut_regions(envl_envmap *m, int32_t method, int32_t n, region 
     region *rs = malloc(sizeof(region) * (size_t)n);
     if (!rs)
         return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+    cut_marginals marg = {0}; /* the variance cut's block sums */
     /* Start at the darkest column of the darkest block of the table: the seam of the first
      * region lies where there is least light. */
     int32_t x0 = 0, b0 = 0;
@@ -287,8 +276,11 @@ envl_result envl__cut_regions(envl_envmap *m, int32_t method, int32_t n, region 
                 break;
         }
         free(halves);
-    } else {
-        rs[0].priority = region_variance(m, &rs[0]);
+    } else if ((rc = envl__cut_marginals_build(m, &marg)) ||
+               region_variance(m, &marg, &rs[0], &rs[0].priority)) {
+        envl__cut_marginals_free(&marg);
+        free(rs);
+        return rc ? rc : envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
     }
     /* Then the splittable region of highest priority (energy, or variance) next. */
     while (k < n) {
@@ -303,8 +295,9 @@ envl_result envl__cut_regions(envl_envmap *m, int32_t method, int32_t n, region 
         if (method == ENVL_METHOD_MEDIAN) {
             split_median(m, &rs[best], &a, &b);
         } else {
-            int s = split_variance(m, &rs[best], &a, &b, &a.priority, &b.priority);
+            int s = split_variance(m, &marg, &rs[best], &a, &b, &a.priority, &b.priority);
             if (s < 0) {
+                envl__cut_marginals_free(&marg);
                 free(rs);
                 return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
             }
@@ -316,6 +309,7 @@ envl_result envl__cut_regions(envl_envmap *m, int32_t method, int32_t n, region 
         rs[best] = a;
         rs[k++] = b;
     }
+    envl__cut_marginals_free(&marg);
     *out = rs;
     *count = k;
     return ENVL_OK;

@@ -113,6 +113,21 @@ envl_result envl__cut_regions(envl_envmap *m, int32_t method, int32_t n, region 
 /* One light per region: rgb = sum of L dw, at the energy-weighted centroid of its directions. */
 void envl__region_lights(const envl_envmap *m, const region *rs, int32_t k, envl_light *out);
 
+/* ---- the variance cut's marginals from block sums (cut_marginals.c) ---- */
+#define CUT_BLOCK 64 /* rows of a row block, columns of a column block */
+typedef struct cut_marginals {
+    int32_t nbx, nby;   /* column blocks, row blocks */
+    double *cols;       /* [by][x][3]: column x over row block by: sum e, e cos t, e sin t */
+    double *rows;       /* [y][bx][3]: row y over column block bx: sum e, e cos p, e sin p */
+    int failed;         /* a thread's scratch could not be allocated */
+} cut_marginals;
+envl_result envl__cut_marginals_build(const envl_envmap *m, cut_marginals *t);
+void envl__cut_marginals_free(cut_marginals *t);
+/* Adds region r's column marginals to col (3 per column, x - x0) and its row marginals to row
+ * (3 per row, y - y0): what one pass over its pixels would sum. */
+void envl__cut_marginals_of(const envl_envmap *m, const cut_marginals *t, const region *r,
+                            double *col, double *row);
+
 /* ---- fit (lights_fit.c, lights_take.c) ---- */
 /* At most K lights + an SH remainder of `order` (-1: none) into ls; keep_residual: ls->residual
  * is the map less what the lights took (else none is kept; the lights are the same). */
