@@ -178,33 +178,6 @@ static int split_variance(const envl_envmap *m, const cut_marginals *t, region *
     return 1;
 }
 
-/* Variance of a whole region, from its column marginals. */
-static int region_variance(const envl_envmap *m, const cut_marginals *t, const region *r,
-                           double *v)
-{
-    int32_t w = r->x1 - r->x0, h = r->y1 - r->y0, W = m->width;
-    double *col = calloc((size_t)w * 3, sizeof(double)), *row = calloc((size_t)h * 3,
-                                                                        sizeof(double));
-    if (!col || !row) {
-        free(col);
-        free(row);
-        return -1;
-    }
-    envl__cut_marginals_of(m, t, r, col, row);
-    double e = 0, s[3] = {0, 0, 0};
-    for (int32_t i = 0; i < w; i++) {
-        int32_t c = r->x0 + i < W ? r->x0 + i : r->x0 + i - W;
-        e += col[3 * i];
-        s[0] += m->col_cos[c] * col[3 * i + 1];
-        s[1] += m->col_sin[c] * col[3 * i + 1];
-        s[2] += col[3 * i + 2];
-    }
-    free(col);
-    free(row);
-    *v = variance_of(e, s);
-    return 0;
-}
-
 typedef struct level_job {
     const envl_envmap *m;
     const region *rs;
@@ -276,12 +249,10 @@ envl_result envl__cut_regions(envl_envmap *m, int32_t method, int32_t n, region 
                 break;
         }
         free(halves);
-    } else if ((rc = envl__cut_marginals_build(m, &marg)) ||
-               region_variance(m, &marg, &rs[0], &rs[0].priority)) {
-        envl__cut_marginals_free(&marg);
+    } else if ((rc = envl__cut_marginals_build(m, &marg))) {
         free(rs);
-        return rc ? rc : envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
-    }
+        return rc;
+    } /* (the first region's variance: no other region to weigh it against) */
     /* Then the splittable region of highest priority (energy, or variance) next. */
     while (k < n) {
         int32_t best = -1;
