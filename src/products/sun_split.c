@@ -43,20 +43,33 @@ envl_result envl__sun_split_lobes(const envl_envmap *m, envl_sun_split *s)
         return ENVL_OK;
     int32_t r0 = 0, r1 = h; /* a window's other rows are black: none is over T */
     envl__window_rows(m, &r0, &r1);
-    size_t count = 0, i0 = (size_t)w * r0, i1 = (size_t)w * r1;
-    for (size_t i = i0; i < i1; i++)
-        count += envl__lum(m->px[3 * i], m->px[3 * i + 1], m->px[3 * i + 2]) > T;
+    /* one pass: the pixels over T, in row-major order (few: on a map with no negative pixel
+     * their solid angle is under 4 pi / SPLIT_K) */
+    size_t count = 0, cap = 0, i0 = (size_t)w * r0, i1 = (size_t)w * r1, *over = NULL;
+    for (size_t i = i0; i < i1; i++) {
+        if (!(envl__lum(m->px[3 * i], m->px[3 * i + 1], m->px[3 * i + 2]) > T))
+            continue;
+        if (count == cap) {
+            size_t *grown = realloc(over, sizeof(size_t) * (cap = cap ? 2 * cap : 1024));
+            if (!grown) {
+                free(over);
+                return envl__fail(ENVL_ERR_MEMORY, "sun split: out of memory");
+            }
+            over = grown;
+        }
+        over[count++] = i;
+    }
     if (count == 0)
         return ENVL_OK;
     if (count > SPLIT_MAX) {
         float *y = malloc(sizeof(float) * count);
-        if (!y)
+        if (!y) {
+            free(over);
             return envl__fail(ENVL_ERR_MEMORY, "sun split: out of memory");
-        size_t k = 0;
-        for (size_t i = i0; i < i1; i++) {
-            double l = envl__lum(m->px[3 * i], m->px[3 * i + 1], m->px[3 * i + 2]);
-            if (l > T)
-                y[k++] = (float)l;
+        }
+        for (size_t k = 0; k < count; k++) {
+            const float *p = m->px + 3 * over[k];
+            y[k] = (float)envl__lum(p[0], p[1], p[2]);
         }
         qsort(y, count, sizeof(float), cmp_desc);
         T = y[SPLIT_MAX];
@@ -64,27 +77,30 @@ envl_result envl__sun_split_lobes(const envl_envmap *m, envl_sun_split *s)
     }
     s->threshold = T;
     s->lobes = malloc(sizeof(envl_sun_lobe) * (count < SPLIT_MAX ? count : SPLIT_MAX));
-    if (!s->lobes)
+    if (!s->lobes) {
+        free(over);
         return envl__fail(ENVL_ERR_MEMORY, "sun split: out of memory");
-    for (int32_t r = r0; r < r1 && s->n < SPLIT_MAX; r++)
-        for (int32_t c = 0; c < w && s->n < SPLIT_MAX; c++) {
-            const float *p = m->px + 3 * ((size_t)r * w + c);
-            double y = envl__lum(p[0], p[1], p[2]);
-            if (!(y > T))
-                continue;
-            envl_sun_lobe *l = s->lobes + s->n++;
-            double f = T / y;
-            for (int k = 0; k < 3; k++) {
-                double keep = p[k] * f;
-                l->e[k] = (p[k] - keep) * m->row_omega[r];
-                l->keep[k] = (float)keep;
-            }
-            l->d[0] = m->row_cos[r] * m->col_cos[c];
-            l->d[1] = m->row_cos[r] * m->col_sin[c];
-            l->d[2] = m->row_sin[r];
-            l->r = r, l->c = c;
-            l->taken = 0;
+    }
+    for (size_t k = 0; k < count && s->n < SPLIT_MAX; k++) {
+        int32_t r = (int32_t)(over[k] / (size_t)w), c = (int32_t)(over[k] % (size_t)w);
+        const float *p = m->px + 3 * over[k];
+        double y = envl__lum(p[0], p[1], p[2]);
+        if (!(y > T))
+            continue;
+        envl_sun_lobe *l = s->lobes + s->n++;
+        double f = T / y;
+        for (int k3 = 0; k3 < 3; k3++) {
+            double keep = p[k3] * f;
+            l->e[k3] = (p[k3] - keep) * m->row_omega[r];
+            l->keep[k3] = (float)keep;
         }
+        l->d[0] = m->row_cos[r] * m->col_cos[c];
+        l->d[1] = m->row_cos[r] * m->col_sin[c];
+        l->d[2] = m->row_sin[r];
+        l->r = r, l->c = c;
+        l->taken = 0;
+    }
+    free(over);
     return ENVL_OK;
 }
 
