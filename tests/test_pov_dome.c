@@ -310,6 +310,48 @@ static void test_dome_windows(void)
     envl_envmap_free(sky);
 }
 
+/* Over a ground (envlight pov --ground, a dome with its bounce pass: pov_include.c) the sky
+ * half is a window of the map's rows, not a copy with the lower half black: the same dome and
+ * the same reference irradiance (the error measure's), bit for bit, on a map wider than the
+ * reference's 256 columns (a resampled copy of the window) and on one narrower (a copy), each
+ * with a glint below the horizon that a window read whole would add. */
+static void test_ground_window(void)
+{
+    const int widths[2] = {512, 200};
+    for (int t = 0; t < 2; t++) {
+        envl_sky_options so = {.width = widths[t]};
+        envl_envmap *sky, *map, *upper, *window;
+        CHECK_OK(envl_envmap_sky(&so, &sky));
+        int32_t w = sky->width, h = sky->height;
+        size_t n = (size_t)3 * w * h;
+        float *px = malloc(sizeof(float) * n);
+        memcpy(px, sky->px, sizeof(float) * n);
+        for (int ch = 0; ch < 3; ch++)
+            px[3 * ((size_t)(h / 2 + 5) * w + w / 3) + ch] = 1e4f;
+        envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG};
+        CHECK_OK(envl_envmap_from_pixels(px, w, h, 3, &lo, &map));
+        CHECK_OK(envl_sky_hemisphere_map(map, 0, &upper));
+        CHECK_OK(envl__envmap_window(map, 0, h / 2, &window));
+        const double *ra, *rb;
+        CHECK_OK(envl_envmap_reference_irradiance(upper, &ra));
+        CHECK_OK(envl_envmap_reference_irradiance(window, &rb));
+        CHECK(!memcmp(ra, rb, sizeof(double) * 3 * ENVL_ERROR_NORMALS));
+        pov_light *a = NULL, *b = NULL;
+        int32_t na = 0, sa = 0, ba = 0, nb = 0, sb = 0, bb = 0;
+        CHECK_OK(pov_dome_lights(upper, NULL, 48, 0, &a, &na, &sa, &ba));
+        CHECK_OK(pov_dome_lights(window, NULL, 48, 0, &b, &nb, &sb, &bb));
+        CHECK(na == 48 && nb == na && sb == sa && ba == 0 && bb == 0);
+        CHECK(a && b && !memcmp(a, b, sizeof *a * (size_t)na));
+        free(a);
+        free(b);
+        free(px);
+        envl_envmap_free(window);
+        envl_envmap_free(upper);
+        envl_envmap_free(map);
+        envl_envmap_free(sky);
+    }
+}
+
 int main(void)
 {
     test_patch_grid();
@@ -317,5 +359,6 @@ int main(void)
     test_horizon_point();
     test_dome_sky();
     test_dome_windows();
+    test_ground_window();
     return check_report("test_pov_dome");
 }

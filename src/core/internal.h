@@ -241,6 +241,12 @@ envl_result envl__latlong_resample_patched(const float *src, int32_t w, int32_t 
                                            const envl_pixel_patch *patch, int32_t npatch,
                                            int32_t out_w, int32_t out_h, double rotate_degrees,
                                            float **out);
+/* The same with the rows outside [row0, row1) read as black (a window of the map's rows,
+ * envl__envmap_window): what resampling a copy of src with those rows black gives. */
+envl_result envl__latlong_resample_rows(const float *src, int32_t w, int32_t h, int32_t row0,
+                                        int32_t row1, const envl_pixel_patch *patch,
+                                        int32_t npatch, int32_t out_w, int32_t out_h,
+                                        double rotate_degrees, float **out);
 /* An envmap of a lat-long RGB image (w x h x 3 floats, malloc'd, row 0 on top) that takes the
  * pixels over without a copy; they are freed on failure too (envmap.c). `name` names the map
  * in messages and its info. */
@@ -249,6 +255,11 @@ envl_result envl__envmap_adopt(float *px, int32_t w, int32_t h, const envl_load_
 envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h,
                                            const envl_pixel_patch *patch, int32_t npatch,
                                            int32_t out_w, int32_t threads, envl_envmap **out);
+
+/* ---- the ground plane (ground.c) ---- */
+/* albedo x E_up / pi, the radiance a Lambertian plane of that albedo under map shows
+ * (envl_ground_plane_map's ground_rgb, without its copy of the map). */
+envl_result envl__ground_radiance(const envl_envmap *map, double albedo, double ground_rgb[3]);
 
 /* ---- lights (lights.c, lights_sun.c) ---- */
 /* The residual of the lights `ls` of m as a map of `threads` threads that owns its pixels (one

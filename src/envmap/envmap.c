@@ -386,21 +386,34 @@ envl_result envl__envmap_resampled(const float *px, int32_t w, int32_t h, int32_
     return envl__envmap_resampled_patched(px, w, h, NULL, 0, out_w, threads, out);
 }
 
-envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h,
-                                           const envl_pixel_patch *patch, int32_t npatch,
-                                           int32_t out_w, int32_t threads, envl_envmap **out)
+static envl_result resampled(const float *px, int32_t w, int32_t h, int32_t row0, int32_t row1,
+                             const envl_pixel_patch *patch, int32_t npatch, int32_t out_w,
+                             int32_t threads, envl_envmap **out)
 {
     *out = NULL;
     int32_t out_h = (int32_t)fmax(1, llround((double)out_w * h / w));
     float *spx;
-    envl_result rc = envl__latlong_resample_patched(px, w, h, patch, npatch, out_w, out_h, 0.0,
-                                                    &spx);
+    envl_result rc = envl__latlong_resample_rows(px, w, h, row0, row1, patch, npatch, out_w,
+                                                 out_h, 0.0, &spx);
     if (rc)
         return rc;
     envl_load_options lo = {.layout = ENVL_LAYOUT_LATLONG, .threads = threads};
     rc = envl_envmap_from_pixels(spx, out_w, out_h, 3, &lo, out);
     free(spx);
     return rc;
+}
+
+envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h,
+                                           const envl_pixel_patch *patch, int32_t npatch,
+                                           int32_t out_w, int32_t threads, envl_envmap **out)
+{
+    return resampled(px, w, h, 0, h, patch, npatch, out_w, threads, out);
+}
+
+envl_result envl__envmap_window_copy(const envl_envmap *m, int32_t out_w, envl_envmap **out)
+{
+    return resampled(m->px, m->width, m->height, m->window ? m->row0 : 0,
+                     m->window ? m->row1 : m->height, NULL, 0, out_w, m->threads, out);
 }
 
 envl_result envl__envmap_adopt(float *px, int32_t w, int32_t h, const envl_load_options *o,
@@ -678,6 +691,8 @@ static int too_coarse(int32_t w, int32_t h)
 {
     return w < 16 || h < 8 || w < h || w > 4 * (int64_t)h;
 }
+
+int envl__points_fine(const envl_envmap *m) { return !too_coarse(m->width, m->height); }
 
 envl_result envl__points_copy(const envl_envmap *m, envl_envmap **copy)
 {

@@ -59,6 +59,10 @@ static inline void envl__window_rows(const envl_envmap *m, int32_t *y0, int32_t 
  * read it as such. */
 envl_result envl__envmap_window(const envl_envmap *map, int32_t row0, int32_t row1,
                                 envl_envmap **out);
+/* A map of its own of a window's pixels, its other rows black, resampled to out_w wide (height
+ * in proportion; out_w = the width: a copy): what resampling a copy of the map with those rows
+ * black gives, bit for bit. */
+envl_result envl__envmap_window_copy(const envl_envmap *m, int32_t out_w, envl_envmap **out);
 
 /* The GGX sums (the levels' cell pyramid, the glossy reference) take each pixel as a point at
  * its centre. A map whose pixels are too coarse for that (fewer than 16 columns or 8 rows, or
@@ -69,6 +73,8 @@ envl_result envl__envmap_window(const envl_envmap *map, int32_t row0, int32_t ro
  * envl__points_copy: *copy NULL when m is fine as it is, else that copy (the caller frees it);
  * envl__points_map: m itself or the copy, cached on m (envl_envmap_drop_mips frees it). */
 envl_result envl__points_copy(const envl_envmap *m, envl_envmap **copy);
+/* 1 when m's pixels are fine enough as points: envl__points_copy makes no copy of it. */
+int envl__points_fine(const envl_envmap *m);
 envl_result envl__points_map(envl_envmap *m, envl_envmap **out);
 
 /* ---- the lights' region table (region_table.c): sums over pixel rectangles ---- */

@@ -60,7 +60,8 @@ static void resample_row(const float *in, int32_t w, float *out, int32_t out_w, 
 }
 
 /* The input rows, with the patched pixels replaced: a row that holds a patch is copied into
- * `line` and patched (the last such row is kept there). */
+ * `line` and patched (the last such row is kept there); a row outside [row0, row1) is `zero`,
+ * black. */
 typedef struct row_source {
     const float *src;
     int32_t w;
@@ -68,10 +69,14 @@ typedef struct row_source {
     int32_t npatch;
     float *line;
     int32_t line_row;
+    int32_t row0, row1;
+    const float *zero;
 } row_source;
 
 static const float *source_row(row_source *s, int32_t k)
 {
+    if (k < s->row0 || k >= s->row1)
+        return s->zero;
     const float *row = s->src + (size_t)k * s->w * 3;
     int32_t lo = 0, hi = s->npatch; /* the first patch of row >= k */
     while (lo < hi) {
@@ -103,9 +108,19 @@ envl_result envl__latlong_resample_patched(const float *src, int32_t w, int32_t 
                                            int32_t out_w, int32_t out_h, double rotate_degrees,
                                            float **out)
 {
+    return envl__latlong_resample_rows(src, w, h, 0, h, patch, npatch, out_w, out_h,
+                                       rotate_degrees, out);
+}
+
+envl_result envl__latlong_resample_rows(const float *src, int32_t w, int32_t h, int32_t row0,
+                                        int32_t row1, const envl_pixel_patch *patch,
+                                        int32_t npatch, int32_t out_w, int32_t out_h,
+                                        double rotate_degrees, float **out)
+{
     *out = NULL;
     if (w <= 0 || h <= 0 || out_w <= 0 || out_h <= 0)
         return envl__fail(ENVL_ERR_ARGUMENT, "resample: sizes must be positive");
+    int whole = row0 <= 0 && row1 >= h; /* no row reads as black */
     /* Turning the map by +a about +Z moves a feature from phi to phi + a, i.e. from u to
      * u - a/360: the output at u samples the input at u + a/360. */
     double turns = fmod(rotate_degrees / 360.0, 1.0);
@@ -120,18 +135,20 @@ envl_result envl__latlong_resample_patched(const float *src, int32_t w, int32_t 
      * prefilter's pyramid). Same arithmetic as a full column pass, so the same floats. */
     float *row = out_h == h ? NULL : malloc(2 * n_row * sizeof(float));
     double *acc = out_h == h ? NULL : malloc(n_row * sizeof(double));
+    float *zero = whole ? NULL : calloc(3 * (size_t)w, sizeof(float));
     row_source rs = {src, w, patch, npatch, npatch ? malloc(sizeof(float) * 3 * (size_t)w) : NULL,
-                     -1};
-    if (!dst || (out_h != h && (!row || !acc)) || (npatch && !rs.line)) {
+                     -1, row0, row1, zero};
+    if (!dst || (out_h != h && (!row || !acc)) || (npatch && !rs.line) || (!whole && !zero)) {
         free(dst);
         free(row);
         free(acc);
         free(rs.line);
+        free(zero);
         return envl__fail(ENVL_ERR_MEMORY, "resample: cannot allocate %d x %d", (int)out_w,
                           (int)out_h);
     }
     if (out_h == h) {
-        if (plain && !npatch)
+        if (plain && !npatch && whole)
             memcpy(dst, src, n_out * sizeof(float));
         else if (plain)
             for (int32_t r = 0; r < h; r++)
@@ -176,6 +193,7 @@ envl_result envl__latlong_resample_patched(const float *src, int32_t w, int32_t 
     free(row);
     free(acc);
     free(rs.line);
+    free(zero);
     *out = dst;
     return ENVL_OK;
 }

@@ -227,20 +227,34 @@ static envl_result out_of_memory(void) { return envl__fail(ENVL_ERR_MEMORY, "pov
 static envl_result compute_maps(const pov_plan *p, int32_t threads, pov_work *w)
 {
     w->lit = w->map;
+    int dome = p->recipe == POV_RECIPE_DOME || p->recipe == POV_RECIPE_DOME_AMBIENT;
+    /* A dome with its bounce pass over a ground reads only the sky half (its lights, their
+     * reference; the ground's light is radiosity's): on a map of even height that half is a
+     * window of the map's own rows, and the map with its ground (`grounded`) is not made, two
+     * copies of the map fewer (a 16K map's 1.5 GiB each). */
+    int window = dome && p->bounce && p->ground >= 0 && w->map->height % 2 == 0 &&
+                 envl__points_fine(w->map);
+    w->ground_plane = p->ground >= 0;
     if (p->ground >= 0) {
-        envl_result r = envl_ground_plane_map(w->map, p->ground, threads, &w->grounded,
-                                              w->ground_radiance);
+        envl_result r = window ? envl__ground_radiance(w->map, p->ground, w->ground_radiance)
+                               : envl_ground_plane_map(w->map, p->ground, threads, &w->grounded,
+                                                       w->ground_radiance);
         if (r)
             return r == ENVL_ERR_MEMORY ? out_of_memory() : r;
-        w->lit = w->grounded;
+        if (w->grounded)
+            w->lit = w->grounded;
     }
     /* A dome over a ground takes its lights from the sky half: the plane would shadow any
      * light below the horizon. The dome (pov_dome.c) always cuts the sky half apart, and
      * without a ground the lower half too: from the map's own rows when the horizon lies
      * between two (an even height), else from copies. */
     w->cut_map = w->lit;
-    int dome = p->recipe == POV_RECIPE_DOME || p->recipe == POV_RECIPE_DOME_AMBIENT;
-    if ((dome && w->grounded) || (p->recipe == POV_RECIPE_DOME && w->map->height % 2)) {
+    if (window) {
+        envl_result r = envl__envmap_window(w->map, 0, w->map->height / 2, &w->sky_half);
+        if (r)
+            return r == ENVL_ERR_MEMORY ? out_of_memory() : r;
+        w->cut_map = w->sky_half;
+    } else if ((dome && w->grounded) || (p->recipe == POV_RECIPE_DOME && w->map->height % 2)) {
         envl_result r = envl_sky_hemisphere_map(w->map, threads, &w->sky_half);
         if (r)
             return r;
@@ -334,7 +348,7 @@ static envl_result lights_as_placed(pov_work *w)
 /* The dome's lights (pov_dome.c) and a summary of them as one set. */
 static envl_result dome_lights(const pov_plan *p, int32_t count, int32_t threads, pov_work *w)
 {
-    envl_result r = pov_dome_lights(w->sky_half, w->grounded ? NULL : w->map, count, threads,
+    envl_result r = pov_dome_lights(w->sky_half, w->ground_plane ? NULL : w->map, count, threads,
                                     &w->lights, &w->nlights, &w->suns, &w->below);
     if (r)
         return r;
@@ -618,8 +632,8 @@ static void fill_result(const pov_plan *p, pov_work *w, envl_pov_result *res)
     res->ambient_terms = p->ambient != ENVL_POV_AMBIENT_NONE ? w->rd.terms : 0;
     res->ambient_least = w->amb_least;
     res->ambient_negative = w->amb_negative;
-    res->ground_plane = w->grounded != NULL;
-    res->ground_albedo = w->grounded ? p->ground : 0;
+    res->ground_plane = w->ground_plane;
+    res->ground_albedo = w->ground_plane ? p->ground : 0;
     memcpy(res->ground_radiance, w->ground_radiance, sizeof res->ground_radiance);
     res->diffuse_error = w->error;
     res->exposure_auto = w->exposure_auto;

@@ -56,23 +56,31 @@ static envl_result replace_lower_hemisphere(const envl_envmap *map, const double
     return envl__envmap_adopt(px, w, h, &lo, "", out);
 }
 
-envl_result envl_ground_plane_map(const envl_envmap *map, double albedo, int32_t threads,
-                                  envl_envmap **out, double ground_rgb[3])
+envl_result envl__ground_radiance(const envl_envmap *map, double albedo, double ground_rgb[3])
 {
-    *out = NULL;
     if (!(albedo >= 0 && albedo <= 1))
         return envl__fail(ENVL_ERR_ARGUMENT, "ground plane: albedo %g is not in 0..1", albedo);
     const double up[3] = {0, 0, 1};
-    double e_up[3], ground[3];
+    double e_up[3];
     envl_result rc = envl_irradiance_exact(map, 1, up, e_up);
     if (rc)
         return rc;
     for (int k = 0; k < 3; k++)
-        ground[k] = albedo * e_up[k] / ENVL_PI;
+        ground_rgb[k] = albedo * e_up[k] / ENVL_PI;
+    return ENVL_OK;
+}
+
+envl_result envl_ground_plane_map(const envl_envmap *map, double albedo, int32_t threads,
+                                  envl_envmap **out, double ground_rgb[3])
+{
+    *out = NULL;
+    double ground[3];
+    envl_result rc = envl__ground_radiance(map, albedo, ground);
+    if (rc)
+        return rc;
     if (ground_rgb)
         for (int k = 0; k < 3; k++)
             ground_rgb[k] = ground[k];
-
     return replace_lower_hemisphere(map, ground, threads, out);
 }
 

@@ -580,6 +580,24 @@ double envl_relative_rms_luminance(int32_t count, const double *approx, const do
  * the tree serves it. The copy is cached in the map (the fit's target sums over it too). */
 envl_result envl__reference_copy(envl_envmap *m, const envl_envmap **out)
 {
+    if (m->window) {
+        /* a window of the map's rows (the others black): a map of its own of them, at most
+         * ENVL_REFERENCE_WIDTH wide, the same pixels as the copy with those rows black would
+         * give. Only of a map whose pixels need no points copy (pov_include.c makes no other) */
+        *out = NULL;
+        if (!envl__points_fine(m))
+            return envl__fail(ENVL_ERR_ARGUMENT, "reference: a window of a %d x %d map, too "
+                              "coarse for its reference", (int)m->width, (int)m->height);
+        if (!m->reference_copy) {
+            envl_result rc = envl__envmap_window_copy(
+                m, m->width < ENVL_REFERENCE_WIDTH ? m->width : ENVL_REFERENCE_WIDTH,
+                &m->reference_copy);
+            if (rc)
+                return rc;
+        }
+        *out = m->reference_copy;
+        return ENVL_OK;
+    }
     envl_envmap *src;
     envl_result rc = envl__points_map(m, &src);
     *out = src;
