@@ -258,8 +258,10 @@ envl_result envl__envmap_resampled_patched(const float *px, int32_t w, int32_t h
 
 /* ---- the ground plane (ground.c) ---- */
 /* albedo x E_up / pi, the radiance a Lambertian plane of that albedo under map shows
- * (envl_ground_plane_map's ground_rgb, without its copy of the map). */
-envl_result envl__ground_radiance(const envl_envmap *map, double albedo, double ground_rgb[3]);
+ * (envl_ground_plane_map's ground_rgb, without its copy of the map); E_up itself, the map's
+ * exact irradiance at +Z, in e_up (may be NULL). */
+envl_result envl__ground_radiance(const envl_envmap *map, double albedo, double ground_rgb[3],
+                                  double e_up[3]);
 
 /* ---- lights (lights.c, lights_sun.c) ---- */
 /* The residual of the lights `ls` of m as a map of `threads` threads that owns its pixels (one

@@ -236,9 +236,11 @@ static envl_result compute_maps(const pov_plan *p, int32_t threads, pov_work *w)
                  envl__points_fine(w->map);
     w->ground_plane = p->ground >= 0;
     if (p->ground >= 0) {
-        envl_result r = window ? envl__ground_radiance(w->map, p->ground, w->ground_radiance)
+        envl_result r = window ? envl__ground_radiance(w->map, p->ground, w->ground_radiance,
+                                                       w->e_up)
                                : envl_ground_plane_map(w->map, p->ground, threads, &w->grounded,
                                                        w->ground_radiance);
+        w->e_up_known = window && !r; /* lit is the map itself: its E_up, computed once */
         if (r)
             return r == ENVL_ERR_MEMORY ? out_of_memory() : r;
         if (w->grounded)
@@ -464,13 +466,12 @@ static envl_result compute(pov_plan *p, int32_t threads, pov_work *w)
         warn(p, "%s: no light: the environment is black", p->source);
     /* Auto exposure: a white Lambertian surface facing up, unshadowed, reads POV_AUTO_WHITE:
      * its radiance is E_up / pi. */
-    double e_up[3];
     const double up[3] = {0, 0, 1};
-    w->exposure_auto = 1;
-    if (envl_irradiance_exact(w->lit, 1, up, e_up) == ENVL_OK &&
-        envl_luminance(e_up[0], e_up[1], e_up[2]) > 0)
-        w->exposure_auto = POV_AUTO_WHITE * ENVL_PI / envl_luminance(e_up[0], e_up[1], e_up[2]);
-    low_sun(p, w, envl_luminance(e_up[0], e_up[1], e_up[2]));
+    if (!w->e_up_known && envl_irradiance_exact(w->lit, 1, up, w->e_up) != ENVL_OK)
+        w->e_up[0] = w->e_up[1] = w->e_up[2] = 0; /* no exposure, no low sun */
+    double e_up = envl_luminance(w->e_up[0], w->e_up[1], w->e_up[2]);
+    w->exposure_auto = e_up > 0 ? POV_AUTO_WHITE * ENVL_PI / e_up : 1;
+    low_sun(p, w, e_up);
     w->seconds = envl__seconds() - t0;
     return ENVL_OK;
 }

@@ -85,6 +85,8 @@ typedef struct pov_work {
     const double *amb_sh;     /* its irradiance SH: ground_sh, rem or the residual's */
     double ground_sh[4 * 3];
     double ground_radiance[3];
+    double e_up[3];           /* lit's exact irradiance at +Z (once: compute_maps or exposure) */
+    int e_up_known;
     pov_ridge rd;
     double hemi_axis[3], hemi_sky[3], hemi_ground[3];
     double error, amb_least, exposure_auto, seconds;

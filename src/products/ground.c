@@ -56,7 +56,8 @@ static envl_result replace_lower_hemisphere(const envl_envmap *map, const double
     return envl__envmap_adopt(px, w, h, &lo, "", out);
 }
 
-envl_result envl__ground_radiance(const envl_envmap *map, double albedo, double ground_rgb[3])
+envl_result envl__ground_radiance(const envl_envmap *map, double albedo, double ground_rgb[3],
+                                  double e_up_out[3])
 {
     if (!(albedo >= 0 && albedo <= 1))
         return envl__fail(ENVL_ERR_ARGUMENT, "ground plane: albedo %g is not in 0..1", albedo);
@@ -65,8 +66,11 @@ envl_result envl__ground_radiance(const envl_envmap *map, double albedo, double 
     envl_result rc = envl_irradiance_exact(map, 1, up, e_up);
     if (rc)
         return rc;
-    for (int k = 0; k < 3; k++)
+    for (int k = 0; k < 3; k++) {
         ground_rgb[k] = albedo * e_up[k] / ENVL_PI;
+        if (e_up_out)
+            e_up_out[k] = e_up[k];
+    }
     return ENVL_OK;
 }
 
@@ -75,7 +79,7 @@ envl_result envl_ground_plane_map(const envl_envmap *map, double albedo, int32_t
 {
     *out = NULL;
     double ground[3];
-    envl_result rc = envl__ground_radiance(map, albedo, ground);
+    envl_result rc = envl__ground_radiance(map, albedo, ground, NULL);
     if (rc)
         return rc;
     if (ground_rgb)
