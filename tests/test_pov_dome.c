@@ -299,6 +299,25 @@ static void test_dome_windows(void)
     for (int k = 0; k < 3; k++)
         CHECK(window->info.power[k] == upper->info.power[k]);
     envl_envmap_free(window);
+    /* a window takes its map's rows' statistics over, but for the rows a patch wrote (the sun
+     * residual's view): the same as a map of the patched pixels gives */
+    envl_pixel_patch patch[2] = {{10, 7, {1e5f, 2e5f, 3e5f}}, {40, 3, {0, 0, 0}}};
+    envl_envmap *patched, *view;
+    for (int i = 0; i < 2; i++)
+        memcpy(map->px + 3 * ((size_t)patch[i].r * w + patch[i].c), patch[i].rgb,
+               sizeof patch[i].rgb);
+    CHECK_OK(envl_envmap_from_pixels(map->px, w, h, 3, &lo, &patched));
+    CHECK_OK(envl__envmap_window(patched, 0, h / 2, &window));
+    CHECK_OK(envl__envmap_window_patched(map, 0, h / 2, patch, 2, &view));
+    CHECK(!memcmp(&window->info.power, &view->info.power, sizeof view->info.power));
+    CHECK(!memcmp(&window->info.max, &view->info.max, sizeof view->info.max));
+    CHECK(!memcmp(&window->info.brightest_direction, &view->info.brightest_direction,
+                  sizeof view->info.brightest_direction));
+    CHECK(view->info.max[2] == 3e5f && upper->info.max[2] < 3e5f);
+    memcpy(map->px, before, sizeof(float) * n);
+    envl_envmap_free(view);
+    envl_envmap_free(window);
+    envl_envmap_free(patched);
     CHECK(envl__envmap_window(map, h / 2, h / 2, &window) == ENVL_ERR_ARGUMENT && !window);
     CHECK(envl__envmap_window(map, 0, h + 1, &window) == ENVL_ERR_ARGUMENT && !window);
     free(a);

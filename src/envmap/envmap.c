@@ -143,7 +143,7 @@ static envl_result build_tables(envl_envmap *m)
 
 /* One row's share of the statistics: its sum per channel (in column order), maxima, and its
  * first pixel of greatest luminance. */
-typedef struct row_stats {
+typedef struct envl_row_stats {
     double sum[3], max[3], best;
     int32_t best_c;
 } row_stats;
@@ -189,14 +189,30 @@ static void stats_of_rows(void *ctx, int64_t begin, int64_t end)
 }
 
 /* Power, mean, maxima and the brightest direction. Rows in parallel, each summed in column
- * order, then the rows in row order: the same sums as one pass, at any thread count. */
-static envl_result compute_stats(envl_envmap *m)
+ * order, then the rows in row order: the same sums as one pass, at any thread count. A window
+ * of `from`'s pixels (envl__envmap_window) takes from's rows' statistics as they are, but for
+ * its rows outside the window (black) and the rows a patch changed (sorted by row): the same
+ * numbers without the pass. The rows' statistics are kept with the map for its windows. */
+static envl_result compute_stats(envl_envmap *m, const envl_envmap *from,
+                                 const envl_pixel_patch *patch, int32_t npatch)
 {
     envl_info *info = &m->info;
     stats_job j = {m, malloc(sizeof(row_stats) * (size_t)m->height)};
     if (!j.rows)
         return envl__fail(ENVL_ERR_MEMORY, "envmap: cannot allocate the row statistics");
-    envl__parallel_for(m->height, m->threads, stats_of_rows, &j);
+    if (from && from->row_stats && from->px == m->px && from->width == m->width &&
+        from->height == m->height) {
+        memcpy(j.rows, from->row_stats, sizeof(row_stats) * (size_t)m->height);
+        if (m->window) { /* what stats_of_rows gives a row outside the window */
+            stats_of_rows(&j, 0, m->row0);
+            stats_of_rows(&j, m->row1, m->height);
+        }
+        for (int32_t i = 0; i < npatch; i++)
+            if (i == 0 || patch[i].r != patch[i - 1].r)
+                stats_of_rows(&j, patch[i].r, patch[i].r + 1);
+    } else {
+        envl__parallel_for(m->height, m->threads, stats_of_rows, &j);
+    }
     double power[3] = {0, 0, 0}, mx[3] = {0, 0, 0}, best = -1.0;
     int32_t best_c = 0, best_r = 0;
     for (int32_t r = 0; r < m->height; r++) {
@@ -212,7 +228,8 @@ static envl_result compute_stats(envl_envmap *m)
             best_r = r;
         }
     }
-    free(j.rows);
+    free(m->row_stats);
+    m->row_stats = j.rows;
     for (int k = 0; k < 3; k++) {
         info->power[k] = power[k];
         info->mean[k] = power[k] / (4.0 * ENVL_PI);
@@ -323,7 +340,7 @@ envl_result envl__envmap_from_image(envl_image *img, const envl_load_options *op
     envl__image_free(img);
     rc = build_tables(m);
     if (!rc)
-        rc = compute_stats(m);
+        rc = compute_stats(m, NULL, NULL, 0);
     if (rc) {
         envl_envmap_free(m);
         return rc;
@@ -427,7 +444,8 @@ envl_result envl__envmap_adopt(float *px, int32_t w, int32_t h, const envl_load_
 }
 
 static envl_result borrow(float *px, int32_t w, int32_t h, int32_t row0, int32_t row1,
-                          int32_t threads, envl_envmap **out)
+                          int32_t threads, const envl_envmap *from,
+                          const envl_pixel_patch *patch, int32_t npatch, envl_envmap **out)
 {
     *out = NULL;
     envl_envmap *m = calloc(1, sizeof *m);
@@ -451,7 +469,7 @@ static envl_result borrow(float *px, int32_t w, int32_t h, int32_t row0, int32_t
     m->row1 = row1;
     envl_result rc = build_tables(m);
     if (!rc)
-        rc = compute_stats(m);
+        rc = compute_stats(m, from, patch, npatch);
     if (rc) {
         envl_envmap_free(m);
         return rc;
@@ -464,17 +482,25 @@ static envl_result borrow(float *px, int32_t w, int32_t h, int32_t row0, int32_t
 envl_result envl__envmap_borrow(float *px, int32_t w, int32_t h, int32_t threads,
                                 envl_envmap **out)
 {
-    return borrow(px, w, h, 0, h, threads, out);
+    return borrow(px, w, h, 0, h, threads, NULL, NULL, 0, out);
 }
 
 envl_result envl__envmap_window(const envl_envmap *map, int32_t row0, int32_t row1,
                                 envl_envmap **out)
 {
+    return envl__envmap_window_patched(map, row0, row1, NULL, 0, out);
+}
+
+envl_result envl__envmap_window_patched(const envl_envmap *map, int32_t row0, int32_t row1,
+                                        const envl_pixel_patch *patch, int32_t npatch,
+                                        envl_envmap **out)
+{
     *out = NULL;
     if (!(row0 >= 0 && row0 < row1 && row1 <= map->height))
         return envl__fail(ENVL_ERR_ARGUMENT, "envmap: rows [%d, %d) are no window of a map %d "
                           "rows high", (int)row0, (int)row1, (int)map->height);
-    return borrow(map->px, map->width, map->height, row0, row1, map->threads, out);
+    return borrow(map->px, map->width, map->height, row0, row1, map->threads, map, patch,
+                  npatch, out);
 }
 
 envl_result envl_envmap_from_pixels(const float *pixels, int32_t width, int32_t height,
@@ -633,6 +659,7 @@ void envl_envmap_free(envl_envmap *m)
     free(m->reference);
     envl_envmap_free(m->reference_copy);
     free(m->region_table);
+    free(m->row_stats);
     free(m->mip_px);
     free(m->cells);
     envl_envmap_free(m->points_copy);

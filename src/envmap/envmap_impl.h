@@ -29,6 +29,8 @@ struct envl_envmap {
     struct envl_envmap *reference_copy; /* cached: the map area-resampled to
                                            ENVL_REFERENCE_WIDTH when wider (irradiance.c) */
     double *region_table; /* cached region table of the lights (region_table.c) */
+    struct envl_row_stats *row_stats; /* per row: sums, maxima, brightest pixel (envmap.c):
+                                         a window of the map takes them over */
     /* mips.c: the cached area-averaged mip pyramid. Level 0 is px itself; levels mip_first ..
      * mip_levels - 1 live in mip_px at mip_offset[level] (floats; levels 1 .. mip_first - 1,
      * wider than 4096, are not kept). mip_levels 0: not built. */
@@ -59,6 +61,11 @@ static inline void envl__window_rows(const envl_envmap *m, int32_t *y0, int32_t 
  * read it as such. */
 envl_result envl__envmap_window(const envl_envmap *map, int32_t row0, int32_t row1,
                                 envl_envmap **out);
+/* The same window of map's pixels while `patch` (sorted by row) is written into them: the
+ * statistics of the patched rows are the pixels' as they now are, the other rows' map's. */
+envl_result envl__envmap_window_patched(const envl_envmap *map, int32_t row0, int32_t row1,
+                                        const envl_pixel_patch *patch, int32_t npatch,
+                                        envl_envmap **out);
 /* A map of its own of a window's pixels, its other rows black, resampled to out_w wide (height
  * in proportion; out_w = the width: a copy): what resampling a copy of the map with those rows
  * black gives, bit for bit. */

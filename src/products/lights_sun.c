@@ -143,7 +143,8 @@ envl_result envl__sun_residual_view(envl_envmap *m, const envl_lights *ls, int32
                ls->patch[i].rgb, sizeof ls->patch[i].rgb);
     *saved = keep;
     /* a window's rest is the same window */
-    envl_result rc = m->window ? envl__envmap_window(m, m->row0, m->row1, out)
+    envl_result rc = m->window ? envl__envmap_window_patched(m, m->row0, m->row1, ls->patch,
+                                                             ls->npatch, out)
                                : envl__envmap_borrow(m->px, m->width, m->height, threads, out);
     if (rc) {
         envl__sun_residual_view_end(m, ls, keep, NULL);
