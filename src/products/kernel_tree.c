@@ -134,18 +134,30 @@ static void build_leaf_rows(void *ctx, int64_t begin, int64_t end)
         for (int32_t pr = r0; pr < r1; pr++) {
             double mw = mo->row_w[pr], ma = mo->row_a[pr], mz = mo->row_z[pr];
             const float *p = t->px + (size_t)pr * t->w * 3;
-            for (int32_t c = 0; c < t->w; c++) {
-                double *s = row + (size_t)(c / L->bs) * ns, *m = s + ch;
-                double dx = ma * mo->col_x[c], dy = ma * mo->col_y[c];
-                for (int32_t k = 0; k < 3; k++) {
-                    double l = p[3 * c + k];
-                    s[k] += l * mw;
-                    m[3 * k] += l * dx, m[3 * k + 1] += l * dy, m[3 * k + 2] += l * mz;
+            /* block by block, each block's pixels in column order into locals (registers,
+             * not a load and a store per term): every sum takes its terms in the same order */
+            for (int32_t b = 0, c0 = 0; b < L->lw; b++, c0 += L->bs) {
+                double *s = row + (size_t)b * ns, *m = s + ch;
+                int32_t c1 = c0 + L->bs < t->w ? c0 + L->bs : t->w;
+                double s0 = s[0], s1 = s[1], s2 = s[2];
+                double m0 = m[0], m1 = m[1], m2 = m[2], m3 = m[3], m4 = m[4], m5 = m[5];
+                double m6 = m[6], m7 = m[7], m8 = m[8];
+                for (int32_t c = c0; c < c1; c++) {
+                    double dx = ma * mo->col_x[c], dy = ma * mo->col_y[c];
+                    double l0 = p[3 * c], l1 = p[3 * c + 1], l2 = p[3 * c + 2];
+                    s0 += l0 * mw, m0 += l0 * dx, m1 += l0 * dy, m2 += l0 * mz;
+                    s1 += l1 * mw, m3 += l1 * dx, m4 += l1 * dy, m5 += l1 * mz;
+                    s2 += l2 * mw, m6 += l2 * dx, m7 += l2 * dy, m8 += l2 * mz;
                 }
-                if (ch == 4) {
-                    s[3] += mw;
-                    m[9] += dx, m[10] += dy, m[11] += mz;
-                }
+                s[0] = s0, s[1] = s1, s[2] = s2;
+                m[0] = m0, m[1] = m1, m[2] = m2, m[3] = m3, m[4] = m4, m[5] = m5;
+                m[6] = m6, m[7] = m7, m[8] = m8;
+                if (ch == 4)
+                    for (int32_t c = c0; c < c1; c++) {
+                        double dx = ma * mo->col_x[c], dy = ma * mo->col_y[c];
+                        s[3] += mw;
+                        m[9] += dx, m[10] += dy, m[11] += mz;
+                    }
             }
         }
     }
