@@ -234,7 +234,6 @@ static envl_result compute_maps(const pov_plan *p, int32_t threads, pov_work *w)
      * copies of the map fewer (a 16K map's 1.5 GiB each). */
     int window = dome && p->bounce && p->ground >= 0 && w->map->height % 2 == 0 &&
                  envl__points_fine(w->map);
-    w->ground_plane = p->ground >= 0;
     if (p->ground >= 0) {
         envl_result r = window ? envl__ground_radiance(w->map, p->ground, w->ground_radiance,
                                                        w->e_up)
@@ -350,7 +349,7 @@ static envl_result lights_as_placed(pov_work *w)
 /* The dome's lights (pov_dome.c) and a summary of them as one set. */
 static envl_result dome_lights(const pov_plan *p, int32_t count, int32_t threads, pov_work *w)
 {
-    envl_result r = pov_dome_lights(w->sky_half, w->ground_plane ? NULL : w->map, count, threads,
+    envl_result r = pov_dome_lights(w->sky_half, p->ground >= 0 ? NULL : w->map, count, threads,
                                     &w->lights, &w->nlights, &w->suns, &w->below);
     if (r)
         return r;
@@ -633,8 +632,8 @@ static void fill_result(const pov_plan *p, pov_work *w, envl_pov_result *res)
     res->ambient_terms = p->ambient != ENVL_POV_AMBIENT_NONE ? w->rd.terms : 0;
     res->ambient_least = w->amb_least;
     res->ambient_negative = w->amb_negative;
-    res->ground_plane = w->ground_plane;
-    res->ground_albedo = w->ground_plane ? p->ground : 0;
+    res->ground_plane = p->ground >= 0;
+    res->ground_albedo = p->ground >= 0 ? p->ground : 0;
     memcpy(res->ground_radiance, w->ground_radiance, sizeof res->ground_radiance);
     res->diffuse_error = w->error;
     res->exposure_auto = w->exposure_auto;

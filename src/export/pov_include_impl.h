@@ -69,8 +69,6 @@ typedef struct pov_work {
     envl_envmap *cut_map;     /* where the lights come from (a dome over a ground: the sky half) */
     envl_envmap *grounded, *sky_half, *residual; /* owned (sky_half may be a window of map's
                                                     rows: compute_maps) */
-    int ground_plane;         /* a ground plane (--ground): grounded, or for a dome with its
-                                 bounce pass only the sky half (grounded NULL) */
     envl_info info;
     envl_lights *ls;          /* the lights computed by one cut (NULL for the dome: lights) */
     envl_lights_summary s;    /* their summary (the dome's: method variance, its count) */

@@ -223,11 +223,11 @@ static void text_recipe(FILE *f, const pov_plan *p, const pov_work *w)
 static void text_error(FILE *f, const pov_plan *p, const pov_work *w)
 {
     const double *g = w->ground_radiance;
-    if (w->ground_plane && p->bounce) {
+    if (p->ground >= 0 && p->bounce) {
         fprintf(f, "// ground plane (canonical z = 0, POV-Ray y = 0), albedo %.9g: the lights "
                 "come from the sky\n//   above it; its bounce (albedo * E_up / pi = <%.6g, "
                 "%.6g, %.6g> unoccluded) is radiosity's\n", p->ground, g[0], g[1], g[2]);
-    } else if (w->ground_plane) {
+    } else if (p->ground >= 0) {
         fprintf(f, "// ground plane (canonical z = 0, POV-Ray y = 0), albedo %.9g: the lower "
                 "hemisphere\n//   is its radiance albedo * E_up / pi = <%.6g, %.6g, %.6g>; "
                 "lights, ambient and\n//   error are those of the map so edited\n", p->ground,
@@ -236,7 +236,7 @@ static void text_error(FILE *f, const pov_plan *p, const pov_work *w)
     fprintf(f, "// diffuse error %.4f %% (lights + ambient as written, against the exact "
             "integrator%s,\n//   relative RMS luminance over 1024 normals, unoccluded); "
             "%.3f s\n", 100 * w->error,
-            p->bounce ? (w->ground_plane ? " of the sky half: the bounces are radiosity's"
+            p->bounce ? (p->ground >= 0 ? " of the sky half: the bounces are radiosity's"
                                      : ": the bounces are radiosity's")
                       : "",
             w->seconds);
@@ -302,7 +302,7 @@ static void text_scene(FILE *f, const pov_plan *p, const pov_work *w)
     fprintf(f, "#declare EnvLight_Method = \"%s\";\n", envl_method_name(w->s.method));
     fprintf(f, "#declare EnvLight_Diffuse_Error = %.9g;\n", w->error);
     fprintf(f, "#declare EnvLight_Seconds = %.6g;\n", w->seconds);
-    if (w->ground_plane) {
+    if (p->ground >= 0) {
         fprintf(f, "#declare EnvLight_Ground_Albedo = %.9g;\n", p->ground);
         fputs("#declare EnvLight_Ground_Radiance = ", f);
         pov_rgb(f, w->ground_radiance, 1);
