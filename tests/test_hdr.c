@@ -1197,6 +1197,57 @@ static void test_infile_changes(void)
     remove(path);
 }
 
+/* The flag of the mapping that holds `p` in /proc/self/smaps ("THPeligible:" 0 or 1), or -1. */
+static int thp_eligible(const void *p)
+{
+    FILE *f = fopen("/proc/self/smaps", "r");
+    if (!f)
+        return -1;
+    char line[256];
+    int in = 0, flag = -1;
+    while (fgets(line, sizeof line, f)) {
+        unsigned long lo, hi;
+        if (sscanf(line, "%lx-%lx ", &lo, &hi) == 2 && strchr(line, '-') < strchr(line, ' '))
+            in = (uintptr_t)p >= lo && (uintptr_t)p < hi;
+        else if (in && sscanf(line, "THPeligible: %d", &flag) == 1)
+            break;
+    }
+    fclose(f);
+    return flag;
+}
+
+/* A map's buffer asks for 2 MiB pages (envl__huge_pages): with Linux's transparent huge pages
+ * in "madvise" mode its mapping becomes eligible, which it is not without the hint; contents
+ * are unchanged (zero after the allocation, the written pixels after a read). */
+static void test_huge_pages(void)
+{
+    char mode[128] = "";
+    FILE *f = fopen("/sys/kernel/mm/transparent_hugepage/enabled", "r");
+    if (f) {
+        if (!fgets(mode, sizeof mode, f))
+            mode[0] = 0;
+        fclose(f);
+    }
+    envl_image img = {0};
+    CHECK_OK(envl__image_alloc(&img, 2048, 1024, NULL, "test"));   /* 24 MiB */
+    size_t n = (size_t)3 * 2048 * 1024, zeros = 0;
+    for (size_t i = 0; i < n; i += 4099)
+        zeros += img.px[i] == 0.0f;
+    CHECK(zeros == (n + 4098) / 4099);
+    if (!strstr(mode, "[madvise]")) {
+        printf("SKIP: test_huge_pages: transparent huge pages are \"%.*s\" here, not madvise: "
+               "the hint's effect is not visible\n", (int)strcspn(mode, "\n"), mode);
+    } else {
+        /* the hint is what makes it eligible: a plain allocation of the same size is not */
+        float *plain = malloc(n * sizeof(float));
+        CHECK(plain != NULL);
+        CHECK(thp_eligible(img.px + n / 2) == 1);
+        CHECK(thp_eligible(plain + n / 2) == 0);
+        free(plain);
+    }
+    envl__image_free(&img);
+}
+
 int main(void)
 {
     test_orientations();
@@ -1214,5 +1265,6 @@ int main(void)
     test_threads();
     test_streamed();
     test_infile_changes();
+    test_huge_pages();
     return check_report("test_hdr");
 }

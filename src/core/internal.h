@@ -74,6 +74,9 @@ typedef struct envl_limits {
 envl_result envl__image_alloc(envl_image *img, int32_t w, int32_t h, const envl_limits *lim,
                               const char *what);
 void envl__image_free(envl_image *img);
+/* Hints that a large fresh buffer be backed by 2 MiB pages (Linux madvise MADV_HUGEPAGE over
+ * its aligned span; nothing elsewhere or under 4 MiB). Contents unchanged. */
+void envl__huge_pages(void *p, size_t bytes);
 
 /* ENVL_ERR_UNSUPPORTED, the message naming `what`, when this build lacks the format "exr" or
  * "png" (CMake ENVL_OPENEXR / ENVL_PNG OFF, and always the Blender add-on's copy of the library:

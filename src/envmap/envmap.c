@@ -560,6 +560,7 @@ envl_result envl_pixels_alloc(int32_t width, int32_t height, int32_t channels,
         return envl__fail(ENVL_ERR_MEMORY, "pixels: cannot allocate %d x %d pixels",
                           (int)width, (int)height);
     }
+    envl__huge_pages(px, (size_t)width * height * 4 * sizeof(float));
     *out = px;
     return ENVL_OK;
 }

@@ -874,6 +874,7 @@ envl_result envl__latlong_to_faces(const envl_image *latlong, int32_t strip, int
         envl__image_free(&img);
         return envl__fail(ENVL_ERR_MEMORY, "cube faces: out of memory");
     }
+    envl__huge_pages(f, sizeof(float) * 3 * 6 * n);
     for (int k = 0; k < 6; k++)
         for (int32_t r = 0; r < face; r++)
             memcpy(f + 3 * (k * n + (size_t)r * face),

@@ -187,6 +187,8 @@ static envl_result product_faces(const product_image *im, int32_t strip, int32_t
         size_t n = (size_t)face * face;
         *out = malloc(sizeof(float) * 3 * 6 * n);
         if (*out)
+            envl__huge_pages(*out, sizeof(float) * 3 * 6 * n);
+        if (*out)
             for (int k = 0; k < 6; k++)
                 for (int32_t r = 0; r < face; r++)
                     memcpy(*out + 3 * (k * n + (size_t)r * face),
@@ -453,6 +455,8 @@ static envl_result put_atlas(exporter *x, const envl_products *p)
     int32_t W = lv[0]->layout == ENVL_LAYOUT_STRIP_H ? 4 * lv[0]->height : lv[0]->width;
     float *atlas = calloc((size_t)W * W * 3, sizeof(float));
     envl_result rc = atlas ? ENVL_OK : envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
+    if (atlas)
+        envl__huge_pages(atlas, sizeof(float) * 3 * W * W);
     json_writer *j = &x->jw;
     char file[64];
     snprintf(file, sizeof file, "specular_atlas.%s", x->format);

@@ -737,6 +737,7 @@ static envl_result read_dwa(exr_reader *r, exr_storage_t storage)
         if (!(whole = malloc(r->stream->size ? r->stream->size : 1)))
             return envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate %zu bytes", r->name,
                               r->stream->size);
+        envl__huge_pages(whole, r->stream->size);
         if ((grown = envl__infile_read(r->stream->file, 0, whole, r->stream->size))) {
             free(whole);
             return grown;

@@ -96,8 +96,10 @@ envl_result envl__read_image_file(const char *path, const envl_limits *lim, envl
         if (!data)
             rc = envl__fail(ENVL_ERR_MEMORY, "%s: cannot allocate %llu bytes", path,
                             (unsigned long long)f.size);
-        if (!rc)
+        if (!rc) {
+            envl__huge_pages(data, (size_t)f.size);
             rc = envl__infile_read(&f, 0, data, (size_t)f.size);
+        }
         if (!rc)
             rc = envl__read_image_memory(data, (size_t)f.size, path, lim, out);
         free(data);

@@ -89,6 +89,8 @@ envl_result envl__cut_marginals_build(const envl_envmap *m, cut_marginals *t)
         envl__cut_marginals_free(t);
         return envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
     }
+    envl__huge_pages(t->cols, sizeof(double) * 3 * t->nby * m->width);
+    envl__huge_pages(t->rows, sizeof(double) * 3 * m->height * t->nbx);
     build_job job = {m, t};
     envl__parallel_for(t->nby, m->threads, build_blocks, &job);
     if (t->failed) {

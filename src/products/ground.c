@@ -43,6 +43,7 @@ static envl_result replace_lower_hemisphere(const envl_envmap *map, const double
     float *px = calloc((size_t)3 * w * h, sizeof(float));
     if (!px)
         return envl__fail(ENVL_ERR_MEMORY, "ground plane: cannot allocate a copy of the map");
+    envl__huge_pages(px, sizeof(float) * 3 * w * h);
     for (int32_t r = 0; r < h; r++) {
         double below = row_below(r, h);
         if (below == 1 && black)

@@ -231,6 +231,7 @@ envl_result envl__ktree_build(const float *px, int32_t w, int32_t h, const ktree
             rc = envl__fail(ENVL_ERR_MEMORY, "reference: out of memory");
             break;
         }
+        envl__huge_pages(L->sums, sizeof(double) * (size_t)L->lw * L->lh * stride(t));
         if ((rc = level_geometry(t, L)))
             break;
         build_job j = {t, k};

@@ -255,6 +255,7 @@ envl_result envl__lights_residual_map(const envl_envmap *m, const envl_lights *l
     float *px = malloc(sizeof(float) * n);
     if (!px)
         return envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the residual map");
+    envl__huge_pages(px, sizeof(float) * n);
     if (kept)
         memcpy(px, kept, sizeof(float) * n);
     else

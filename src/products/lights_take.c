@@ -341,6 +341,8 @@ static envl_result take_map_make(const envl_envmap *m, float *res, int copy, tak
     size_t n = (size_t)m->width * m->height * 3;
     tm->m = m;
     tm->res = copy ? malloc(sizeof(float) * n) : res;
+    if (copy && tm->res)
+        envl__huge_pages(tm->res, sizeof(float) * n);
     tm->log_row_max = malloc(sizeof(double) * (size_t)m->height);
     tm->log_max = -INFINITY;
     if (!tm->log_row_max || (copy && !tm->res)) {
