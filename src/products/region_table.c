@@ -152,10 +152,10 @@ envl_result envl__region_table(envl_envmap *m)
     if (m->region_table)
         return ENVL_OK;
     int32_t w = m->width, h = m->height, nb = blocks_of(w);
-    /* Plain pages on purpose: on this project's VMs a fresh huge page is backed by the host
-     * on first touch, and freed huge pages go back to it, so a huge-page table cost 0.003 s
-     * or 0.05-0.1 s to touch depending on where it landed (bench ratios 2.4-6.3); 4 kB pages
-     * come from recently freed memory and cost a steady ~0.018 s for 50 MB (ratios 2.7-2.9). */
+    /* 2 MiB pages asked for, as for the map (envl__huge_pages). On an earlier VM plain pages
+     * were the steadier (`bench --only speed` ratios 2.7-2.9 against 2.4-6.3 in huge pages);
+     * on the VM of 2026-12-01 plain pages gave 5.4-6.8 and huge pages 2.3-4.8
+     * (docs/performance.md, "Speed against a memory pass"). */
     size_t bytes = sizeof(double) * (size_t)(h + 1) * (nb + 1) * 6;
     double *t = malloc(bytes);
     float *wcos = malloc(sizeof(float) * 6 * ENVL_TABLE_BLOCK);
@@ -165,6 +165,7 @@ envl_result envl__region_table(envl_envmap *m)
         return envl__fail(ENVL_ERR_MEMORY, "lights: cannot allocate the region table (%d x %d)",
                           (int)nb + 1, (int)h + 1);
     }
+    envl__huge_pages(t, bytes);
     static const double lum[3] = {0.2126, 0.7152, 0.0722};
     float *wsin = wcos + 3 * ENVL_TABLE_BLOCK;
     for (int32_t c = 0; c < ENVL_TABLE_BLOCK; c++)
