@@ -10,6 +10,7 @@ Renders (luminance, objects' pixels), per map, scene, recipe and EEVEE variant:
   E      EEVEE, lamps + world                 C4     Cycles, lamps + world, 4 bounces
   El     EEVEE, lamps only (world light 0)    Cl     Cycles, lamps only, direct light
   Eln    EEVEE, lamps only, no shadows        Cln    Cycles, lamps only, no shadows, direct
+  Eln0   Eln with EEVEE's ray tracing off (only when the variant has it on; else Eln)
   Ew     EEVEE, world only (lamps hidden)     Cw     Cycles, world only, direct light
 and from the shading normals (a Cycles render of them) and each object's albedo a, with
 f the world image's lighting (its residual or ground image, what EEVEE lights diffuse with):
@@ -21,7 +22,9 @@ f the world image's lighting (its residual or ground image, what EEVEE lights di
 E - ref then splits into (each a difference image, over an object: its mean / the
 reference's mean = a bias in %, its RMS / the reference's mean = an error in %):
   recipe     C4 - ref                  the recipe in Cycles (lamps + world = the map?)
-  shading    Eln - Cln                 EEVEE shades the lamps (no shadows)
+  shading    Eln0 - Cln                EEVEE shades the lamps (no shadows, no ray tracing)
+  traced     Eln - Eln0                what EEVEE's ray tracing adds to the lamps' light: their
+                                       light off the surfaces on screen (its own bounce)
   shadows    (El - Eln) - (Cl - Cln)   EEVEE's lamp shadows against Cycles'
   L1         L1 - X                    the world's light cut to order 1
   dering     L1d - L1                  EEVEE-Next's deringing of the world's L1
@@ -90,7 +93,7 @@ VARIANTS = {
     "screen-noclamp": [("eevee", "use_raytracing", True), ("rt", "trace_max_roughness", 1.0),
                        ("rt", "resolution_scale", "1"), ("eevee", "clamp_surface_indirect", 0.0)],
 }
-TERMS = ("recipe", "shading", "shadows", "L1", "dering", "world", "occlusion", "bounce",
+TERMS = ("recipe", "shading", "traced", "shadows", "L1", "dering", "world", "occlusion", "bounce",
          "additive")
 
 
@@ -397,6 +400,11 @@ def _in_blender():
                 Ep["El"], _ = b.render(bench.EEVEE_SPP, 1)
                 set_lamps(True, shadows=False)
                 Ep["Eln"], _ = b.render(bench.EEVEE_SPP, 1)
+                Ep["Eln0"] = Ep["Eln"]
+                if getattr(scene.eevee, "use_raytracing", False):
+                    scene.eevee.use_raytracing = False
+                    Ep["Eln0"], _ = b.render(bench.EEVEE_SPP, 1)
+                    scene.eevee.use_raytracing = True
                 set_world(True), set_lamps(False)
                 Ep["Ew"], _ = b.render(bench.EEVEE_SPP, 1)
                 set_lamps(True)
@@ -410,7 +418,8 @@ def _in_blender():
                 terms = {}
                 if C:
                     terms["recipe"] = fig(C["C4"] - yref)
-                    terms["shading"] = fig(Ep["Eln"] - C["Cln"])
+                    terms["shading"] = fig(Ep["Eln0"] - C["Cln"])
+                    terms["traced"] = fig(Ep["Eln"] - Ep["Eln0"])
                     terms["shadows"] = fig((Ep["El"] - Ep["Eln"]) - (C["Cl"] - C["Cln"]))
                     diffuse = X is not None and name not in ("glossy", "objects") or (
                         name == "objects" and X is not None and "glossy" not in b.masks)
