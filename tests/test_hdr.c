@@ -1217,8 +1217,8 @@ static int thp_eligible(const void *p)
 }
 
 /* A map's buffer asks for 2 MiB pages (envl__huge_pages): with Linux's transparent huge pages
- * in "madvise" mode its mapping becomes eligible, which it is not without the hint; contents
- * are unchanged (zero after the allocation, the written pixels after a read). */
+ * in "madvise" mode its mapping becomes eligible, which it is not without the hint; the
+ * buffer is still zero-filled (every 4099th float checked). */
 static void test_huge_pages(void)
 {
     char mode[128] = "";

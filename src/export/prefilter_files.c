@@ -186,14 +186,14 @@ static envl_result product_faces(const product_image *im, int32_t strip, int32_t
             return rc;
         size_t n = (size_t)face * face;
         *out = malloc(sizeof(float) * 3 * 6 * n);
-        if (*out)
+        if (*out) {
             envl__huge_pages(*out, sizeof(float) * 3 * 6 * n);
-        if (*out)
             for (int k = 0; k < 6; k++)
                 for (int32_t r = 0; r < face; r++)
                     memcpy(*out + 3 * (k * n + (size_t)r * face),
                            f.px + 3 * ((size_t)r * f.width + (size_t)k * face),
                            sizeof(float) * 3 * face);
+        }
         envl__image_free(&f);
         return *out ? ENVL_OK : envl__fail(ENVL_ERR_MEMORY, "export: out of memory");
     }
