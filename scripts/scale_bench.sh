@@ -12,7 +12,9 @@
 #   prefilter --specular, gltf, pov, preview, convert (to the input's format)
 # and, as the read that the others are compared with, `oiiotool -i:now=1 FILE` (OpenImageIO)
 # and one memory pass over the map's floats (numpy, in-process, the least of 5: the
-# floor any reader meets). brdf-lut reads no map: timed once. `bench` (minutes per map: the
+# floor any reader meets), and one fresh write of them (a new process allocating and writing
+# them once, the median of 5: what the kernel's fresh pages cost any reader that makes a new
+# map). brdf-lut reads no map: timed once. `bench` (minutes per map: the
 # accuracy benchmark) and `version` are left out. envlight's read is `info` (decode into the
 # canonical float map + one statistics pass). scripts/scale_bench.py writes the tables and
 # the gnuplot figure; --docs DIR writes DIR/scale_bench.md and DIR/scale_bench.png with a header
@@ -113,6 +115,28 @@ for _ in range(5):
     t0 = time.perf_counter(); a.sum(); t.append(time.perf_counter() - t0)
 print(f"{w}\t{min(t):.6f}")
 PY
+done
+
+# one fresh write of the same floats: a new process allocates them and writes each once, CPU (user
+# + sys) of that alone, the median of 5 processes. The kernel backs fresh memory with zeroed pages
+# (2 MiB ones: numpy asks for them, as envlight does), which a pass over memory already touched
+# does not pay: the floor under any reader that makes a new map.
+printf 'width\tseconds\n' >"$work/fresh_write.tsv"
+for w in "${widths[@]}"; do
+  for _ in 1 2 3 4 5; do
+    "$PYTHON" - "$w" <<'PY'
+import resource, sys
+import numpy as np
+w = int(sys.argv[1])
+def cpu():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+t0 = cpu()
+a = np.empty(w * (w // 2) * 3, dtype=np.float32)
+a.fill(1.0)
+print(f"{cpu() - t0:.6f}")
+PY
+  done | sort -n | sed -n 3p | sed "s/^/$w\t/" >>"$work/fresh_write.tsv"
 done
 
 # the commands: NAME -> arguments after FILE (the output in the process's own empty folder)
