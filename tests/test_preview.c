@@ -490,6 +490,58 @@ static void test_split_reference(void)
 
 /* The public entry refuses options outside the command line's ranges (envlight.h) before any
  * work, and writes nothing. */
+/* The map's band at the top of the picture (x from 8, y from 18, (width - 16) & ~1 wide and
+ * half as tall; docs/methods.md, "Preview") shows the whole map whatever its aspect: a 3 x 1 map
+ * was resampled in proportion, a third as tall as the band, and the band read past its end
+ * (a crash); a 64 x 40 map showed its top 80 %. Here the map is A above the equator and B
+ * below it (a 3 x 1 map: all A); each band row is A or B by its latitude (the two rows next
+ * to the equator apart), Reinhard at exposure 0: every grey pixel of the band is the row's
+ * value (the median cut's outlines and the lights' marks drawn over it are cyan, yellow and
+ * magenta), and most of the band is grey. */
+static void check_band(int32_t mw, int32_t mh)
+{
+    const float A = 0.9f, B = 0.1f;
+    float *px = malloc(sizeof(float) * 3 * (size_t)mw * mh);
+    for (int32_t r = 0; r < mh; r++)
+        for (int32_t i = 0; i < 3 * mw; i++)
+            px[3 * (size_t)r * mw + i] = mh == 1 || 2 * r < mh ? A : B;
+    envl_envmap *m = map_from(px, mw, mh);
+    free(px);
+    envl_preview_options o = {.sphere_size = 48, .tonemap = ENVL_PREVIEW_TONEMAP_REINHARD,
+                              .exposure_set = 1, .exposure_ev = 0, .title = "band"};
+    preview_data d;
+    float *rgb = NULL;
+    int32_t w = 0, h = 0;
+    CHECK_OK(preview_compute(m, &o, NULL, &d));
+    CHECK_OK(preview_compose(m, &o, &d, &rgb, &w, &h));
+    int32_t bw = (w - 16) & ~1, bh = bw / 2, grey = 0, wrong = 0;
+    for (int32_t y = 0; rgb && y < bh; y++) {
+        double f = (y + 0.5) / bh; /* the row's centre, 0 at the top, 1 at the bottom */
+        if (mh > 1 && fabs(f - 0.5) < 1.0 / bh)
+            continue;
+        double L = mh == 1 || f < 0.5 ? A : B, expect = L / (1 + L);
+        for (int32_t x = 0; x < bw; x++) {
+            const float *c = rgb + 3 * ((size_t)(18 + y) * w + 8 + x);
+            if (c[0] != c[1] || c[1] != c[2])
+                continue; /* an overlay */
+            grey++;
+            wrong += !(fabs(c[0] - expect) < 1e-6);
+        }
+    }
+    CHECK(wrong == 0);
+    CHECK(grey >= 0.5 * bw * bh);
+    free(rgb);
+    preview_data_free(&d);
+    envl_envmap_free(m);
+}
+
+static void test_band_of_any_aspect(void)
+{
+    check_band(3, 1);
+    check_band(64, 40);
+    check_band(64, 32);
+}
+
 static void test_public_entry(void)
 {
     envl_envmap *m = NULL;
@@ -518,6 +570,7 @@ int main(void)
     test_mirror_sun();
     test_counts_and_notes();
     test_split_reference();
+    test_band_of_any_aspect();
     test_public_entry();
     return check_report("test_preview");
 }

@@ -1021,15 +1021,16 @@ envl_result preview_compose(const envl_envmap *map, const envl_preview_options *
              o.tonemap == ENVL_PREVIEW_TONEMAP_REINHARD ? "Reinhard" : "ACES filmic");
     text(&cv, MARGIN, 6, s, white);
 
-    /* The map, area-resampled to the view's width, tone-mapped. */
-    envl_envmap *small = NULL;
-    envl_result rc = envl__envmap_resampled(envl_envmap_pixels(map), envl_envmap_width(map),
-                                            envl_envmap_height(map), L.map_w, 0, &small);
+    /* The map, area-resampled to the view (map_w x map_h whatever the map's own aspect: a
+     * 3 x 1 map was resampled in proportion, 1/3 as tall as the view it was read over),
+     * tone-mapped. */
+    float *sp = NULL;
+    envl_result rc = envl__latlong_resample(envl_envmap_pixels(map), envl_envmap_width(map),
+                                            envl_envmap_height(map), L.map_w, L.map_h, 0.0, &sp);
     if (rc) {
         free(cv.px);
         return rc;
     }
-    const float *sp = envl_envmap_pixels(small);
     for (int32_t y = 0; y < L.map_h; y++)
         for (int32_t x = 0; x < L.map_w; x++) {
             float c[3];
@@ -1037,7 +1038,7 @@ envl_result preview_compose(const envl_envmap *map, const envl_preview_options *
                 c[k] = (float)tone(&o, scale * sp[3 * ((size_t)y * L.map_w + x) + k]);
             put(&cv, MARGIN + x, TITLE_H + y, c);
         }
-    envl_envmap_free(small);
+    free(sp);
     mapview mv = {&cv, MARGIN, TITLE_H, L.map_w, L.map_h};
     if (d->median) {
         outline_regions(&mv, d->median, envl_envmap_width(map), envl_envmap_height(map), cyan);
