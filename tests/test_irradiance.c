@@ -288,7 +288,11 @@ static void test_fast_reference(void)
  * envl_irradiance_exact, per channel (the oracle's own slices: 1e-6 of that, see check_fast).
  * The maps: sharp-edged softboxes at 2/3 of the threshold (kinks along their horizons, what
  * the 32-texel faces read bilinearly miss by up to 4.6 % of a dark texel), a black ground
- * under a bright sky (the horizon's kink across every face), and a linear sky (smooth). */
+ * under a bright sky (the horizon's kink across every face), and a linear sky (smooth). And
+ * with pixels far above it next to a pole (split off and added per texel, each pixel
+ * integrated exactly): a 128 x 64 map's top row at 4000 x the rest, a 64 x 32 map's one bottom
+ * pixel at 2e5 x; summed at the pixels' centres they were 1.9 % and more off near their
+ * horizons (a polar pixel's light sits a good part of its height off its centre). */
 static void check_split_faces(envl_envmap *m, const char *name)
 {
     const int32_t face = 128, w = 6 * face, stride = 37;
@@ -359,6 +363,22 @@ static void test_split_faces(void)
     m = linear_z_map(w, h, a, b, 0);
     check_split_faces(m, "linear sky");
     envl_envmap_free(m);
+    for (int variant = 0; variant < 2; variant++) {
+        int32_t pw = variant ? 64 : 128, ph = pw / 2;
+        float *pp = malloc(sizeof(float) * 3 * pw * ph);
+        for (int32_t i = 0; i < 3 * pw * ph; i++)
+            pp[i] = 0.5f;
+        for (int k = 0; k < 3; k++)
+            if (variant)
+                pp[3 * ((ph - 1) * pw + 5) + k] = 1e5f;
+            else
+                for (int32_t c = 0; c < pw; c++)
+                    pp[3 * c + k] = 2000.0f;
+        CHECK_OK(envl_envmap_from_pixels(pp, pw, ph, 3, &lo, &m));
+        check_split_faces(m, variant ? "one bright pixel at a pole" : "bright top row");
+        envl_envmap_free(m);
+        free(pp);
+    }
 }
 
 int main(void)

@@ -30,6 +30,10 @@ envl_result envl__irradiance_fast(const envl_envmap *m, int32_t count, const dou
  * envl_irradiance_exact integrates a pixel across n's horizon (exact in elevation, azimuth in
  * slices of at most 0.25 degrees). */
 double envl__pixel_cosine(int32_t w, int32_t h, int32_t c, int32_t r, const double n[3]);
+/* D = the integral of d dw over pixel (c, r) (the top of irradiance.c): a pixel lit throughout
+ * by n gives n . D exactly. Near a pole D / dw is off the pixel's centre by a good part of its
+ * height (the pixel is wider at one end), so n . (centre) dw is not. */
+void envl__pixel_moment(int32_t w, int32_t h, int32_t c, int32_t r, double D[3]);
 /* The same integral for `count` normals (out[i] for normals + 3 i): in closed form, n . D,
  * where the pixel is lit throughout, 0 where unlit, envl__pixel_cosine across the horizon. */
 void envl__pixel_cosines(const envl_envmap *m, int32_t c, int32_t r, int32_t count,

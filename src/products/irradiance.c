@@ -232,6 +232,14 @@ double envl__pixel_cosine(int32_t w, int32_t h, int32_t c, int32_t r, const doub
     return acc * (p1 - p0) / sub;
 }
 
+void envl__pixel_moment(int32_t w, int32_t h, int32_t c, int32_t r, double D[3])
+{
+    double p0, p1, sx, sy, t0, t1, I, rz, dw, rho;
+    column_factors(w, c, &p0, &p1, &sx, &sy);
+    row_factors(w, h, r, &t0, &t1, &I, &rz, &dw, &rho);
+    D[0] = I * sx, D[1] = I * sy, D[2] = rz;
+}
+
 void envl__pixel_cosines(const envl_envmap *m, int32_t c, int32_t r, int32_t count,
                          const double *normals, double *out)
 {
