@@ -876,6 +876,31 @@ static void test_errors(void)
     envl__image_free(&out);
     envl__image_free(&one);
     envl__image_free(&img);
+    /* faces that do not fill the image: refused, naming the sizes that would fit (the pixels
+     * past the last whole face were ignored, their light lost: a 13 x 10 strip read its top
+     * 12 x 2) */
+    static const struct { int32_t layout, w, h; const char *fits; } part[] = {
+        {ENVL_LAYOUT_STRIP_H, 13, 10, "faces of 2: 12 x 2; of 3: 18 x 3"},
+        {ENVL_LAYOUT_STRIP_V, 2, 13, "faces of 2: 2 x 12"},
+        {ENVL_LAYOUT_CROSS_V, 7, 7, "faces of 1: 3 x 4; of 2: 6 x 8"},
+        {ENVL_LAYOUT_CROSS_H, 9, 6, "faces of 2: 8 x 6"},
+        {ENVL_LAYOUT_EXR_CUBE, 4, 25, "N x 6N"},
+    };
+    for (size_t i = 0; i < sizeof part / sizeof part[0]; i++) {
+        envl_image im = {0};
+        if (envl__image_alloc(&im, part[i].w, part[i].h, NULL, "t") != ENVL_OK)
+            abort();
+        CHECK_RC(envl__layout_to_latlong(&im, part[i].layout, 8, &out), ENVL_ERR_FORMAT);
+        CHECK(out.px == NULL && strstr(envl_last_error(), part[i].fits));
+        envl__image_free(&im);
+    }
+    /* the same sizes a face larger fill it: read */
+    envl_image full = {0};
+    if (envl__image_alloc(&full, 12, 9, NULL, "t") != ENVL_OK)
+        abort();
+    CHECK_OK(envl__layout_to_latlong(&full, ENVL_LAYOUT_CROSS_H, 8, &out));
+    envl__image_free(&out);
+    envl__image_free(&full);
 }
 
 int main(void)

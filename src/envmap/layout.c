@@ -165,7 +165,7 @@ static envl_result geom_init(geom *g, int32_t layout, int32_t w, int32_t h)
         return ENVL_OK;
     case ENVL_LAYOUT_EXR_CUBE:
         g->n = w < h / 6 ? w : h / 6;
-        if (g->n < 1)
+        if (g->n < 1 || w != g->n || h != 6 * g->n) /* more would be pixels no face reads */
             return envl__fail(ENVL_ERR_FORMAT,
                               "OpenEXR cube map of %d x %d pixels: needs N x 6N (N >= 1)",
                               (int)w, (int)h);
@@ -179,6 +179,15 @@ static envl_result geom_init(geom *g, int32_t layout, int32_t w, int32_t h)
         return envl__fail(ENVL_ERR_FORMAT, "%s of %d x %d pixels: needs %d x %d faces of at "
                                            "least one pixel",
                           envl_layout_name(layout), (int)w, (int)h, (int)g->cols, (int)g->rows);
+    /* an image larger than the faces would have pixels no face reads: their light lost */
+    if (w != g->cols * g->n || h != g->rows * g->n)
+        return envl__fail(ENVL_ERR_FORMAT, "%s of %d x %d pixels: its %d x %d square faces "
+                                           "must fill the image (faces of %d: %d x %d; of %d: "
+                                           "%d x %d); the rest would be ignored",
+                          envl_layout_name(layout), (int)w, (int)h, (int)g->cols, (int)g->rows,
+                          (int)g->n, (int)(g->cols * g->n), (int)(g->rows * g->n),
+                          (int)(g->n + 1), (int)(g->cols * (g->n + 1)),
+                          (int)(g->rows * (g->n + 1)));
     if (layout == ENVL_LAYOUT_STRIP_H || layout == ENVL_LAYOUT_STRIP_V ||
         layout == ENVL__LAYOUT_GL_STRIP)
         for (int k = 0; k < 6; k++) {
