@@ -86,5 +86,15 @@ checks=$((checks + 1))
 expect 1 "unknown output extension" -- "$ENVLIGHT" convert - out.xyz
 ls -A | grep -q '\.envl-\|tmp-' && { fails=$((fails + 1)); echo "FAIL: temporary file left behind"; ls; }
 checks=$((checks + 1))
+# A map narrower than 4 pixels gets faces of one pixel by default (its width / 4 was 0 and the
+# conversion failed with "bad arguments"): a 2 x 1 map to a vertical cross of 3 x 4.
+python3 - <<'PY'
+import struct
+with open("tiny.pfm", "wb") as f:
+    f.write(b"PF\n2 1\n-1.0\n" + struct.pack("<6f", 1, 2, 3, 4, 5, 6))
+PY
+expect 0 "convert a 2 x 1 map to a cross" -- "$ENVLIGHT" convert tiny.pfm tiny_cross.pfm --layout-out cross
+expect 0 "info on the cross" -- "$ENVLIGHT" info tiny_cross.pfm --layout-in cross --json
+has out.txt '"width": 3' "a cross of one-pixel faces"
 
 finish

@@ -177,10 +177,10 @@ int cli_convert(int argc, char **argv)
     } else {
         float *px = NULL;
         int32_t w, h;
-        if (!size)
+        if (!size) /* a face (or probe) of at least one pixel: a map 2 wide gave 0 */
             size = layout_out == ENVL_LAYOUT_LATLONG || layout_out == ENVL_LAYOUT_EXR_LATLONG
                        ? envl_envmap_width(map)
-                       : envl_envmap_width(map) / 4;
+                       : envl_envmap_width(map) / 4 > 1 ? envl_envmap_width(map) / 4 : 1;
         /* OpenEXR's own layouts say so in the file (the envmap attribute; EXR only) */
         if (layout_out == ENVL_LAYOUT_EXR_LATLONG || layout_out == ENVL_LAYOUT_EXR_CUBE)
             so.envmap = layout_out;

@@ -794,9 +794,12 @@ envl_result envl_envmap_save(const envl_envmap *m, const char *path,
 envl_result envl_envmap_to_layout(const envl_envmap *m, int32_t layout, int32_t size,
                                   float **pixels, int32_t *width, int32_t *height)
 {
-    if (!m || !pixels || !width || !height || size <= 0 || layout <= ENVL_LAYOUT_AUTO ||
-        layout >= ENVL_LAYOUT_COUNT)
-        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_to_layout: bad arguments");
+    if (!m || !pixels || !width || !height)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_to_layout: a NULL argument");
+    if (size <= 0 || layout <= ENVL_LAYOUT_AUTO || layout >= ENVL_LAYOUT_COUNT)
+        return envl__fail(ENVL_ERR_ARGUMENT, "envl_envmap_to_layout: %s %d (a size of at least "
+                          "1; a layout from latlong to exr-cube)",
+                          size <= 0 ? "size" : "layout", size <= 0 ? (int)size : (int)layout);
     *pixels = NULL;
     char stage[64];
     snprintf(stage, sizeof stage, "resampling to %s", envl_layout_name(layout));
