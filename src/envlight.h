@@ -476,9 +476,10 @@ ENVL_API double envl_sh_cosine_lobe(int32_t l); /* A_l; 0 for l < 0 (no such ban
 #define ENVL_DEFAULT_LEVELS 6
 
 #define ENVL_IRRADIANCE_SPLIT 0     /* default: the bright pixels (the sun split's, more than 50x
-                                       the mean luminance) exactly, the rest (a 256-wide copy)
-                                       through the kernel tree, each texel within 0.5 % of its
-                                       E (or of 1 % of the mean, ABI 5; SH order 16 before) */
+                                       the mean luminance) exactly, the rest (at most 2048
+                                       wide) through the kernel tree, each texel within 0.5 %
+                                       of its E (or of 1 % of the mean, ABI 5; SH order 16
+                                       before) */
 #define ENVL_IRRADIANCE_SH 1        /* from the SH irradiance of order irradiance_order (fast) */
 #define ENVL_IRRADIANCE_EXACT 2     /* envl_irradiance_exact per texel (reference; slow) */
 #define ENVL_IRRADIANCE_RESAMPLED 3 /* envl_irradiance_exact per texel over an area-resampled copy

@@ -345,9 +345,10 @@ int cli_prefilter(int argc, char **argv)
         CLI_OPTION("--irradiance-method", "M", CLI_CHOICE,
                    .value = &q.prefilter.irradiance_method,
                    .choices = "split|sh|exact|resampled", .lookup = envl_irradiance_method_from_name,
-                   .help = "split (default: the bright pixels exactly + the rest, 256 wide,\n"
-                           "through a tree of block sums, each texel within 0.5 %), sh (SH of\n"
-                           "--irradiance-order with the auto window: never negative), exact\n"
+                   .help = "split (default: the bright pixels exactly + the rest, at most\n"
+                           "2048 wide, through a tree of block sums, each texel within\n"
+                           "0.5 %), sh (SH of --irradiance-order with the auto window: never\n"
+                           "negative), exact\n"
                            "(every pixel per texel, slow), resampled (exact over the map\n"
                            "area-averaged to 256 x 128)"),
         CLI_OPTION("--irradiance-order", "L", CLI_INT, .min = 0, .max = 32, .value = &order,

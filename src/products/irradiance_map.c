@@ -9,6 +9,12 @@
 #include <string.h>
 
 #define RESAMPLED_IRRADIANCE_WIDTH 256
+/* The split method's rest is summed at the map's own pixels up to this width, resampled to it
+ * beyond (split_irradiance). */
+#define SPLIT_REST_WIDTH 2048
+/* The share of the split's promise left to that resampling: the tree sums the rest within
+ * (1 - SPLIT_RESAMPLE_SHARE) of it when it was resampled. */
+#define SPLIT_RESAMPLE_SHARE 0.2
 
 static const char *irr_names[ENVL_IRRADIANCE_COUNT] = {"split", "sh", "exact", "resampled"};
 
@@ -47,14 +53,13 @@ int envl__floats_finite(const float *v, size_t n)
     return 1;
 }
 
-/* The map area-averaged to 256 x 128 when it is wider (the integral of L dw kept), else NULL. */
-static envl_result resampled_copy(const float *px, int32_t w, int32_t h, int32_t threads,
-                                  envl_envmap **out)
+/* The map area-averaged to `width` wide when it is wider (the integral of L dw kept), else
+ * NULL. */
+static envl_result resampled_copy(const float *px, int32_t w, int32_t h, int32_t width,
+                                  int32_t threads, envl_envmap **out)
 {
     *out = NULL;
-    return w <= RESAMPLED_IRRADIANCE_WIDTH
-               ? ENVL_OK
-               : envl__envmap_resampled(px, w, h, RESAMPLED_IRRADIANCE_WIDTH, threads, out);
+    return w <= width ? ENVL_OK : envl__envmap_resampled(px, w, h, width, threads, out);
 }
 
 /* The split-off pixels of one 16 x 16 block of the map: their sum of e d per channel and the
@@ -185,14 +190,19 @@ static envl_result add_lobes(const envl_sun_split *sp, int32_t w, int32_t h, int
  * second differences D2 at the coarse texels are h^2 f'', so (|D2_s| + |D2_t|) / 8; a kink of
  * slope jump g inside a cell (a source's horizon) is off by up to g h / 4, and the fourth
  * difference D4 at one of the cell's corners is at least g h / 2 (h^4 f'''' where f is
- * smooth), so |D4| / 2 more. The coarse texels are summed within REST_COARSE x the split's
- * promise (ENVL_SPLIT_RELATIVE x max(E, the floor)); a texel where the largest estimate of its
- * cell's corners passes REST_READ x the promise (8/3 of margin on the 0.8 left: an estimate,
- * not a bound) gets the rest summed through the kernel tree at its own direction. Read
- * everywhere, 128-texel faces were up to 9 % of a dark texel off (tests/test_irradiance.c). */
+ * smooth), so |D4| / 2 more. The coarse texels are summed within REST_COARSE x the rest's
+ * budget (the split's promise, ENVL_SPLIT_RELATIVE x max(E, the floor), less what a resampled
+ * rest was allowed); a texel where the largest estimate of its cell's corners passes
+ * REST_READ x the budget (2x of margin on the 0.9 left: an estimate, not a bound), and a
+ * texel beyond the outermost coarse centres on both axes (read across two face edges at once,
+ * which the differences along s and t do not see: up to 0.52 % off on studio_small_03_1k),
+ * gets the rest summed through the kernel tree at its own direction. Read everywhere,
+ * 128-texel faces were up to 9 % of a dark texel off (tests/test_irradiance.c). With 0.2 and
+ * 0.3 (8/3 of margin; until 2026-12-02) 20-53 % of a 1K map's 128-face texels were summed,
+ * with 0.1 and 0.45 5-42 % (the coarse sums' own scatter enters the differences). */
 #define REST_FACE 32
-#define REST_COARSE 0.2
-#define REST_READ 0.3
+#define REST_COARSE 0.1
+#define REST_READ 0.45
 
 /* The bound of reading the coarse faces bilinearly near each coarse texel, per channel:
  * (|D2_s| + |D2_t|) / 8 + (|D4_s| + |D4_t|) / 2 from the second and fourth differences along
@@ -244,10 +254,11 @@ static void cell_bound(const double *bound, int32_t face, int32_t c, int32_t r, 
 }
 
 /* The rest's E at the n texels of faces of `face` > REST_FACE texels (dirs; lobes: the
- * bright pixels' E there, the base of the tolerance), see above. */
+ * bright pixels' E there, the base of the tolerance), within `budget` x max(E, floor) where the
+ * estimate above holds, see above. */
 static envl_result rest_from_coarse(const envl_envmap *rest_map, const envl_sun_split *sp,
                                     int32_t map_w, int32_t map_h, int32_t face,
-                                    const double *dirs, const double floor[3],
+                                    const double *dirs, double budget, const double floor[3],
                                     const double *lobes, double *e)
 {
     const int32_t nc = 6 * REST_FACE * REST_FACE;
@@ -263,8 +274,8 @@ static envl_result rest_from_coarse(const envl_envmap *rest_map, const envl_sun_
     if (!rc && sp->n)
         rc = add_lobes(sp, map_w, map_h, nc, cdirs, clobes);
     if (!rc)
-        rc = envl__irradiance_relative(rest_map, nc, cdirs, REST_COARSE * ENVL_SPLIT_RELATIVE,
-                                       floor, clobes, ce);
+        rc = envl__irradiance_relative(rest_map, nc, cdirs, REST_COARSE * budget, floor, clobes,
+                                       ce);
     int32_t nredo = 0;
     if (!rc) {
         for (int32_t i = 0; i < 3 * nc; i++)
@@ -275,9 +286,12 @@ static envl_result rest_from_coarse(const envl_envmap *rest_map, const envl_sun_
             int32_t c = (int32_t)(i % (6 * (size_t)face)), r = (int32_t)(i / (6 * (size_t)face));
             envl__strip_sample(strip, REST_FACE, dirs + 3 * i, e + 3 * i);
             cell_bound(bound, face, c, r, b);
-            int over = 0;
+            /* beyond the outermost coarse centres on both axes: a corner of the face */
+            double x = (c % face + 0.5) * REST_FACE / face - 0.5;
+            double y = (r + 0.5) * REST_FACE / face - 0.5;
+            int over = (x < 0 || x > REST_FACE - 1) && (y < 0 || y > REST_FACE - 1);
             for (int ch = 0; ch < 3; ch++)
-                over |= b[ch] > REST_READ * ENVL_SPLIT_RELATIVE *
+                over |= b[ch] > REST_READ * budget *
                                     fmax(lobes[3 * i + ch] + e[3 * i + ch], floor[ch]);
             if (over)
                 redo[nredo++] = (int32_t)i;
@@ -295,7 +309,7 @@ static envl_result rest_from_coarse(const envl_envmap *rest_map, const envl_sun_
                 rl[3 * k + a] = lobes[3 * (size_t)redo[k] + a];
             }
         if (!rc)
-            rc = envl__irradiance_relative(rest_map, nredo, rd, ENVL_SPLIT_RELATIVE, floor, rl, re);
+            rc = envl__irradiance_relative(rest_map, nredo, rd, budget, floor, rl, re);
         for (int32_t k = 0; !rc && k < nredo; k++)
             for (int a = 0; a < 3; a++)
                 e[3 * (size_t)redo[k] + a] = re[3 * k + a];
@@ -314,14 +328,19 @@ static envl_result rest_from_coarse(const envl_envmap *rest_map, const envl_sun_
 
 /* The split method: E(n) = sum over the split-off pixels of e / dw x the integral of
  * max(0, n.d) dw over the pixel (e: their excess over the threshold, L dw less T's share;
- * add_lobes) + the
- * irradiance of the rest (every split pixel at the
- * threshold) area-averaged to 256 wide, summed through the kernel tree (irradiance.c), within
- * ENVL_SPLIT_RELATIVE of each texel's E (at least ENVL_TEXEL_DARK x the mean of E): the rest's
- * sharp edges (the threshold's plateau) stay exact where an SH expansion of them rang by
- * several percent in the dark directions (docs/accuracy.md). On cube faces wider than
- * REST_FACE the rest comes from faces of REST_FACE texels where that keeps the promise (above).
- * face: the cube's face width, or 0 (a lat-long image). */
+ * add_lobes) + the irradiance of the rest (every split pixel at the threshold) summed through
+ * the kernel tree (irradiance.c), within ENVL_SPLIT_RELATIVE of each texel's E (at least
+ * ENVL_TEXEL_DARK x the mean of E): the rest's sharp edges (the threshold's plateau) stay
+ * exact where an SH expansion of them rang by several percent in the dark directions
+ * (docs/accuracy.md). The tree's block sums keep each block's first moment, so its cost
+ * hardly depends on the map's size; the rest is summed at the map's own pixels up to
+ * SPLIT_REST_WIDTH. Area-averaging moves light within a coarse pixel (a plateau's edge most):
+ * to 256 wide it moved E by up to 0.39 % (studio_small_03_1k, dikhololo_night_1k; measured
+ * against the rest at 1024 wide), to 512 wide by 0.085 %; a map wider than SPLIT_REST_WIDTH is
+ * averaged to it, at most 1/8 of 256's pixel, and the tree sums within the promise less
+ * SPLIT_RESAMPLE_SHARE (0.1 % of E: an estimate from those figures, not a bound). On cube faces
+ * wider than REST_FACE the rest comes from faces of REST_FACE texels where that keeps the
+ * promise (above). face: the cube's face width, or 0 (a lat-long image). */
 static envl_result split_irradiance(envl_envmap *m, int32_t threads, int32_t face, size_t n,
                                     const double *dirs, double *e)
 {
@@ -336,13 +355,13 @@ static envl_result split_irradiance(envl_envmap *m, int32_t threads, int32_t fac
     if (!rc && sp.n) {
         /* the rest resampled straight from the map with the split pixels as patches: the same
          * floats as resampling a residual copy, without the copy */
-        int32_t w = m->width < RESAMPLED_IRRADIANCE_WIDTH ? m->width : RESAMPLED_IRRADIANCE_WIDTH;
+        int32_t w = m->width < SPLIT_REST_WIDTH ? m->width : SPLIT_REST_WIDTH;
         rc = (patch = envl__sun_split_patches(&sp))
                  ? envl__envmap_resampled_patched(m->px, m->width, m->height, patch, sp.n, w,
                                                   threads, &small)
                  : envl__fail(ENVL_ERR_MEMORY, "irradiance map: out of memory");
     } else if (!rc) {
-        rc = resampled_copy(m->px, m->width, m->height, threads, &small);
+        rc = resampled_copy(m->px, m->width, m->height, SPLIT_REST_WIDTH, threads, &small);
     }
     if (!rc && sp.n)
         rc = add_lobes(&sp, m->width, m->height, (int32_t)n, dirs, lobes);
@@ -350,11 +369,13 @@ static envl_result split_irradiance(envl_envmap *m, int32_t threads, int32_t fac
         double floor[3]; /* the mean of E over the sphere is the power / 4 */
         for (int c = 0; c < 3; c++)
             floor[c] = ENVL_TEXEL_DARK * m->info.power[c] / 4;
+        double budget = ENVL_SPLIT_RELATIVE *
+                        (m->width > SPLIT_REST_WIDTH ? 1 - SPLIT_RESAMPLE_SHARE : 1);
         rc = face > REST_FACE
                  ? rest_from_coarse(small ? small : m, &sp, m->width, m->height, face, dirs,
-                                    floor, lobes, e)
-                 : envl__irradiance_relative(small ? small : m, (int32_t)n, dirs,
-                                             ENVL_SPLIT_RELATIVE, floor, lobes, e);
+                                    budget, floor, lobes, e)
+                 : envl__irradiance_relative(small ? small : m, (int32_t)n, dirs, budget,
+                                             floor, lobes, e);
     }
     for (size_t i = 0; !rc && i < 3 * n; i++)
         e[i] += lobes[i];
@@ -403,10 +424,12 @@ envl_result envl__irradiance_map(envl_envmap *m, const resolved *o, const envl_s
     } else if (o->irr_method == ENVL_IRRADIANCE_SPLIT) {
         rc = split_irradiance(m, o->threads, o->faces ? face : 0, n, dirs, e);
     } else {
-        /* resampled: the clamped cosine is smooth: the map area-averaged to 256 x 128 changes
-         * E by about h^2 relative (h = pi / 128: ~6e-4), at a fraction of the cost */
+        /* resampled: the map area-averaged to 256 x 128, at a fraction of the cost; averaging
+         * moves light within a coarse pixel, most at a bright edge: worst texel 0.04-3.0 % on
+         * the 12 maps of docs/performance.md (not the h^2 ~6e-4 once assumed here) */
         if (o->irr_method == ENVL_IRRADIANCE_RESAMPLED &&
-            (rc = resampled_copy(m->px, m->width, m->height, o->threads, &small)))
+            (rc = resampled_copy(m->px, m->width, m->height, RESAMPLED_IRRADIANCE_WIDTH,
+                                 o->threads, &small)))
             goto done;
         rc = envl_irradiance_exact(small ? small : m, (int32_t)n, dirs, e);
     }
