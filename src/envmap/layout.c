@@ -1042,6 +1042,10 @@ envl_result envl__faces_to_layout(const float *strip, int32_t face, int32_t layo
         rc = envl__image_alloc(out, w, h, NULL, "cube faces");
     if (rc)
         return rc;
+    if (layout == ENVL_LAYOUT_STRIP_H) { /* the strip itself: each texel lands on its own */
+        memcpy(out->px, strip, sizeof(float) * 3 * (size_t)w * h);
+        return ENVL_OK;
+    }
     for (int32_t j = 0; j < h; j++)
         for (int32_t i = 0; i < w; i++) {
             double d[3], jac, a, b;
