@@ -15,7 +15,11 @@
 
 int32_t envl_sh_count(int32_t order) { return (order + 1) * (order + 1); }
 
-void envl_sh_eval(int32_t order, const double d[3], double *y)
+/* The recurrence above. The factors (K_l^0, sqrt2 K_l^m) come from `norm` when it is given
+ * (envl_sh_norms: the same doubles), else are computed as l grows, and stored in norm_out when
+ * that is given. */
+static void basis(int32_t order, const double *norm, double *norm_out, const double d[3],
+                  double *y)
 {
     double x = d[0], yy = d[1], z = d[2];
     double cm = 1.0, sm = 0.0;  /* Re, Im (x + i y)^m */
@@ -30,7 +34,7 @@ void envl_sh_eval(int32_t order, const double d[3], double *y)
         double p_prev2 = 0.0, p_prev = pmm; /* Pbar_{l-2}^m, Pbar_{l-1}^m */
         /* K_l^m = sqrt((2l+1)/(4 pi) (l-m)!/(l+m)!), computed incrementally over l. */
         double fact_ratio = 1.0; /* (l-m)!/(l+m)! at l = m: 1/(2m)! */
-        for (int32_t k = 1; k <= 2 * m; k++)
+        for (int32_t k = 1; !norm && k <= 2 * m; k++)
             fact_ratio /= k;
         for (int32_t l = m; l <= order; l++) {
             double p;
@@ -46,15 +50,33 @@ void envl_sh_eval(int32_t order, const double d[3], double *y)
                 p_prev2 = p_prev;
                 p_prev = p;
             }
-            double k = sqrt((2.0 * l + 1.0) / (4.0 * ENVL_PI) * fact_ratio);
+            int32_t i = l * (l + 1) + m;
+            double k = norm ? norm[i]
+                            : (m ? sqrt(2.0) : 1.0) *
+                                  sqrt((2.0 * l + 1.0) / (4.0 * ENVL_PI) * fact_ratio);
+            if (norm_out)
+                norm_out[i] = norm_out[l * (l + 1) - m] = k;
             if (m == 0) {
-                y[l * (l + 1)] = k * p;
+                y[i] = k * p;
             } else {
-                y[l * (l + 1) + m] = sqrt(2.0) * k * p * cm;
-                y[l * (l + 1) - m] = sqrt(2.0) * k * p * sm;
+                y[i] = k * p * cm;
+                y[l * (l + 1) - m] = k * p * sm;
             }
         }
     }
+}
+
+void envl_sh_eval(int32_t order, const double d[3], double *y) { basis(order, NULL, NULL, d, y); }
+
+void envl_sh_norms(int32_t order, double *norm, double *scratch)
+{
+    const double up[3] = {0, 0, 1};
+    basis(order, NULL, norm, up, scratch);
+}
+
+void envl_sh_eval_normed(int32_t order, const double *norm, const double d[3], double *y)
+{
+    basis(order, norm, NULL, d, y);
 }
 
 /* Clamped cosine max(0, cos) in Legendre terms (Ramamoorthi & Hanrahan 2001, eq. 8-9):

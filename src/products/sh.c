@@ -311,11 +311,14 @@ static void apply_window(envl_sh *sh, const double *raw, const double *factors)
     }
 }
 
+/* y: 2 sh->n doubles (the basis at a direction, the basis' factors). */
 static void eval(const envl_sh *sh, const double *coef, int32_t count, const double *dirs,
                  double *out, double *y)
 {
+    double *norm = y + sh->n;
+    envl_sh_norms(sh->order, norm, y);
     for (int32_t i = 0; i < count; i++) {
-        envl_sh_eval(sh->order, dirs + 3 * i, y);
+        envl_sh_eval_normed(sh->order, norm, dirs + 3 * i, y);
         double e[3] = {0, 0, 0};
         for (int32_t j = 0; j < sh->n; j++)
             for (int ch = 0; ch < 3; ch++)
@@ -457,7 +460,7 @@ envl_result envl__sh_measure(envl_envmap *m, envl_sh *sh)
     int32_t n = envl_sh_count(sh->summary.order);
     double *normals = envl__fibonacci_dirs();
     double *approx = malloc(sizeof(double) * 3 * ENVL_ERROR_NORMALS);
-    double *y = malloc(sizeof(double) * n);
+    double *y = malloc(sizeof(double) * 2 * n); /* eval()'s */
     if (normals && approx && y) {
         eval(sh, sh->irradiance, ENVL_ERROR_NORMALS, normals, approx, y);
         sh->summary.diffuse_error = envl_relative_rms_luminance(ENVL_ERROR_NORMALS, approx, ref);
@@ -485,7 +488,7 @@ envl_result envl_sh_compute(envl_envmap *m, const envl_sh_options *options, envl
     double *raw = malloc(sizeof(double) * n * 3);
     double *dirs = malloc(sizeof(double) * 3 * MIN_DIRECTIONS);
     double *buf = malloc(sizeof(double) * 3 * MIN_DIRECTIONS);
-    double *y = malloc(sizeof(double) * n);
+    double *y = malloc(sizeof(double) * 2 * n); /* eval()'s */
     rc = ENVL_OK;
     if (!sh || !raw || !dirs || !buf || !y) {
         rc = envl__fail(ENVL_ERR_MEMORY, "sh: out of memory");
@@ -609,7 +612,7 @@ static envl_result eval_public(const envl_sh *sh, const double *coef, int32_t co
 {
     if (!sh || count < 0 || (count && (!dirs || !out)))
         return envl__fail(ENVL_ERR_ARGUMENT, "envl_sh_eval: bad arguments");
-    double *y = malloc(sizeof(double) * sh->n);
+    double *y = malloc(sizeof(double) * 2 * sh->n); /* eval()'s */
     if (!y)
         return envl__fail(ENVL_ERR_MEMORY, "sh: out of memory");
     eval(sh, coef, count, dirs, out, y);
