@@ -301,8 +301,8 @@ static void test_fast_reference(void)
  * with pixels far above it next to a pole (split off and added per texel, each pixel
  * integrated exactly): a 128 x 64 map's top row at 4000 x the rest, a 64 x 32 map's one bottom
  * pixel at 2e5 x; summed at the pixels' centres they were 1.9 % and more off near their
- * horizons (a polar pixel's light sits a good part of its height off its centre). And every
- * map of ../shared/data/latlong_hdri at 1024 x 512: with the rest area-averaged to 256 wide
+ * horizons (a polar pixel's light sits a good part of its height off its centre). And the
+ * built-in sky and every map of ../shared/data/latlong_hdri at 1024 x 512: with the rest area-averaged to 256 wide
  * and the faces' corners read from the coarse faces, adams_place_bridge_1k was 0.58 % off at
  * one texel, studio_small_03_1k 0.52 % at 12. */
 static void check_split_faces(envl_envmap *m, const char *name)
@@ -404,7 +404,12 @@ static void test_split_faces(void)
         envl_envmap_free(m);
         free(pp);
     }
-    /* every map of ../shared/data/latlong_hdri at its own size, as a user's 1K map */
+    /* the built-in sky at its default size (the main job's map: a 0.5-degree sun), and every
+     * map of ../shared/data/latlong_hdri at its own size, as a user's 1K map */
+    envl_sky_options so = {0};
+    CHECK_OK(envl_envmap_sky(&so, &m));
+    check_split_faces(m, "built-in sky");
+    envl_envmap_free(m);
     for_each_map(0, check_split_faces);
 }
 
