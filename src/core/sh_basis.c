@@ -46,7 +46,8 @@ static void basis(int32_t order, const double *norm, double *norm_out, const dou
                 p = ((2.0 * l - 1.0) * z * p_prev - (l + m - 1.0) * p_prev2) / (l - m);
             if (l > m) {
                 /* (l-m)!/(l+m)! from (l-1-m)!/(l-1+m)!: times (l-m)/(l+m) */
-                fact_ratio *= (double)(l - m) / (double)(l + m);
+                if (!norm)
+                    fact_ratio *= (double)(l - m) / (double)(l + m);
                 p_prev2 = p_prev;
                 p_prev = p;
             }
