@@ -28,7 +28,8 @@
  *
  * The solve starts on the fit's coarse copy (256 wide), goes on on a 512-wide one and the
  * reference copy (at most 1024 wide), each from the coarser one's solution, and on the map
- * itself solves lb alone; each level keeps its own residual. A pass visits only the rows and
+ * itself solves lb alone (finish_lb: one pass, then within TAKE_WINDOW of the reference copy's
+ * level without another); each level keeps its own residual. A pass visits only the rows and
  * columns where the level can fall below the map's luminance. Sums are per fixed chunk of
  * rows, combined in chunk order: the same result at any thread count. With no residual kept,
  * each pixel's residual is replayed through the lights before, with the same float roundings
@@ -51,6 +52,7 @@
 #define TAKE_STEPS_NEXT 1
 #define TAKE_HALVINGS 4
 #define TAKE_TOLERANCE 1e-8          /* the luminance taken, relative to the target */
+#define TAKE_WINDOW 5e-2             /* finish_lb: the level may move by this (relative) */
 #define TAKE_TILT_TOLERANCE 1e-6     /* the moment's angle from the aim, radians */
 
 /* One light's level: its aim and unknowns. */
@@ -74,8 +76,20 @@ typedef struct take_sums {
     double s0, s1, s2;                  /* sum e dw, e (d.t1) dw, e (d.t2) dw; e = Y - lambda */
     double w, w1, w2, w11, w12, w22;    /* sum lambda dw, ... lambda u_a u_b dw */
     double rgb[3], moment[3], own;      /* the take: what it took, sum e d dw, own extent */
+    double far_y, far_w;                /* sum Y dw, lambda dw where Y > (1 + window) lambda */
     int32_t x0, x1, y0, y1;
 } take_sums;
+
+/* A pixel near the level: Y / lambda and lambda dw (finish_lb). */
+typedef struct take_near {
+    double rho, wl;
+} take_near;
+
+/* A chunk's pixels near the level: a growing list (n = -1: out of memory). */
+typedef struct take_near_list {
+    take_near *p;
+    int64_t n, cap;
+} take_near_list;
 
 typedef struct take_job {
     const take_map *tm;
@@ -86,6 +100,7 @@ typedef struct take_job {
     double kappa, sin_h;
     envl__cone_geom g;        /* the pixels the pass visits */
     take_sums *chunks;
+    take_near_list *near;     /* a solve pass: each chunk's pixels near the level, or NULL */
 } take_job;
 
 /* Light q's log level at direction (x, y, z), and d.t1, d.t2. */
@@ -131,6 +146,30 @@ static void sums_clear(take_sums *s, int32_t W, int32_t H)
     s->x1 = s->y1 = -1;
 }
 
+/* Adds a pixel near the level to list l; on failure to grow, marks it (n = -1). */
+static void near_add(take_near_list *l, double rho, double wl)
+{
+    if (l->n < 0)
+        return;
+    if (l->n == l->cap) {
+        int64_t cap = l->cap ? 2 * l->cap : 1024;
+        take_near *p = realloc(l->p, sizeof *p * (size_t)cap);
+        if (!p) {
+            l->n = -1;
+            return;
+        }
+        l->p = p, l->cap = cap;
+    }
+    l->p[l->n++] = (take_near){rho, wl};
+}
+
+/* How far above the level's log a solve pass for finish_lb looks: down to pixels of
+ * (1 - window) lambda, which a level lowered by the window takes. */
+static double near_log(const take_job *j)
+{
+    return j->near && !j->apply ? -log1p(-TAKE_WINDOW) : 0.0;
+}
+
 static void take_range(void *ctx, int64_t begin, int64_t end)
 {
     const take_job *j = ctx;
@@ -138,16 +177,20 @@ static void take_range(void *ctx, int64_t begin, int64_t end)
     const envl_envmap *m = tm->m;
     const take_level *q = j->levels + j->light;
     int32_t W = m->width;
+    double reach_log = near_log(j);
     for (int64_t ch = begin; ch < end; ch++) {
         take_sums *s = j->chunks + ch;
         sums_clear(s, W, m->height);
+        take_near_list *near = j->near && !j->apply ? j->near + ch : NULL;
+        if (near)
+            near->n = 0; /* a new pass, a new list */
         int32_t r0 = (int32_t)ch * j->rows, r1 = r0 + j->rows - 1;
         r0 = r0 > j->g.r0 ? r0 : j->g.r0;
         r1 = r1 < j->g.r1 ? r1 : j->g.r1;
         for (int32_t r = r0; r <= r1; r++) {
             double lm = tm->log_row_max[r];
             int32_t lo, hi;
-            if (!(row_least_level(q, j->kappa, m, r) < lm) ||
+            if (!(row_least_level(q, j->kappa, m, r) < lm + reach_log) ||
                 !envl__cone_span(m, &j->g, r, &lo, &hi))
                 continue;
             double om = m->row_omega[r], rc = m->row_cos[r], z = m->row_sin[r];
@@ -162,10 +205,19 @@ static void take_range(void *ctx, int64_t begin, int64_t end)
                         take_step(j->levels + i, j, x, y, z, lm, v, &u1, &u2);
                 float before[3] = {v[0], v[1], v[2]};
                 double Y = envl__lum(v[0], v[1], v[2]);
-                double lam = take_step(q, j, x, y, z, lm, v, &u1, &u2);
-                if (lam < 0)
-                    continue;
-                if (!j->apply) {
+                if (!j->apply) { /* the solve's sums (and the pixels near the level) */
+                    double a = log_level(q, j->kappa, j->sin_h, x, y, z, &u1, &u2);
+                    if (!(a < lm + reach_log))
+                        continue;
+                    double lam = exp(a);
+                    if (near && Y > (1.0 - TAKE_WINDOW) * lam) {
+                        if (Y > (1.0 + TAKE_WINDOW) * lam)
+                            s->far_y += Y * om, s->far_w += lam * om;
+                        else
+                            near_add(near, Y / lam, lam * om);
+                    }
+                    if (!(Y > lam))
+                        continue;
                     double e = (Y - lam) * om, wl = lam * om;
                     s->s0 += e;
                     s->s1 += e * u1;
@@ -178,6 +230,8 @@ static void take_range(void *ctx, int64_t begin, int64_t end)
                     s->w22 += wl * u2 * u2;
                     continue;
                 }
+                if (take_step(q, j, x, y, z, lm, v, &u1, &u2) < 0)
+                    continue;
                 /* what left the residual, exactly (float differences in double) */
                 for (int k = 0; k < 3; k++)
                     s->rgb[k] += ((double)before[k] - v[k]) * om;
@@ -206,8 +260,8 @@ static void take_pass(take_job *j, int apply, take_sums *out)
     j->apply = apply;
     /* A pixel at angle a from l is taken only where the level's log, at least
      * lb + kappa (1 - cos a) - |e|, is under the largest log luminance: cos a >
-     * 1 - (log max - lb + |e|) / kappa. */
-    double reach = (j->tm->log_max - q->lb + hypot(q->e1, q->e2)) / j->kappa;
+     * 1 - (log max - lb + |e|) / kappa (a solve pass for finish_lb: log max + its window). */
+    double reach = (j->tm->log_max + near_log(j) - q->lb + hypot(q->e1, q->e2)) / j->kappa;
     j->g = envl__cone_geometry(m, q->a.l, reach >= 2.0 ? ENVL_PI : acos(fmax(-1.0, 1.0 - reach)));
     if (!(reach > 0))
         j->g.r0 = m->height, j->g.r1 = -1; /* none */
@@ -220,6 +274,7 @@ static void take_pass(take_job *j, int apply, take_sums *out)
         out->s0 += s->s0, out->s1 += s->s1, out->s2 += s->s2;
         out->w += s->w, out->w1 += s->w1, out->w2 += s->w2;
         out->w11 += s->w11, out->w12 += s->w12, out->w22 += s->w22;
+        out->far_y += s->far_y, out->far_w += s->far_w;
         for (int k = 0; k < 3; k++) {
             out->rgb[k] += s->rgb[k];
             out->moment[k] += s->moment[k];
@@ -272,6 +327,62 @@ static int solve_lb(take_job *j, take_level *q, double t, take_sums *s)
         take_pass(j, 0, s);
     }
     return 0;
+}
+
+/* g(x) of finish_lb: the luminance taken at x times the level, x within the window. */
+static double near_taken(const take_job *j, int32_t n, const take_sums *s, double x,
+                         double *slope)
+{
+    double g = s->far_y - x * s->far_w, w = s->far_w;
+    for (int32_t c = 0; c < n; c++)
+        for (int64_t i = 0; i < j->near[c].n; i++) {
+            const take_near *p = j->near[c].p + i;
+            if (p->rho > x)
+                g += p->wl * (p->rho - x), w += p->wl;
+        }
+    *slope = -w;
+    return g;
+}
+
+/* lb on the map itself, from the finer copy's solution, which is close. One pass at it keeps
+ * what taken pixels farther than TAKE_WINDOW above the level hold (sum Y dw, sum lambda dw)
+ * and each pixel within the window of it (Y / lambda, lambda dw): with the level times x,
+ * |x - 1| <= TAKE_WINDOW, the luminance taken is exactly
+ *     g(x) = sum_far (Y - x lambda) dw + sum_near (Y - x lambda)+ dw,
+ * piecewise linear and falling in x: solved there (Newton steps inside a bracket, no pass),
+ * lb += log x, to TAKE_TOLERANCE. Where t is not within the window (or a list could not
+ * grow), solve_lb from here. A pass or two less per light over the largest map. */
+static void finish_lb(take_job *j, take_level *q, double t, take_sums *s)
+{
+    int32_t n = (j->tm->m->height + j->rows - 1) / j->rows;
+    if (!isfinite(q->lb) || !j->near) {
+        solve_lb(j, q, t, s);
+        return;
+    }
+    take_pass(j, 0, s);
+    if (fabs(s->s0 - t) <= TAKE_TOLERANCE * t)
+        return;
+    int full = 1;
+    for (int32_t c = 0; c < n; c++)
+        full = full && j->near[c].n >= 0;
+    double lo = 1.0 - TAKE_WINDOW, hi = 1.0 + TAKE_WINDOW, slope;
+    if (full && near_taken(j, n, s, lo, &slope) >= t && near_taken(j, n, s, hi, &slope) <= t) {
+        double x = 1.0;
+        for (int it = 0; it < 100; it++) {
+            double g = near_taken(j, n, s, x, &slope);
+            if (fabs(g - t) <= TAKE_TOLERANCE * t)
+                break;
+            if (g > t)
+                lo = x;
+            else
+                hi = x;
+            double next = slope < 0 ? x + (g - t) / -slope : NAN;
+            x = next > lo && next < hi ? next : 0.5 * (lo + hi);
+        }
+        q->lb += log(x);
+        return;
+    }
+    solve_lb(j, q, t, s);
 }
 
 /* The moment's tangential part relative to the luminance taken: |(s1, s2)| / s0, the sine of
@@ -454,6 +565,8 @@ envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_li
     take_sums *chunks = rc ? NULL : malloc(sizeof(take_sums) * TAKE_CHUNKS);
     if (!rc && !chunks)
         rc = envl__fail(ENVL_ERR_MEMORY, "lights: out of memory");
+    /* finish_lb's lists, on the map itself after coarser levels (NULL: solve_lb there) */
+    take_near_list *near = nlev > 1 ? calloc(TAKE_CHUNKS, sizeof *near) : NULL;
     take_level levels[ENVL_NNLS_MAX]; /* in take order */
     double kappa = 1.0 / (1.0 - cos(TAKE_SPREAD_DEGREES * ENVL_PI / 180.0));
     double emax = kappa * tan(TAKE_SHIFT_DEGREES * ENVL_PI / 180.0);
@@ -472,11 +585,12 @@ envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_li
         for (int32_t v = 0; v < nlev; v++) {
             take_job j = {.tm = &tms[v], .levels = levels, .light = i,
                           .rows = (tms[v].m->height + TAKE_CHUNKS - 1) / TAKE_CHUNKS,
-                          .kappa = kappa, .sin_h = sin_h, .chunks = chunks};
+                          .kappa = kappa, .sin_h = sin_h, .chunks = chunks,
+                          .near = v == nlev - 1 ? near : NULL};
             if (t[i] > 0 && (v < nlev - 1 || nlev == 1))
                 align(&j, q, t[i], v == 0 ? TAKE_STEPS_FIRST : TAKE_STEPS_NEXT, emax);
             else if (t[i] > 0) /* on the map itself, after coarser levels: its luminance only */
-                solve_lb(&j, q, t[i], &s);
+                finish_lb(&j, q, t[i], &s);
             take_pass(&j, 1, &s); /* this level's residual */
         }
         if (out)
@@ -485,6 +599,9 @@ envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_li
         rc = envl__progress(0.6 + 0.2 * (i + 1) / K, "the lights' takes");
     }
     free(chunks);
+    for (int32_t c = 0; near && c < TAKE_CHUNKS; c++)
+        free(near[c].p);
+    free(near);
     for (int32_t v = 0; v < nlev; v++) {
         free(tms[v].log_row_max);
         if (tms[v].res != ls->residual)
