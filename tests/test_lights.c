@@ -1034,6 +1034,93 @@ static void test_take(void)
     test_take_at(2400, 1200);
 }
 
+/* ---- the fit's bright pixels, chunk by chunk (envl__bright_chunk) ---- */
+
+static int cmp_bright(const void *a, const void *b)
+{
+    const double *x = a, *y = b;
+    if (x[0] != y[0])
+        return x[0] < y[0] ? 1 : -1;
+    return x[1] < y[1] ? -1 : x[1] > y[1];
+}
+
+/* The chunks, one after another, are the positive pixels sorted whole (luminance down, index
+ * up on ties), bit for bit: on n pixels spanning 2^-140 .. 2^40 with ties, zeros, negatives,
+ * a NaN and an infinity, chunks of at least `least`; returns how many chunks and the first's
+ * length. */
+static int bright_chunks_match(const float *px, size_t n, size_t least, size_t *first)
+{
+    double *ref = malloc(sizeof(double) * 2 * n), *got = malloc(sizeof(double) * 2 * n);
+    double *chunk = malloc(sizeof(double) * 2 * n);
+    size_t m = 0, g = 0, len;
+    for (size_t i = 0; i < n; i++) {
+        double y = envl__lum(px[3 * i], px[3 * i + 1], px[3 * i + 2]);
+        if (y > 0)
+            ref[2 * m] = y, ref[2 * m + 1] = (double)i, m++;
+    }
+    qsort(ref, m, 2 * sizeof(double), cmp_bright);
+    int top = INT32_MAX, chunks = 0;
+    *first = 0;
+    while ((len = envl__bright_chunk(px, n, least, &top, chunk)) > 0) {
+        CHECK(g + len <= m);
+        if (g + len > m)
+            break;
+        if (chunks++ == 0)
+            *first = len;
+        CHECK(len >= least || g + len == m); /* at least `least`, but the last */
+        memcpy(got + 2 * g, chunk, sizeof(double) * 2 * len);
+        g += len;
+    }
+    CHECK(g == m);
+    CHECK(g == m && memcmp(got, ref, sizeof(double) * 2 * m) == 0);
+    free(ref);
+    free(got);
+    free(chunk);
+    return chunks;
+}
+
+static void test_bright_chunks(void)
+{
+    enum { W = 64, H = 32 };
+    float *px = filled(W, H, 0.0f);
+    uint32_t seed = 99;
+    for (int i = 0; i < W * H; i++) {
+        seed = seed * 1664525u + 1013904223u;
+        float v = ldexpf(1.0f + (seed >> 20) / 4096.0f, (int)(seed >> 8 & 0xff) % 181 - 140);
+        int kind = (int)(seed >> 28);
+        if (kind == 0)
+            v = 0.0f;
+        else if (kind == 1)
+            v = -v;
+        else if (kind == 2)
+            v = 0.5f; /* ties */
+        for (int k = 0; k < 3; k++)
+            px[3 * i + k] = v;
+    }
+    px[3 * 5] = NAN;
+    px[3 * 6] = INFINITY;
+    size_t first;
+    int chunks = bright_chunks_match(px, (size_t)W * H, 7, &first);
+    printf("bright chunks: %d of at least 7 on %d pixels\n", chunks, W * H);
+    CHECK(chunks > 10);
+    free(px);
+    /* a sky brightest at the zenith (1024 x 512 lat-long, y = e^(30 sin elevation)): its
+     * brightest 16,384 pixels are within 5 degrees of the pole, where no 64 bright pixels are
+     * 2 degrees apart: the fit's scan reads past the first chunk */
+    enum { LW = 1024, LH = 512 };
+    px = filled(LW, LH, 0.0f);
+    for (int r = 0; r < LH; r++)
+        for (int c = 0; c < LW; c++)
+            for (int k = 0; k < 3; k++)
+                px[3 * (r * LW + c) + k] =
+                    (float)exp(30.0 * cos(PI * (r + 0.5) / LH)); /* sin elevation */
+    chunks = bright_chunks_match(px, (size_t)LW * LH, 16384, &first);
+    printf("bright chunks: %d of at least 16384 on the zenith sky, the first %zu pixels\n", chunks,
+           first);
+    CHECK(chunks > 1 && first < (size_t)LW * LH / 4);
+    free(px);
+}
+
 /* One default lights method (docs/design.md): zero-initialised options (and NULL) fit at most
  * ENVL_DEFAULT_FIT_LIGHTS lights with an order-2 remainder; ENVL_ORDER_0 asks for a remainder
  * of order 0, ENVL_REMAINDER_NONE for none; a remainder order above 8 is refused. */
@@ -1080,5 +1167,6 @@ int main(void)
     test_sun_none();
     test_sun_count();
     test_take();
+    test_bright_chunks();
     return check_report("test_lights");
 }

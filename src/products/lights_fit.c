@@ -20,6 +20,7 @@
  * 2.2 % off on the maps measured, docs/fit_bench.md). */
 #define FIT_UP_WEIGHT 1.0
 #define FIT_CANDIDATES 64   /* from the median cut, and as many bright pixels */
+#define FIT_SORTED 16384    /* bright pixels sorted at a time (envl__bright_chunk) */
 /* A light must find its light nearby: its luminance irradiance may not exceed the luminance
  * power within FIT_CONE_DEGREES of it (no light "opposite the sun" that only fits numbers). */
 #define FIT_CONE_DEGREES 45.0
@@ -208,6 +209,46 @@ static int cmp_desc(const void *a, const void *b)
     return i < j ? -1 : i > j;
 }
 
+/* Luminance binades for envl__bright_chunk: 0 for y <= 0 (or NaN), else the exponent e of
+ * 2^e <= y < 2^(e+1) (read from the double's bits: y is a float's luminance, a normal double)
+ * plus BINADE_ZERO, within [1, BINADES - 1]. */
+#define BINADES 2048
+#define BINADE_ZERO 1023
+
+static int binade(double y)
+{
+    if (!(y > 0))
+        return 0;
+    uint64_t bits;
+    memcpy(&bits, &y, sizeof bits);
+    int b = (int)((bits >> 52) & 0x7ff); /* the biased exponent: e + 1023 */
+    return b < 1 ? 1 : b > BINADES - 1 ? BINADES - 1 : b;
+}
+
+size_t envl__bright_chunk(const float *px, size_t n, size_t least, int *top, double *out)
+{
+    size_t count_at[BINADES] = {0};
+    int hi = *top < BINADES ? *top : BINADES;
+    for (size_t i = 0; i < n; i++) {
+        int b = binade(envl__lum(px[3 * i], px[3 * i + 1], px[3 * i + 2]));
+        if (b < hi)
+            count_at[b]++;
+    }
+    int lo = hi;
+    for (size_t got = 0; lo > 1 && got < least;)
+        got += count_at[--lo];
+    size_t m = 0;
+    for (size_t i = 0; lo < hi && i < n; i++) {
+        double y = envl__lum(px[3 * i], px[3 * i + 1], px[3 * i + 2]);
+        int b = binade(y);
+        if (b >= lo && b < hi && b > 0)
+            out[2 * m] = y, out[2 * m + 1] = (double)i, m++;
+    }
+    qsort(out, m, 2 * sizeof(double), cmp_desc);
+    *top = lo;
+    return m;
+}
+
 /* Candidate directions: the median-cut centroids (compact bright regions) and the brightest
  * pixels of the fit map, no two bright pixels closer than 2 degrees. */
 static envl_result fit_candidates(envl_envmap *m, const envl_envmap *fm, double *cand,
@@ -229,28 +270,27 @@ static envl_result fit_candidates(envl_envmap *m, const envl_envmap *fm, double 
             memcpy(cand + 3 * k++, ls[i].direction, sizeof ls[i].direction);
     free(ls);
     free(rs);
-    size_t n = (size_t)fm->width * fm->height;
+    size_t n = (size_t)fm->width * fm->height, len;
     double *order = malloc(sizeof(double) * 2 * n);
     if (!order)
         return envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
-    for (size_t i = 0; i < n; i++) {
-        const float *p = fm->px + 3 * i;
-        order[2 * i] = envl__lum(p[0], p[1], p[2]);
-        order[2 * i + 1] = (double)i;
-    }
-    qsort(order, n, 2 * sizeof(double), cmp_desc);
     const double min_cos = cos(2.0 * ENVL_PI / 180.0);
     int32_t first_bright = k;
-    for (size_t i = 0; i < n && k < first_bright + FIT_CANDIDATES && order[2 * i] > 0; i++) {
-        size_t idx = (size_t)order[2 * i + 1];
-        double d[3];
-        envl_envmap_direction(fm, (int32_t)(idx % fm->width), (int32_t)(idx / fm->width), d);
-        int near = 0;
-        for (int32_t j = first_bright; j < k && !near; j++)
-            near = dot_n(d, cand + 3 * j, 3) > min_cos;
-        if (!near)
-            memcpy(cand + 3 * k++, d, sizeof d);
-    }
+    int top = INT32_MAX;
+    /* the pixels brightest first, a chunk of FIT_SORTED or more at a time (a full sort of the
+     * map cost 16 % of a 1K fit; the scan reads 400-10,000 of them on the maps at hand) */
+    while (k < first_bright + FIT_CANDIDATES &&
+           (len = envl__bright_chunk(fm->px, n, FIT_SORTED, &top, order)) > 0)
+        for (size_t i = 0; i < len && k < first_bright + FIT_CANDIDATES; i++) {
+            size_t idx = (size_t)order[2 * i + 1];
+            double d[3];
+            envl_envmap_direction(fm, (int32_t)(idx % fm->width), (int32_t)(idx / fm->width), d);
+            int near = 0;
+            for (int32_t j = first_bright; j < k && !near; j++)
+                near = dot_n(d, cand + 3 * j, 3) > min_cos;
+            if (!near)
+                memcpy(cand + 3 * k++, d, sizeof d);
+        }
     free(order);
     *count = k;
     return ENVL_OK;
