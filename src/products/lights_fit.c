@@ -39,6 +39,7 @@ typedef struct fit_problem {
     double *target_y;       /* m luminance */
     int32_t nsh;            /* SH columns */
     double *sh;             /* nsh x m: Y_j(n_i) */
+    double *sh_gram;        /* nsh x nsh: the SH columns' dot products (every solve's) */
     double *scratch;        /* m */
 } fit_problem;
 
@@ -149,7 +150,8 @@ static double solve_fit(const fit_problem *p, int32_t k, double *const *cols,
         h[a] = dot_n(ca, target, p->m);
         for (int32_t b = 0; b <= a; b++) {
             const double *cb = b < k ? cols[b] : p->sh + (size_t)(b - k) * p->m;
-            G[a * n + b] = G[b * n + a] = dot_n(ca, cb, p->m);
+            G[a * n + b] = G[b * n + a] =
+                b >= k ? p->sh_gram[(a - k) * p->nsh + (b - k)] : dot_n(ca, cb, p->m);
         }
     }
     if (envl__nnls_gram(n, k, G, h, x))
@@ -370,9 +372,11 @@ envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_
     p.target = malloc(sizeof(double) * 3 * p.m);
     p.target_y = malloc(sizeof(double) * p.m);
     p.sh = malloc(sizeof(double) * (p.nsh ? p.nsh : 1) * p.m);
+    p.sh_gram = malloc(sizeof(double) * (p.nsh ? p.nsh * p.nsh : 1));
     double *colmem = malloc(sizeof(double) * p.m * (K + 1));
     p.scratch = malloc(sizeof(double) * p.m);
-    if (!cand || !p.normals || !p.target || !p.target_y || !p.sh || !colmem || !p.scratch) {
+    if (!cand || !p.normals || !p.target || !p.target_y || !p.sh || !p.sh_gram || !colmem ||
+        !p.scratch) {
         rc = envl__fail(ENVL_ERR_MEMORY, "fit: out of memory");
         goto done;
     }
@@ -395,6 +399,10 @@ envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_
                 p.sh[(size_t)j * p.m + i] = ysh[j] * (i == FIT_NORMALS ? p.up_weight : 1.0);
         }
     }
+    for (int32_t a = 0; a < p.nsh; a++)
+        for (int32_t b = 0; b <= a; b++)
+            p.sh_gram[a * p.nsh + b] = p.sh_gram[b * p.nsh + a] =
+                dot_n(p.sh + (size_t)a * p.m, p.sh + (size_t)b * p.m, p.m);
     /* the caps (cone_power) are counted on a copy FIT_CAP_WIDTH wide, as the take starts */
     if (fm->width > FIT_CAP_WIDTH &&
         (rc = envl__envmap_resampled(fm->px, fm->width, fm->height, FIT_CAP_WIDTH, m->threads,
@@ -554,6 +562,7 @@ done:
     free(p.target);
     free(p.target_y);
     free(p.sh);
+    free(p.sh_gram);
     free(colmem);
     free(p.scratch);
     return rc;
