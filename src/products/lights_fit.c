@@ -211,11 +211,10 @@ static int cmp_desc(const void *a, const void *b)
     return i < j ? -1 : i > j;
 }
 
-/* Luminance binades for envl__bright_chunk: 0 for y <= 0 (or NaN), else the exponent e of
- * 2^e <= y < 2^(e+1) (read from the double's bits: y is a float's luminance, a normal double)
- * plus BINADE_ZERO, within [1, BINADES - 1]. */
+/* Luminance binades for envl__bright_chunk: 0 for y <= 0 (or NaN), else the double's biased
+ * exponent e + 1023 of 2^e <= y < 2^(e+1) (1 for the subnormals, 2047 for +Inf): BINADES of
+ * them, in the order of y. */
 #define BINADES 2048
-#define BINADE_ZERO 1023
 
 static int binade(double y)
 {
@@ -223,8 +222,8 @@ static int binade(double y)
         return 0;
     uint64_t bits;
     memcpy(&bits, &y, sizeof bits);
-    int b = (int)((bits >> 52) & 0x7ff); /* the biased exponent: e + 1023 */
-    return b < 1 ? 1 : b > BINADES - 1 ? BINADES - 1 : b;
+    int b = (int)((bits >> 52) & 0x7ff);
+    return b < 1 ? 1 : b;
 }
 
 size_t envl__bright_chunk(const float *px, size_t n, size_t least, int *top, double *out)

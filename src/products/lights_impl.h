@@ -129,8 +129,6 @@ void envl__cut_marginals_of(const envl_envmap *m, const cut_marginals *t, const 
                             double *col, double *row);
 
 /* ---- fit (lights_fit.c, lights_take.c) ---- */
-/* At most K lights + an SH remainder of `order` (-1: none) into ls; keep_residual: ls->residual
- * is the map less what the lights took (else none is kept; the lights are the same). */
 /* The next chunk of the positive pixels brightest first (luminance y of px's n RGB pixels, ties
  * in index order): those whose binade (the exponent of y) lies below *top and at or above the
  * highest binade that brings at least `least` of them (or all that are left), as (y, index)
@@ -138,7 +136,8 @@ void envl__cut_marginals_of(const envl_envmap *m, const cut_marginals *t, const 
  * *top to that binade. Chunk after chunk, from *top = INT32_MAX, they are the whole order, each
  * chunk sorted alone: a scan that stops early sorts about what it reads. */
 size_t envl__bright_chunk(const float *px, size_t n, size_t least, int *top, double *out);
-
+/* At most K lights + an SH remainder of `order` (-1: none) into ls; keep_residual: ls->residual
+ * is the map less what the lights took (else none is kept; the lights are the same). */
 envl_result envl__fit_lights(envl_envmap *m, int32_t K, int32_t order, int keep_residual,
                              envl_lights *ls);
 /* The fit's take (lights_take.c): each of ls's lights, aimed along its direction with its
