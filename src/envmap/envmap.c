@@ -188,6 +188,11 @@ static void stats_of_rows(void *ctx, int64_t begin, int64_t end)
     }
 }
 
+double envl__row_max_luminance(const envl_envmap *m, int32_t r)
+{
+    return m->row_stats[r].best;
+}
+
 /* Power, mean, maxima and the brightest direction. Rows in parallel, each summed in column
  * order, then the rows in row order: the same sums as one pass, at any thread count. A window
  * of `from`'s pixels (envl__envmap_window) takes from's rows' statistics as they are, but for

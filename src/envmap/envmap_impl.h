@@ -66,6 +66,9 @@ envl_result envl__envmap_window(const envl_envmap *map, int32_t row0, int32_t ro
 envl_result envl__envmap_window_patched(const envl_envmap *map, int32_t row0, int32_t row1,
                                         const envl_pixel_patch *patch, int32_t npatch,
                                         envl_envmap **out);
+/* The largest luminance of row r's pixels as the map's statistics hold it (0 for a window's
+ * black rows; below 0 for a row of none positive): the pass it took at load, not another. */
+double envl__row_max_luminance(const envl_envmap *m, int32_t r);
 /* A map of its own of a window's pixels, its other rows black, resampled to out_w wide (height
  * in proportion; out_w = the width: a copy): what resampling a copy of the map with those rows
  * black gives, bit for bit. */

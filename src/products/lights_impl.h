@@ -78,11 +78,16 @@ static inline double envl__aim_shape(const envl__aim *a, double kappa, double si
 }
 
 /* What a light took, beyond its rgb: V = sum e d dw (e its luminance taken) and its pixels' own
- * extent, sum e dw^2 / 4 pi. */
+ * extent, sum e dw^2 / 4 pi; and the level it took above on the map (lights_take.c). */
 typedef struct envl__take {
     double moment[3];
     double own;
+    envl__aim aim;
+    double lb, e1, e2;
 } envl__take;
+/* The log of a take's level at direction (x, y, z) (envl__take_lights' own arithmetic: a pixel
+ * there of luminance Y > exp of it kept that over Y of each channel). */
+double envl__take_level_log(const envl__take *t, double x, double y, double z);
 /* A light's solid_angle and angle: the uniform disc about its direction with the spread of
  * what it took (rgb set). */
 void envl__light_size(const envl__take *t, envl_light *l);

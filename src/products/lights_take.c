@@ -29,11 +29,12 @@
  * The solve starts on the fit's coarse copy (256 wide), goes on on a 512-wide one and the
  * reference copy (at most 1024 wide), each from the coarser one's solution, and on the map
  * itself solves lb alone (finish_lb: one pass, then within TAKE_WINDOW of the reference copy's
- * level without another); each level keeps its own residual. A pass visits only the rows and
- * columns where the level can fall below the map's luminance. Sums are per fixed chunk of
- * rows, combined in chunk order: the same result at any thread count. With no residual kept,
- * each pixel's residual is replayed through the lights before, with the same float roundings
- * as the kept one. */
+ * level without another); each level keeps its own residual. A pass visits only the pixels
+ * where the level can fall below the luminance: the level's log is lb + kappa - R (d.m) + h, a
+ * cone about m (level_cone), narrowed row by row to the row's brightest pixel and its horizon
+ * term. Sums are per fixed chunk of rows, combined in chunk order: the same result at any
+ * thread count. With no residual kept, each pixel's residual is replayed through the lights
+ * before (each only within its own cone), with the same float roundings as the kept one. */
 #include "lights_impl.h"
 #include "error_measure.h"
 #include "nnls.h"
@@ -103,6 +104,10 @@ typedef struct take_job {
     take_near_list *near;     /* a solve pass: each chunk's pixels near the level, or NULL */
 } take_job;
 
+/* The level's rise kappa and the sine of its horizon angle. */
+static double take_kappa(void) { return 1.0 / (1.0 - cos(TAKE_SPREAD_DEGREES * ENVL_PI / 180.0)); }
+static double take_sin_h(void) { return sin(TAKE_HORIZON_DEGREES * ENVL_PI / 180.0); }
+
 /* Light q's log level at direction (x, y, z), and d.t1, d.t2. */
 static inline double log_level(const take_level *q, double kappa, double sin_h, double x,
                                double y, double z, double *u1, double *u2)
@@ -128,14 +133,46 @@ static inline double take_step(const take_level *q, const take_job *j, double x,
     return lam;
 }
 
-/* The least log level of light q over row r: the row's closest point to l is |elevation
- * difference| away, the tangential terms are at least -|e|, h >= 0. */
-static double row_least_level(const take_level *q, double kappa, const envl_envmap *m,
-                              int32_t r)
+/* The pixels where light q's log level can fall under log_bound, h its horizon term there (the
+ * least over the pixels: it depends on d_z alone). With m = (kappa l + e1 t1 + e2 t2) / R,
+ * R = sqrt(kappa^2 + e1^2 + e2^2) (l, t1, t2 orthonormal), the level's log is exactly
+ * lb + kappa - R (d.m) + h: a cone about m, d.m > (lb + kappa + h - log_bound) / R. */
+static envl__cone_geom level_cone(const take_level *q, double kappa, const envl_envmap *m,
+                                  double log_bound, double h)
 {
-    double el_row = asin(fmax(-1.0, fmin(1.0, m->row_sin[r])));
-    double el_l = asin(fmax(-1.0, fmin(1.0, q->a.l[2])));
-    return q->lb + kappa * (1.0 - cos(fabs(el_row - el_l))) - hypot(q->e1, q->e2);
+    double R = sqrt(kappa * kappa + q->e1 * q->e1 + q->e2 * q->e2), dir[3];
+    for (int k = 0; k < 3; k++)
+        dir[k] = (kappa * q->a.l[k] + q->e1 * q->a.t1[k] + q->e2 * q->a.t2[k]) / R;
+    double c = (q->lb + kappa + h - log_bound) / R;
+    envl__cone_geom g = envl__cone_geometry(m, dir, acos(fmax(-1.0, fmin(1.0, c))));
+    if (!(c < 1.0))
+        g.r0 = m->height, g.r1 = -1; /* none */
+    return g;
+}
+
+/* The horizon term of a light's level on row r: depth / sin_h on the far side from l. */
+static double row_horizon(const take_level *q, double sin_h, const envl_envmap *m, int32_t r)
+{
+    double zs = m->row_sin[r] * q->a.side;
+    return zs < 0.0 ? -zs / sin_h : 0.0;
+}
+
+/* Columns lo..hi of row r (as envl__cone_span) where light q's level can fall under
+ * log_bound; 0 if none. */
+static int row_span(const take_job *j, const take_level *q, int32_t r, double log_bound,
+                    int32_t *lo, int32_t *hi)
+{
+    const envl_envmap *m = j->tm->m;
+    envl__cone_geom g = level_cone(q, j->kappa, m, log_bound, row_horizon(q, j->sin_h, m, r));
+    return r >= g.r0 && r <= g.r1 && envl__cone_span(m, &g, r, lo, hi);
+}
+
+/* Whether column c (0..W-1) lies in the wrapping run lo..hi. */
+static inline int in_span(int32_t c, int32_t lo, int32_t hi, int32_t W)
+{
+    int32_t d = c - lo;
+    d += d < 0 ? W : d >= W ? -W : 0;
+    return d <= hi - lo;
 }
 
 static void sums_clear(take_sums *s, int32_t W, int32_t H)
@@ -189,10 +226,14 @@ static void take_range(void *ctx, int64_t begin, int64_t end)
         r1 = r1 < j->g.r1 ? r1 : j->g.r1;
         for (int32_t r = r0; r <= r1; r++) {
             double lm = tm->log_row_max[r];
-            int32_t lo, hi;
-            if (!(row_least_level(q, j->kappa, m, r) < lm + reach_log) ||
-                !envl__cone_span(m, &j->g, r, &lo, &hi))
+            /* the row's own cone (its largest luminance and its horizon term): the columns
+             * where the level can fall below the row's pixels; the same for the lights
+             * before, replayed (a pixel outside theirs keeps its value) */
+            int32_t lo, hi, plo[ENVL_NNLS_MAX], phi[ENVL_NNLS_MAX], pin[ENVL_NNLS_MAX];
+            if (!row_span(j, q, r, lm + reach_log, &lo, &hi))
                 continue;
+            for (int32_t i = 0; !tm->res && i < j->light; i++)
+                pin[i] = row_span(j, j->levels + i, r, lm, &plo[i], &phi[i]);
             double om = m->row_omega[r], rc = m->row_cos[r], z = m->row_sin[r];
             for (int32_t cw = lo; cw <= hi; cw++) {
                 int32_t c = cw < 0 ? cw + W : cw >= W ? cw - W : cw;
@@ -202,7 +243,8 @@ static void take_range(void *ctx, int64_t begin, int64_t end)
                 memcpy(v, (tm->res ? tm->res : m->px) + at, sizeof v);
                 if (!tm->res) /* replay the lights before */
                     for (int32_t i = 0; i < j->light; i++)
-                        take_step(j->levels + i, j, x, y, z, lm, v, &u1, &u2);
+                        if (pin[i] && in_span(c, plo[i], phi[i], W))
+                            take_step(j->levels + i, j, x, y, z, lm, v, &u1, &u2);
                 float before[3] = {v[0], v[1], v[2]};
                 double Y = envl__lum(v[0], v[1], v[2]);
                 if (!j->apply) { /* the solve's sums (and the pixels near the level) */
@@ -258,13 +300,9 @@ static void take_pass(take_job *j, int apply, take_sums *out)
     const take_level *q = j->levels + j->light;
     int32_t n = (m->height + j->rows - 1) / j->rows;
     j->apply = apply;
-    /* A pixel at angle a from l is taken only where the level's log, at least
-     * lb + kappa (1 - cos a) - |e|, is under the largest log luminance: cos a >
-     * 1 - (log max - lb + |e|) / kappa (a solve pass for finish_lb: log max + its window). */
-    double reach = (j->tm->log_max + near_log(j) - q->lb + hypot(q->e1, q->e2)) / j->kappa;
-    j->g = envl__cone_geometry(m, q->a.l, reach >= 2.0 ? ENVL_PI : acos(fmax(-1.0, 1.0 - reach)));
-    if (!(reach > 0))
-        j->g.r0 = m->height, j->g.r1 = -1; /* none */
+    /* A pixel is taken only where the level falls under the largest luminance (a solve pass
+     * for finish_lb: down to its window); each row then within its own largest. */
+    j->g = level_cone(q, j->kappa, m, j->tm->log_max + near_log(j), 0.0);
     /* a pass over few pixels on one thread: starting threads would cost more */
     double rows = j->g.r1 >= j->g.r0 ? j->g.r1 - j->g.r0 + 1.0 : 0.0;
     envl__parallel_for(n, rows * m->width < TAKE_THREAD_PIXELS ? 1 : m->threads, take_range, j);
@@ -455,7 +493,8 @@ static void align(take_job *j, take_level *q, double t, int steps, double emax)
 }
 
 /* A level's map: its residual (res, or a copy of its pixels when copy is set), the log of each
- * row's largest luminance (a little above: rounding never lifts a pixel over it). */
+ * row's largest luminance (the map's statistics; a little above: rounding never lifts a pixel
+ * over it). */
 static envl_result take_map_make(const envl_envmap *m, float *res, int copy, take_map *tm)
 {
     size_t n = (size_t)m->width * m->height * 3;
@@ -476,10 +515,7 @@ static envl_result take_map_make(const envl_envmap *m, float *res, int copy, tak
     if (copy)
         memcpy(tm->res, m->px, sizeof(float) * n);
     for (int32_t r = 0; r < m->height; r++) {
-        double mx = 0;
-        const float *p = m->px + (size_t)3 * r * m->width;
-        for (int32_t c = 0; c < m->width; c++, p += 3)
-            mx = fmax(mx, envl__lum(p[0], p[1], p[2]));
+        double mx = envl__row_max_luminance(m, r);
         tm->log_row_max[r] = mx > 0 ? log(mx) + 1e-6 : -INFINITY;
         tm->log_max = fmax(tm->log_max, tm->log_row_max[r]);
     }
@@ -507,7 +543,7 @@ static void take_order(const envl_lights *ls, int32_t *order)
 static void light_from_take(const take_sums *s, int32_t W, int32_t H, envl_light *l)
 {
     memcpy(l->rgb, s->rgb, sizeof l->rgb);
-    envl__take t = {{s->moment[0], s->moment[1], s->moment[2]}, s->own};
+    envl__take t = {.moment = {s->moment[0], s->moment[1], s->moment[2]}, .own = s->own};
     envl__light_size(&t, l);
     l->rect[0] = s->x0 < W ? s->x0 : 0;
     l->rect[1] = s->y0 < H ? s->y0 : 0;
@@ -547,6 +583,13 @@ void envl__light_take_size(const envl__take *t, envl_light *l)
     l->take_angle = about.angle;
 }
 
+double envl__take_level_log(const envl__take *t, double x, double y, double z)
+{
+    take_level q = {t->aim, t->lb, t->e1, t->e2};
+    double u1, u2;
+    return log_level(&q, take_kappa(), take_sin_h(), x, y, z, &u1, &u2);
+}
+
 envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_lights *ls,
                               envl__take *out)
 {
@@ -577,10 +620,10 @@ envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_li
     /* finish_lb's lists, on the map itself after coarser levels (NULL: solve_lb there) */
     take_near_list *near = nlev > 1 ? calloc(TAKE_CHUNKS, sizeof *near) : NULL;
     take_level levels[ENVL_NNLS_MAX]; /* in take order */
-    double kappa = 1.0 / (1.0 - cos(TAKE_SPREAD_DEGREES * ENVL_PI / 180.0));
+    double kappa = take_kappa();
     double emax = kappa * tan(TAKE_SHIFT_DEGREES * ENVL_PI / 180.0);
     take_order(ls, order);
-    double t[ENVL_NNLS_MAX], sin_h = sin(TAKE_HORIZON_DEGREES * ENVL_PI / 180.0);
+    double t[ENVL_NNLS_MAX], sin_h = take_sin_h();
     for (int32_t i = 0; !rc && i < K; i++) {
         envl_light *l = &ls->lights[order[i]];
         take_level *q = &levels[i];
@@ -603,7 +646,9 @@ envl_result envl__take_lights(envl_envmap *m, const envl_envmap *coarse, envl_li
             take_pass(&j, 1, &s); /* this level's residual */
         }
         if (out)
-            out[order[i]] = (envl__take){{s.moment[0], s.moment[1], s.moment[2]}, s.own};
+            out[order[i]] = (envl__take){.moment = {s.moment[0], s.moment[1], s.moment[2]},
+                                         .own = s.own, .aim = q->a, .lb = q->lb, .e1 = q->e1,
+                                         .e2 = q->e2};
         light_from_take(&s, m->width, m->height, l);
         rc = envl__progress(0.6 + 0.2 * (i + 1) / K, "the lights' takes");
     }
