@@ -62,12 +62,15 @@ void pov_area_shape(const envl_envmap *m, double sun_threshold, pov_light *p)
     int32_t w = m->width, x0 = p->l.rect[0], x1 = p->l.rect[2];
     int32_t y0 = p->l.rect[1] < 0 ? 0 : p->l.rect[1], y1 = p->l.rect[3] > m->height ? m->height : p->l.rect[3];
     envl__window_rows(m, &y0, &y1);
-    double power[3] = {0, 0, 0}, along[3] = {0, 0, 0}, mom[3] = {0, 0, 0}, weight = 0;
+    /* one local per sum (not arrays): they stay in registers, a third of the instructions
+     * of an 8K map's `pov`; each summed in the same order as one pass */
+    double p0 = 0, p1 = 0, p2 = 0, a0 = 0, a1 = 0, a2 = 0, m0 = 0, m1 = 0, m2 = 0, weight = 0;
     for (int32_t r = y0; r < y1; r++) {
         double dw = m->row_omega[r], rc = m->row_cos[r], z = m->row_sin[r];
-        for (int32_t x = x0; x < x1; x++) {
-            int32_t c = x % w;
-            const float *px = m->px + 3 * ((size_t)w * r + c);
+        int32_t c = x0 % w;
+        const float *row = m->px + 3 * (size_t)w * r;
+        for (int32_t x = x0; x < x1; x++, c = c + 1 == w ? 0 : c + 1) {
+            const float *px = row + 3 * (size_t)c;
             double y = envl__lum(px[0], px[1], px[2]);
             /* a sun is its excess over the split's threshold (sun_split.c) */
             double keep = sun_threshold > 0 ? (y > sun_threshold ? 1 - sun_threshold / y : 0) : 1;
@@ -75,19 +78,19 @@ void pov_area_shape(const envl_envmap *m, double sun_threshold, pov_light *p)
                 continue;
             double d[3] = {rc * m->col_cos[c], rc * m->col_sin[c], z};
             double t = d[0] * l[0] + d[1] * l[1] + d[2] * l[2];
-            for (int ch = 0; ch < 3; ch++) {
-                power[ch] += keep * px[ch] * dw;
-                along[ch] += keep * px[ch] * dw * t;
-            }
+            double k0 = keep * px[0] * dw, k1 = keep * px[1] * dw, k2 = keep * px[2] * dw;
+            p0 += k0, p1 += k1, p2 += k2;
+            a0 += k0 * t, a1 += k1 * t, a2 += k2 * t;
             double wy = keep * y * dw;
             if (t > 0.1) { /* within 84 degrees: gnomonic coordinates are finite */
                 double u = (d[0] * e1[0] + d[1] * e1[1] + d[2] * e1[2]) / t;
                 double v = (d[0] * e2[0] + d[1] * e2[1] + d[2] * e2[2]) / t;
-                mom[0] += wy * u * u, mom[1] += wy * u * v, mom[2] += wy * v * v;
+                m0 += wy * u * u, m1 += wy * u * v, m2 += wy * v * v;
             }
             weight += wy;
         }
     }
+    double power[3] = {p0, p1, p2}, along[3] = {a0, a1, a2}, mom[3] = {m0, m1, m2};
     for (int ch = 0; ch < 3; ch++)
         p->resultant[ch] = power[ch] > 0 ? fmax(0, along[ch] / power[ch]) : 1;
     memcpy(p->colour, p->l.rgb, sizeof p->colour);
