@@ -267,12 +267,25 @@ static void irradiance_one(const envl_envmap *m, const irradiance_tables *t, con
         colfac[c] = n[0] * t->sx[c] + n[1] * t->sy[c];
         cdot[c] = n[0] * t->ccos[c] + n[1] * t->csin[c];
     }
+    /* n along the pole (a ground's E_up): colfac and cdot are zeros, so a row wholly lit has
+     * f = b at every pixel and one wholly unlit none: the same sums, without the tests */
+    int pole = n[0] == 0.0 && n[1] == 0.0;
     double acc[3] = {0, 0, 0};
     for (int32_t r = 0; r < h; r++) {
         double I = t->ri[r], b = n[2] * t->rz[r];
         double ct = m->row_cos[r], st = n[2] * m->row_sin[r], rho = t->rho[r];
         double row[3] = {0, 0, 0};
         const float *p = m->px + (size_t)r * w * 3;
+        if (pole && (st > rho || st < -rho)) {
+            for (int32_t c = 0; st > rho && c < w; c++) {
+                row[0] += b * p[3 * c];
+                row[1] += b * p[3 * c + 1];
+                row[2] += b * p[3 * c + 2];
+            }
+            for (int k = 0; k < 3; k++)
+                acc[k] += row[k];
+            continue;
+        }
         for (int32_t c = 0; c < w; c++) {
             double centre = ct * cdot[c] + st;
             double f;
