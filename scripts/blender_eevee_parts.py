@@ -10,6 +10,9 @@ Renders (luminance, objects' pixels), per map, scene, recipe and EEVEE variant:
   E      EEVEE, lamps + world                 C4     Cycles, lamps + world, 4 bounces
   El     EEVEE, lamps only (world light 0)    Cl     Cycles, lamps only, direct light
   Eln    EEVEE, lamps only, no shadows        Cln    Cycles, lamps only, no shadows, direct
+                                                      (the lamps' MIS off: Cycles blocks
+                                                      their BSDF-sampled rays at geometry
+                                                      even without shadows)
   Eln0   Eln with EEVEE's ray tracing off (only when the variant has it on; else Eln)
   Ew     EEVEE, world only (lamps hidden)     Cw     Cycles, world only, direct light
 and from the shading normals (a Cycles render of them) and each object's albedo a, with
@@ -33,7 +36,8 @@ reference's mean = a bias in %, its RMS / the reference's mean = an error in %):
   bounce     Cl + Cw - C4              the light between objects EEVEE does not bounce
   additive   E - El - Ew               EEVEE's parts do not add up
 (the glossy sphere: world = Ew - Cw, the next three left out). Cycles renders 2 x SPP
-samples (two seeds); the terms with a Cycles render have its noise in their RMS.
+samples (two seeds); the terms with a Cycles render have its noise in their RMS. Each part's
+luminance image stays in --tmp (MAP/part_SCENE_RECIPE_VARIANT_PART.npy) to be looked at.
 
   scripts/blender_eevee_parts.py [--map FILE ...] [--scenes a,c] [--recipes R1,R2]
       [--variants V1,V2] [--only-full] [--tmp DIR] [--json OUT] [--docs DIR]
@@ -350,12 +354,19 @@ def _in_blender():
             if lighting is not None:
                 lighting.inputs["Strength"].default_value = strength if on else 0.0
 
+        mis = {o.name: getattr(o.data.cycles, "use_multiple_importance_sampling", False)
+               for o in lamps}
+
         def set_lamps(visible, shadows=True):
             for o in lamps:
                 o.hide_render = not visible
                 o.data.use_shadow = shadows
                 if hasattr(o.data, "cycles") and hasattr(o.data.cycles, "cast_shadow"):
                     o.data.cycles.cast_shadow = shadows
+                # Cycles stops a lamp's BSDF-sampled (MIS) rays at geometry even when the lamp
+                # casts no shadow: without shadows the lamps are sampled alone, unoccluded
+                if mis[o.name]:
+                    o.data.cycles.use_multiple_importance_sampling = shadows
 
         def cycles(bounces):
             scene.render.engine = "CYCLES"
@@ -408,6 +419,9 @@ def _in_blender():
                 set_world(True), set_lamps(False)
                 Ep["Ew"], _ = b.render(bench.EEVEE_SPP, 1)
                 set_lamps(True)
+            for key, img in list(C.items()) + list(Ep.items()):   # each part, for a look
+                np.save(os.path.join(b.out_dir, "part_%s_%s_%s_%s.npy" % (
+                    spec["scene"], recipe, variant, key)), img.astype(np.float32))
             objects = {}
             for name, mask in b.regions():
                 mr = yref[mask].mean()
